@@ -1,0 +1,50 @@
+/* The representation interface (DESIGN.md §3): every representation fills one
+ * prt_accel_ops table and embeds struct prt_accel as its first member. The API layer
+ * (api/accel.c) validates and dispatches; nothing above it knows which representation
+ * it holds. */
+#ifndef PRT_API_ACCEL_H
+#define PRT_API_ACCEL_H
+
+#include "core/common.h"
+#include "core/spec.h"
+#include "io/prt_file.h"
+
+typedef struct prt_accel_ops {
+    const char *name; /* family name, for messages */
+    /* Build from a validated mesh; spec options not read are reported by the caller. */
+    prt_status (*build)(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out);
+    void (*intersect1)(const prt_accel *a, prt_ray *r, prt_hit *h);
+    bool (*occluded1)(const prt_accel *a, const prt_ray *r);
+    void (*intersect_packet)(const prt_accel *a, prt_packet *p); /* NULL: generic fallback */
+    void (*stats)(const prt_accel *a, prt_stats *s);             /* fills bytes, nodes, leaves, depth */
+    prt_status (*save)(const prt_accel *a, prt_writer *w);
+    /* Load from a checked container; sections point into memory that outlives the accel. */
+    prt_status (*load)(prt_reader *r, prt_spec *spec, prt_accel **out);
+    void (*destroy)(prt_accel *a);
+} prt_accel_ops;
+
+struct prt_accel {
+    const prt_accel_ops *ops;
+    char spec[PRT_FILE_SPEC_BYTES]; /* canonical spec string */
+    float bounds[6];                /* lo xyz, hi xyz of the built triangles */
+    size_t triangles;               /* mesh triangles (degenerate included) */
+    size_t triangles_built;         /* triangles that can be hit */
+    double build_seconds;
+    size_t build_peak_bytes;
+    void *file_mapping; /* owned mapping of a loaded .prt file, or NULL */
+    size_t file_mapping_size;
+};
+
+/* A registered representation family and the names it answers to. */
+typedef struct prt_repr_family {
+    const prt_accel_ops *ops;
+    /* True when this family builds `spec` (structure and codec names). */
+    bool (*accepts)(const prt_spec *spec);
+    /* i-th full name and description of this family; false past the end. */
+    bool (*name_at)(size_t i, const char **name, const char **description);
+} prt_repr_family;
+
+/* Family that accepts spec, or NULL with an error message naming the valid ones. */
+const prt_repr_family *prt__registry_find(const prt_spec *spec);
+
+#endif

@@ -1,0 +1,91 @@
+/* prt_mesh: allocation, validation, bounds and the degenerate-triangle rule. */
+#include "core/common.h"
+#include "mesh/mesh.h"
+
+#include <math.h>
+
+prt_status prt_mesh_create(size_t vertex_count, size_t triangle_count, prt_mesh **out) {
+    if (!out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_create: out is NULL");
+    *out = NULL;
+    if (vertex_count > UINT32_MAX)
+        return prt__fail(PRT_ERROR_LIMIT, "%zu vertices: packrt indexes vertices with 32 bits", vertex_count);
+    size_t vb = prt__mul_size(vertex_count, 3 * sizeof(float));
+    size_t tb = prt__mul_size(triangle_count, 3 * sizeof(uint32_t));
+    if ((vertex_count && !vb) || (triangle_count && !tb))
+        return prt__fail(PRT_ERROR_NOMEM, "mesh of %zu vertices, %zu triangles is too large", vertex_count,
+                         triangle_count);
+    prt_mesh *m = prt__calloc(1, sizeof *m);
+    if (!m) return prt__fail(PRT_ERROR_NOMEM, "out of memory allocating a mesh");
+    m->vertices = prt__alloc(vb);
+    m->triangles = prt__alloc(tb);
+    if (!m->vertices || !m->triangles) {
+        prt_mesh_free(m);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices and %zu triangles", vertex_count,
+                         triangle_count);
+    }
+    m->vertex_count = vertex_count;
+    m->triangle_count = triangle_count;
+    *out = m;
+    return PRT_OK;
+}
+
+void prt_mesh_free(prt_mesh *m) {
+    if (!m) return;
+    prt__free(m->vertices);
+    prt__free(m->triangles);
+    prt__free(m);
+}
+
+prt_status prt_mesh_validate(const prt_mesh *m) {
+    if (!m) return prt__fail(PRT_ERROR_ARGUMENT, "mesh is NULL");
+    if (m->triangle_count == 0) return prt__fail(PRT_ERROR_MESH, "mesh has no triangles");
+    if (!m->vertices || !m->triangles) return prt__fail(PRT_ERROR_ARGUMENT, "mesh arrays are NULL");
+    for (size_t i = 0; i < 3 * m->vertex_count; i++)
+        if (!isfinite(m->vertices[i]))
+            return prt__fail(PRT_ERROR_MESH, "vertex %zu has a non-finite coordinate (%g)", i / 3,
+                             (double)m->vertices[i]);
+    for (size_t i = 0; i < 3 * m->triangle_count; i++)
+        if (m->triangles[i] >= m->vertex_count)
+            return prt__fail(PRT_ERROR_MESH, "triangle %zu references vertex %u, but the mesh has %zu vertices",
+                             i / 3, m->triangles[i], m->vertex_count);
+    return PRT_OK;
+}
+
+void prt_mesh_bounds(const prt_mesh *m, float lo[3], float hi[3]) {
+    for (int k = 0; k < 3; k++) lo[k] = INFINITY, hi[k] = -INFINITY;
+    for (size_t t = 0; t < 3 * m->triangle_count; t++) {
+        const float *v = m->vertices + 3 * (size_t)m->triangles[t];
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], v[k]);
+            hi[k] = fmaxf(hi[k], v[k]);
+        }
+    }
+}
+
+bool prt__triangle_degenerate(const float *a, const float *b, const float *c) {
+    /* Exactly zero area, decided in double: differences of floats are exact there for
+     * any sane mesh, so a collinear triangle is caught even when float rounding in the
+     * ray test would make its determinant tiny instead of zero. */
+    double e1[3], e2[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = (double)b[k] - (double)a[k];
+        e2[k] = (double)c[k] - (double)a[k];
+    }
+    double nx = e1[1] * e2[2] - e1[2] * e2[1];
+    double ny = e1[2] * e2[0] - e1[0] * e2[2];
+    double nz = e1[0] * e2[1] - e1[1] * e2[0];
+    return nx == 0.0 && ny == 0.0 && nz == 0.0;
+}
+
+bool prt__mesh_triangle_degenerate(const prt_mesh *m, size_t t) {
+    const uint32_t *i = m->triangles + 3 * t;
+    if (i[0] == i[1] || i[1] == i[2] || i[0] == i[2]) return true;
+    return prt__triangle_degenerate(m->vertices + 3 * (size_t)i[0], m->vertices + 3 * (size_t)i[1],
+                                    m->vertices + 3 * (size_t)i[2]);
+}
+
+size_t prt_mesh_count_degenerate(const prt_mesh *m) {
+    size_t n = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) n += prt__mesh_triangle_degenerate(m, t);
+    return n;
+}

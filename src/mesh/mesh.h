@@ -1,0 +1,12 @@
+/* Internal mesh helpers shared by loaders, generators and builders. */
+#ifndef PRT_MESH_MESH_H
+#define PRT_MESH_MESH_H
+
+#include "core/common.h"
+
+/* True when triangle (a, b, c) has exactly zero area: such triangles are never hit. */
+bool prt__triangle_degenerate(const float *a, const float *b, const float *c);
+/* Same for triangle t of m, also true for repeated indices. */
+bool prt__mesh_triangle_degenerate(const prt_mesh *m, size_t t);
+
+#endif
