@@ -31,8 +31,9 @@ struct prt_accel {
     size_t triangles_built;         /* triangles that can be hit */
     double build_seconds;
     size_t build_peak_bytes;
-    void *file_mapping; /* owned mapping of a loaded .prt file, or NULL */
+    void *file_mapping; /* owned mapping (or aligned copy) of a loaded .prt file, or NULL */
     size_t file_mapping_size;
+    bool file_mapping_is_copy; /* prt__free it rather than munmap */
 };
 
 /* A registered representation family and the names it answers to. */

@@ -1,0 +1,163 @@
+/* The API layer: validates arguments and rays, times builds, dispatches to the
+ * representation's ops, and provides the generic packet and stream paths. */
+#include "api/accel.h"
+#include "geom/ray.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+
+prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_options *o, prt_accel **out) {
+    if (!out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_build: out is NULL");
+    *out = NULL;
+    prt_status s = prt_mesh_validate(m);
+    if (s) return s;
+    prt_spec spec;
+    if ((s = prt__spec_parse(spec_text, &spec))) return s;
+    const prt_repr_family *f = prt__registry_find(&spec);
+    if (!f) return PRT_ERROR_ARGUMENT;
+
+    size_t mem0, peak;
+    prt_memory_usage(&mem0, NULL);
+    prt_memory_reset_peak();
+    double t0 = prt__now();
+    prt_accel *a = NULL;
+    if ((s = f->ops->build(m, &spec, o, &a))) return s;
+    a->build_seconds = prt__now() - t0;
+    prt_memory_usage(NULL, &peak);
+    a->build_peak_bytes = peak > mem0 ? peak - mem0 : 0;
+    a->triangles = m->triangle_count;
+    prt__spec_format(&spec, a->spec, sizeof a->spec);
+    *out = a;
+    return PRT_OK;
+}
+
+void prt__unmap(void *p, size_t size); /* io/prt_file.c */
+
+void prt_accel_free(prt_accel *a) {
+    if (!a) return;
+    void *map = a->file_mapping;
+    size_t size = a->file_mapping_size;
+    bool copy = a->file_mapping_is_copy;
+    a->ops->destroy(a);
+    if (map && copy) prt__free(map);
+    else if (map) prt__unmap(map, size);
+}
+
+const char *prt_accel_spec(const prt_accel *a) { return a->spec; }
+
+void prt_accel_stats(const prt_accel *a, prt_stats *s) {
+    memset(s, 0, sizeof *s);
+    a->ops->stats(a, s);
+    s->triangles = a->triangles;
+    s->triangles_built = a->triangles_built;
+    s->build_seconds = a->build_seconds;
+    s->build_peak_bytes = a->build_peak_bytes;
+}
+
+static void miss(prt_hit *h) {
+    h->t = INFINITY, h->u = 0, h->v = 0, h->prim = PRT_INVALID, h->geom = 0;
+}
+
+void prt_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
+    if (PRT_UNLIKELY(!prt__ray_valid(r))) return miss(h);
+    a->ops->intersect1(a, r, h);
+}
+
+bool prt_occluded1(const prt_accel *a, const prt_ray *r) {
+    if (PRT_UNLIKELY(!prt__ray_valid(r))) return false;
+    return a->ops->occluded1(a, r);
+}
+
+void prt_intersect_packet(const prt_accel *a, prt_packet *p) {
+    uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
+    if (a->ops->intersect_packet) {
+        a->ops->intersect_packet(a, p);
+        return;
+    }
+    for (uint32_t i = 0; i < n; i++) prt_intersect1(a, &p->rays[i], &p->hits[i]);
+}
+
+/* Chunks of 256 rays: big enough to amortise scheduling, small enough to balance. */
+#define STREAM_CHUNK 256
+
+void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n, int threads) {
+    int t = prt__threads(threads);
+    if (t == 1 || n <= STREAM_CHUNK) {
+        for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
+        return;
+    }
+#pragma omp parallel for num_threads(t) schedule(dynamic, 1)
+    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++)
+        for (size_t i = c * STREAM_CHUNK; i < n && i < (c + 1) * STREAM_CHUNK; i++)
+            prt_intersect1(a, &rays[i], &hits[i]);
+}
+
+void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n, int threads) {
+    int t = prt__threads(threads);
+    if (t == 1 || n <= STREAM_CHUNK) {
+        for (size_t i = 0; i < n; i++) occluded[i] = prt_occluded1(a, &rays[i]);
+        return;
+    }
+#pragma omp parallel for num_threads(t) schedule(dynamic, 1)
+    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++)
+        for (size_t i = c * STREAM_CHUNK; i < n && i < (c + 1) * STREAM_CHUNK; i++)
+            occluded[i] = prt_occluded1(a, &rays[i]);
+}
+
+/* --- .prt files ---------------------------------------------------------------------- */
+
+static prt_status fill_sections(const void *ctx, prt_writer *w) {
+    const prt_accel *a = ctx;
+    return a->ops->save(a, w);
+}
+
+prt_status prt_accel_save(const prt_accel *a, const char *path) {
+    if (!a || !path) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_save: NULL argument");
+    prt_file_info info = {{0}, {0}, a->triangles, a->triangles_built, a->build_seconds};
+    snprintf(info.spec, sizeof info.spec, "%s", a->spec);
+    memcpy(info.bounds, a->bounds, sizeof info.bounds);
+    return prt__file_save(path, &info, fill_sections, a);
+}
+
+prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out) {
+    *out = NULL;
+    prt_file_info info;
+    prt_reader r;
+    prt_status s = prt__file_open(data, size, verify_crc, &info, &r);
+    if (s) return s;
+    prt_spec spec;
+    if (prt__spec_parse(info.spec, &spec))
+        return prt__fail(PRT_ERROR_CORRUPT, "the file's representation spec '%.64s' is malformed", info.spec);
+    const prt_repr_family *f = prt__registry_find(&spec);
+    if (!f)
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "the file holds representation '%.64s', unknown to this packrt",
+                         info.spec);
+    prt_accel *a = NULL;
+    if ((s = f->ops->load(&r, &spec, &a))) return s;
+    memcpy(a->spec, info.spec, sizeof a->spec);
+    memcpy(a->bounds, info.bounds, sizeof a->bounds);
+    a->triangles = info.triangles;
+    a->triangles_built = info.triangles_built;
+    a->build_seconds = info.build_seconds;
+    *out = a;
+    return PRT_OK;
+}
+
+prt_status prt_accel_load_memory(const void *data, size_t size, prt_accel **out) {
+    if (!data || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_load_memory: NULL argument");
+    if ((uintptr_t)data % 64 == 0) return prt__accel_open(data, size, true, out);
+    /* Layouts read their nodes in place and need the container's 64-byte alignment. */
+    void *copy = prt__alloc(size);
+    if (!copy) return prt__fail(PRT_ERROR_NOMEM, "out of memory copying a %zu-byte .prt image", size);
+    memcpy(copy, data, size);
+    prt_status s = prt__accel_open(copy, size, true, out);
+    if (s) {
+        prt__free(copy);
+        return s;
+    }
+    (*out)->file_mapping = copy;
+    (*out)->file_mapping_size = size;
+    (*out)->file_mapping_is_copy = true;
+    return PRT_OK;
+}

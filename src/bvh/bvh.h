@@ -1,0 +1,46 @@
+/* BVH representations (Rouwé 2019): a builder's generic tree encoded by a node layout
+ * with a triangle codec into one blob, traversed by the layout's kernels. The family
+ * answers to "layout:codec" spec names. */
+#ifndef PRT_BVH_BVH_H
+#define PRT_BVH_BVH_H
+
+#include "bvh/codecs/codec.h"
+#include "bvh/tree.h"
+
+/* An encoded tree: one allocation (or a slice of a mapped file) plus its accounting. */
+typedef struct bvh_blob {
+    uint8_t *data;
+    size_t size;
+    size_t bytes_tree, bytes_geometry;
+    uint64_t nodes, leaves;
+    uint32_t depth;
+} bvh_blob;
+
+typedef void (*bvh_intersect_fn)(const uint8_t *blob, prt_ray *r, prt_hit *h);
+typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const prt_ray *r);
+
+typedef struct bvh_layout {
+    const char *name;
+    const char *description;
+    int default_leaf[BVH_CODEC_COUNT]; /* leaf size when the spec gives none */
+    /* Encode t with codec c over mesh m into out (out->data from prt__alloc). */
+    prt_status (*encode)(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out);
+    /* Check a loaded blob so traversal can never leave it or loop: PRT_ERROR_CORRUPT. */
+    prt_status (*validate)(const bvh_blob *b, const bvh_codec *c);
+    struct {
+        bvh_intersect_fn intersect1;
+        bvh_occluded_fn occluded1;
+    } kernels[BVH_CODEC_COUNT];
+} bvh_layout;
+
+/* X(id, name) */
+#define BVH_LAYOUTS(X) X(aabb, "aabb") X(quad, "quad")
+
+#define X(id, nm) extern const bvh_layout bvh_layout_##id;
+BVH_LAYOUTS(X)
+#undef X
+
+/* Leaf counts a loaded file may claim (the spec's leaf option is at most 16). */
+#define BVH_MAX_LEAF 16
+
+#endif

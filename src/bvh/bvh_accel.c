@@ -1,0 +1,199 @@
+/* The BVH family behind prt_accel_ops: parses "layout:codec[,split=..,leaf=..]", builds
+ * the generic tree, encodes it with the chosen layout and codec, and dispatches queries to
+ * the layout's kernels for that codec. Saved as two sections: META and BLOB. */
+#include "api/accel.h"
+#include "bvh/bvh.h"
+#include "core/vec.h"
+#include "mesh/mesh.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+
+typedef struct bvh_accel {
+    prt_accel base;
+    const bvh_layout *layout;
+    int codec;
+    bvh_blob blob;
+    bool owns_blob;
+    bvh_intersect_fn intersect1;
+    bvh_occluded_fn occluded1;
+} bvh_accel;
+
+/* On-disk META section (little endian, 64 bytes). */
+typedef struct bvh_meta {
+    uint64_t blob_size, bytes_tree, bytes_geometry, nodes, leaves;
+    uint32_t depth, layout, codec, reserved[3];
+} bvh_meta;
+_Static_assert(sizeof(bvh_meta) == 64, "META section is 64 bytes");
+
+static const bvh_layout *const g_layouts[] = {
+#define X(id, nm) &bvh_layout_##id,
+    BVH_LAYOUTS(X)
+#undef X
+};
+#define LAYOUT_COUNT PRT_ARRAY_SIZE(g_layouts)
+
+static int find_layout(const char *name) {
+    for (size_t i = 0; i < LAYOUT_COUNT; i++)
+        if (!strcmp(g_layouts[i]->name, name)) return (int)i;
+    return -1;
+}
+
+static bool bvh_accepts(const prt_spec *s) { return find_layout(s->structure) >= 0 && bvh_codec_find(s->codec) >= 0; }
+
+static char g_names[LAYOUT_COUNT * BVH_CODEC_COUNT][64];
+static char g_descs[LAYOUT_COUNT * BVH_CODEC_COUNT][256];
+static pthread_once_t g_names_once = PTHREAD_ONCE_INIT;
+
+/* Names are every layout crossed with every codec, formatted once. */
+static void make_names(void) {
+    for (size_t i = 0; i < LAYOUT_COUNT * BVH_CODEC_COUNT; i++) {
+        const bvh_layout *l = g_layouts[i / BVH_CODEC_COUNT];
+        const bvh_codec *c = &bvh_codecs[i % BVH_CODEC_COUNT];
+        snprintf(g_names[i], sizeof g_names[i], "%s:%s", l->name, c->name);
+        snprintf(g_descs[i], sizeof g_descs[i], "%s; %s", l->description, c->description);
+    }
+}
+
+static bool bvh_name_at(size_t i, const char **name, const char **desc) {
+    if (i >= LAYOUT_COUNT * BVH_CODEC_COUNT) return false;
+    pthread_once(&g_names_once, make_names);
+    *name = g_names[i];
+    *desc = g_descs[i];
+    return true;
+}
+
+static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    b->intersect1(b->blob.data, r, h);
+}
+
+static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    return b->occluded1(b->blob.data, r);
+}
+
+static void bvh_stats(const prt_accel *a, prt_stats *s) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    s->bytes_tree = b->blob.bytes_tree;
+    s->bytes_geometry = b->blob.bytes_geometry;
+    s->bytes_other = sizeof(bvh_accel);
+    s->nodes = b->blob.nodes;
+    s->leaves = b->blob.leaves;
+    s->depth = b->blob.depth;
+}
+
+static void bvh_destroy(prt_accel *a) {
+    bvh_accel *b = (bvh_accel *)a;
+    if (b->owns_blob) prt__free(b->blob.data);
+    prt__free(b);
+}
+
+static bvh_accel *bvh_new(int layout, int codec) {
+    bvh_accel *b = prt__calloc(1, sizeof *b);
+    if (!b) return NULL;
+    b->layout = g_layouts[layout];
+    b->codec = codec;
+    b->intersect1 = b->layout->kernels[codec].intersect1;
+    b->occluded1 = b->layout->kernels[codec].occluded1;
+    return b;
+}
+
+extern const prt_accel_ops prt__bvh_ops;
+
+static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
+    int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
+    const bvh_codec *c = &bvh_codecs[codec];
+    bvh_build_params p = {.block = c->block, .threads = o ? o->threads : 0};
+    int split, leaf;
+    prt_status s;
+    if ((s = prt__spec_enum(spec, "split", bvh_split_names, BVH_SPLIT_COUNT, BVH_SPLIT_SAH, &split)) ||
+        (s = prt__spec_int(spec, "leaf", g_layouts[layout]->default_leaf[codec], 1, BVH_MAX_LEAF, &leaf)))
+        return s;
+    static const char *const orders[] = {"df"};
+    int order;
+    if ((s = prt__spec_enum(spec, "order", orders, 1, 0, &order))) return s;
+    if ((s = prt__spec_check_unused(spec))) return s;
+    p.split = (bvh_split)split;
+    p.max_leaf = leaf;
+    char num[16];
+    snprintf(num, sizeof num, "%d", leaf);
+    prt__spec_set(spec, "split", bvh_split_names[split]);
+    prt__spec_set(spec, "leaf", num);
+
+    /* Primitive boxes; exactly degenerate triangles are left out: they can never be hit. */
+    bvh_prim *prims = prt__alloc(prt__mul_size(m->triangle_count, sizeof *prims));
+    if (!prims) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu primitive boxes", m->triangle_count);
+    size_t n = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        if (prt__mesh_triangle_degenerate(m, t)) continue;
+        prt_aabb box = prt_aabb_empty();
+        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&box, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
+        bvh_prim *q = &prims[n++];
+        memcpy(q->lo, box.lo, sizeof box.lo);
+        memcpy(q->hi, box.hi, sizeof box.hi);
+        q->id = (uint32_t)t;
+        q->pad = 0;
+    }
+    bvh_tree tree;
+    s = bvh_build(prims, n, &p, &tree);
+    prt__free(prims);
+    if (s) return s;
+    bvh_accel *b = bvh_new(layout, codec);
+    if (!b) {
+        bvh_tree_free(&tree);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    }
+    s = b->layout->encode(&tree, c, m, &b->blob);
+    if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
+    bvh_tree_free(&tree);
+    if (s) {
+        prt__free(b);
+        return s;
+    }
+    b->owns_blob = true;
+    b->base.ops = &prt__bvh_ops;
+    b->base.triangles_built = n;
+    *out = &b->base;
+    return PRT_OK;
+}
+
+static prt_status bvh_save(const prt_accel *a, prt_writer *w) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    bvh_meta meta = {b->blob.size, b->blob.bytes_tree, b->blob.bytes_geometry, b->blob.nodes, b->blob.leaves,
+                     b->blob.depth, 0, 0, {0}};
+    prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
+    return s ? s : prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), b->blob.data, b->blob.size);
+}
+
+static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
+    int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
+    const void *mp, *data;
+    size_t msize, size;
+    prt_status s;
+    if ((s = prt__reader_section(r, PRT_FOURCC('M', 'E', 'T', 'A'), sizeof(bvh_meta), &mp, &msize)) ||
+        (s = prt__reader_section(r, PRT_FOURCC('B', 'L', 'O', 'B'), 1, &data, &size)))
+        return s;
+    bvh_meta meta;
+    memcpy(&meta, mp, sizeof meta);
+    if (meta.blob_size != size || meta.bytes_tree > size || meta.bytes_geometry != size - meta.bytes_tree ||
+        meta.depth > BVH_MAX_DEPTH || meta.depth == 0)
+        return prt__fail(PRT_ERROR_CORRUPT, "BVH META section disagrees with its BLOB");
+    bvh_accel *b = bvh_new(layout, codec);
+    if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
+    if ((s = b->layout->validate(&b->blob, &bvh_codecs[codec]))) {
+        prt__free(b);
+        return s;
+    }
+    b->base.ops = &prt__bvh_ops;
+    *out = &b->base;
+    return PRT_OK;
+}
+
+const prt_accel_ops prt__bvh_ops = {
+    "bvh", bvh_build_accel, bvh_intersect1, bvh_occluded1, NULL, bvh_stats, bvh_save, bvh_load, bvh_destroy,
+};
+
+const prt_repr_family prt__bvh_family = {&prt__bvh_ops, bvh_accepts, bvh_name_at};

@@ -1,0 +1,21 @@
+/* The codec table: what encoding and loading need from each codec. */
+#include "bvh/codecs/codecs.h"
+
+#define X(id, nm, desc)                                                                              \
+    static void id##_encode_fn(uint8_t *d, const prt_mesh *m, const uint32_t *ids, uint32_t n) {     \
+        id##_encode(d, m, ids, n);                                                                   \
+    }
+BVH_CODECS(X)
+#undef X
+
+const bvh_codec bvh_codecs[BVH_CODEC_COUNT] = {
+#define X(id, nm, desc) [BVH_CODEC_##id] = {nm, desc, id##_block, id##_align, id##_leaf_bytes, id##_encode_fn},
+    BVH_CODECS(X)
+#undef X
+};
+
+int bvh_codec_find(const char *name) {
+    for (int i = 0; i < BVH_CODEC_COUNT; i++)
+        if (!strcmp(bvh_codecs[i].name, name)) return i;
+    return -1;
+}

@@ -1,0 +1,9 @@
+/* Every codec's kernels, for the layouts' traversal templates. */
+#ifndef PRT_BVH_CODECS_CODECS_H
+#define PRT_BVH_CODECS_CODECS_H
+
+#include "bvh/codecs/codec.h"
+#include "bvh/codecs/float3.h"
+#include "bvh/codecs/float3_soa4.h"
+
+#endif

@@ -1,0 +1,52 @@
+/* Float3 (Rouwé 2019, §3.1): each triangle as its three vertices in 9 floats, followed by
+ * the 32-bit index of the triangle in the mesh (40 bytes). The simplest codec: one
+ * scalar watertight test per triangle. */
+#ifndef PRT_BVH_CODECS_FLOAT3_H
+#define PRT_BVH_CODECS_FLOAT3_H
+
+#include "geom/triangle.h"
+
+#define FLOAT3_TRI_BYTES 40
+enum { float3_block = 1, float3_align = 4 };
+
+typedef struct float3_ray {
+    char unused;
+} float3_ray;
+
+static inline size_t float3_leaf_bytes(uint32_t n) { return (size_t)n * FLOAT3_TRI_BYTES; }
+
+static inline void float3_encode(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, uint32_t n) {
+    for (uint32_t i = 0; i < n; i++, dst += FLOAT3_TRI_BYTES) {
+        const uint32_t *t = m->triangles + 3 * (size_t)ids[i];
+        for (int v = 0; v < 3; v++) memcpy(dst + 12 * v, m->vertices + 3 * (size_t)t[v], 12);
+        memcpy(dst + 36, &ids[i], 4);
+    }
+}
+
+static inline void float3_ray_init(float3_ray *c, const prt__rayx *r) { (void)c, (void)r; }
+
+PRT_INLINE void float3_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const float3_ray *c,
+                                 prt__hitx *h) {
+    (void)c;
+    for (uint32_t i = 0; i < n; i++, leaf += FLOAT3_TRI_BYTES) {
+        float v[9], t, u, w;
+        memcpy(v, leaf, sizeof v);
+        if (prt__tri_hit(r, v, v + 3, v + 6, h->t, &t, &u, &w)) {
+            h->t = t, h->u = u, h->v = w;
+            memcpy(&h->prim, leaf + 36, 4);
+        }
+    }
+}
+
+PRT_INLINE bool float3_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const float3_ray *c,
+                                float tfar) {
+    (void)c;
+    for (uint32_t i = 0; i < n; i++, leaf += FLOAT3_TRI_BYTES) {
+        float v[9], t, u, w;
+        memcpy(v, leaf, sizeof v);
+        if (prt__tri_hit(r, v, v + 3, v + 6, tfar, &t, &u, &w)) return true;
+    }
+    return false;
+}
+
+#endif

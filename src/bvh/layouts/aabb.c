@@ -1,0 +1,118 @@
+/* AABBTree (Rouwé 2019, §5.1): 28-byte nodes (box min, box max, properties) written depth
+ * first. A leaf's triangle block follows its node; an inner node's first child follows it
+ * and its properties hold the distance to the second child in 4-byte words. */
+#include "bvh/traverse.h"
+
+#define AABB_NODE_BYTES 28
+#define AABB_LEAF 0x80000000u
+
+static inline uint32_t aabb_props(const uint8_t *node) {
+    uint32_t p;
+    memcpy(&p, node + 24, 4);
+    return p;
+}
+
+static inline float aabb_box_hit(const prt__rayx *r, const uint8_t *node, float tfar) {
+    float b[6];
+    memcpy(b, node, sizeof b);
+    return prt__box_hit(r, b, b + 3, tfar);
+}
+
+#define LAYOUT_KERNELS "bvh/layouts/aabb_kernels.inc"
+#include "bvh/layouts/instantiate.inc"
+#undef LAYOUT_KERNELS
+
+typedef struct encoder {
+    const bvh_tree *t;
+    const bvh_codec *c;
+    const prt_mesh *m;
+    uint8_t *out;
+    size_t size;
+} encoder;
+
+static size_t subtree_bytes(const bvh_tree *t, const bvh_codec *c) {
+    size_t bytes = 0;
+    for (size_t i = 0; i < t->node_count; i++)
+        bytes += AABB_NODE_BYTES + (t->nodes[i].count ? c->leaf_bytes(t->nodes[i].count) : 0);
+    return bytes;
+}
+
+/* Writes node i at offset o, returns the offset past its subtree (0 on offset overflow). */
+static size_t write_node(encoder *e, uint32_t i, size_t o) {
+    const bvh_node *n = &e->t->nodes[i];
+    memcpy(e->out + o, n->box.lo, 12);
+    memcpy(e->out + o + 12, n->box.hi, 12);
+    uint32_t props;
+    size_t end;
+    if (n->count) {
+        props = AABB_LEAF | n->count;
+        e->c->encode(e->out + o + AABB_NODE_BYTES, e->m, e->t->prims + n->index, n->count);
+        end = o + AABB_NODE_BYTES + e->c->leaf_bytes(n->count);
+    } else {
+        size_t right = write_node(e, n->index, o + AABB_NODE_BYTES);
+        if (!right || (right - o) / 4 >= AABB_LEAF) return 0;
+        props = (uint32_t)((right - o) / 4);
+        end = write_node(e, n->index + 1, right);
+        if (!end) return 0;
+    }
+    memcpy(e->out + o + 24, &props, 4);
+    return end;
+}
+
+static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
+    memset(out, 0, sizeof *out);
+    encoder e = {t, c, m, NULL, subtree_bytes(t, c)};
+    e.out = prt__alloc(e.size);
+    if (!e.out) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", e.size);
+    if (write_node(&e, 0, 0) != e.size) {
+        prt__free(e.out);
+        return prt__fail(PRT_ERROR_LIMIT, "aabb layout: a subtree exceeds the 31-bit child offset (8 GB); use quad");
+    }
+    out->data = e.out;
+    out->size = e.size;
+    out->nodes = t->node_count;
+    out->leaves = t->leaf_count;
+    out->depth = t->depth;
+    out->bytes_tree = t->node_count * AABB_NODE_BYTES;
+    out->bytes_geometry = e.size - out->bytes_tree;
+    return PRT_OK;
+}
+
+/* Walks the tree checking that it tiles the blob exactly: every second child starts where
+ * the first child's subtree ends, so the walk is linear and traversal can never leave the
+ * blob or loop. Returns the end offset, or 0 on corruption. */
+static size_t check_node(const bvh_blob *b, const bvh_codec *c, size_t o, uint32_t depth, uint64_t *nodes) {
+    if (depth > BVH_MAX_DEPTH || o > b->size || b->size - o < AABB_NODE_BYTES) return 0;
+    ++*nodes;
+    uint32_t props = aabb_props(b->data + o);
+    if (props & AABB_LEAF) {
+        uint32_t n = props & ~AABB_LEAF;
+        if (n == 0 || n > BVH_MAX_LEAF) return 0;
+        size_t bytes = c->leaf_bytes(n);
+        if (b->size - o - AABB_NODE_BYTES < bytes) return 0;
+        return o + AABB_NODE_BYTES + bytes;
+    }
+    size_t right = check_node(b, c, o + AABB_NODE_BYTES, depth + 1, nodes);
+    if (!right || right != o + 4 * (size_t)props) return 0;
+    return check_node(b, c, right, depth + 1, nodes);
+}
+
+static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c) {
+    uint64_t nodes = 0;
+    if (check_node(b, c, 0, 1, &nodes) != b->size || nodes != b->nodes)
+        return prt__fail(PRT_ERROR_CORRUPT, "aabb tree structure is inconsistent with its size");
+    return PRT_OK;
+}
+
+const bvh_layout bvh_layout_aabb = {
+    "aabb",
+    "AABBTree (Rouwe 5.1): 28-byte binary nodes, depth first, triangles after their leaf",
+    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8},
+    aabb_encode,
+    aabb_validate,
+    {
+#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_intersect1_##id, aabb_occluded1_##id},
+        BVH_CODECS(X)
+#undef X
+    },
+};

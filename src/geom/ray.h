@@ -1,0 +1,63 @@
+/* Per-ray precomputation shared by the box and triangle kernels: safe reciprocal
+ * direction for the slab test, and the axis permutation and shear of the watertight
+ * triangle test (Woop, Benthin, Wald 2013, §3). */
+#ifndef PRT_GEOM_RAY_H
+#define PRT_GEOM_RAY_H
+
+#include "core/common.h"
+
+#include <math.h>
+
+typedef struct prt__rayx {
+    float org[3], dir[3];
+    float inv[3];      /* 1/dir with zero components replaced by a tiny value: no 0*inf NaNs */
+    float tnear;
+    int kx, ky, kz;    /* kz: dominant axis; kx, ky chosen to keep the winding */
+    float sx, sy, sz;  /* shear constants */
+    int neg[3];        /* inv[k] < 0: which slab plane is near */
+} prt__rayx;
+
+/* Hit record used inside kernels; t starts at the ray's tfar. */
+typedef struct prt__hitx {
+    float t, u, v;
+    uint32_t prim;
+} prt__hitx;
+
+static inline void prt__rayx_init(prt__rayx *x, const prt_ray *r) {
+    for (int k = 0; k < 3; k++) {
+        x->org[k] = r->org[k];
+        x->dir[k] = r->dir[k];
+        float d = r->dir[k];
+        if (fabsf(d) < 1e-18f) d = copysignf(1e-18f, d);
+        x->inv[k] = 1.0f / d;
+        x->neg[k] = x->inv[k] < 0.0f;
+    }
+    x->tnear = r->tnear;
+    float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
+    int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+    if (r->dir[kz] < 0.0f) {
+        int t = kx;
+        kx = ky;
+        ky = t;
+    }
+    x->kx = kx, x->ky = ky, x->kz = kz;
+    x->sx = r->dir[kx] / r->dir[kz];
+    x->sy = r->dir[ky] / r->dir[kz];
+    x->sz = 1.0f / r->dir[kz];
+}
+
+/* True when a ray can be traced: finite, non-zero direction, tnear <= tfar. The API layer
+ * answers a miss for anything else rather than letting NaNs into the kernels. */
+static inline bool prt__ray_valid(const prt_ray *r) {
+    for (int k = 0; k < 3; k++)
+        if (!isfinite(r->org[k]) || !isfinite(r->dir[k])) return false;
+    if (r->dir[0] == 0.0f && r->dir[1] == 0.0f && r->dir[2] == 0.0f) return false;
+    return !isnan(r->tnear) && !isnan(r->tfar) && r->tnear <= r->tfar;
+}
+
+/* Ize 2013: scaling the far slab distance by 1 + 2*gamma(3) makes the box test
+ * conservative against the rounding of (b - o) * inv. */
+#define PRT_BOX_FAR_SCALE 1.00000036f
+
+#endif

@@ -1,0 +1,214 @@
+/* The .prt container: writing, and the checks that make loading a corrupt, truncated or
+ * foreign file an error rather than a crash (docs/formats.md has the byte layout). */
+#include "api/accel.h"
+#include "io/prt_file.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#define ENDIAN_TAG 0x01020304u
+#define ENTRY_BYTES 32
+
+struct prt_writer {
+    uint32_t count;
+    struct {
+        uint32_t tag;
+        const void *data;
+        size_t size;
+    } s[PRT_FILE_MAX_SECTIONS];
+};
+
+prt_status prt__writer_section(prt_writer *w, uint32_t tag, const void *data, size_t size) {
+    if (w->count == PRT_FILE_MAX_SECTIONS) return prt__fail(PRT_ERROR_LIMIT, "too many sections in a .prt file");
+    w->s[w->count].tag = tag;
+    w->s[w->count].data = data;
+    w->s[w->count].size = size;
+    w->count++;
+    return PRT_OK;
+}
+
+static uint32_t crc_of(const void *data, size_t size) {
+    uLong c = crc32(0L, Z_NULL, 0);
+    const uint8_t *p = data;
+    while (size) {
+        uInt n = size > (1u << 30) ? (1u << 30) : (uInt)size;
+        c = crc32(c, p, n);
+        p += n, size -= n;
+    }
+    return (uint32_t)c;
+}
+
+static size_t align64(size_t x) { return (x + PRT_FILE_ALIGN - 1) & ~(size_t)(PRT_FILE_ALIGN - 1); }
+
+static void put32(uint8_t *p, uint32_t v) { memcpy(p, &v, 4); }
+static void put64(uint8_t *p, uint64_t v) { memcpy(p, &v, 8); }
+static uint32_t get32(const uint8_t *p) { uint32_t v; memcpy(&v, p, 4); return v; }
+static uint64_t get64(const uint8_t *p) { uint64_t v; memcpy(&v, p, 8); return v; }
+
+/* Header and table in one buffer; offsets of sections laid out 64-byte aligned. */
+static size_t make_header(uint8_t *h, const prt_file_info *info, const prt_writer *w) {
+    size_t table_end = PRT_FILE_HEADER_BYTES + (size_t)w->count * ENTRY_BYTES;
+    memset(h, 0, table_end);
+    memcpy(h, PRT_FILE_MAGIC, 4);
+    put32(h + 4, PRT_FILE_VERSION);
+    put32(h + 8, PRT_FILE_HEADER_BYTES);
+    put32(h + 12, w->count);
+    put64(h + 24, info->triangles);
+    put64(h + 32, info->triangles_built);
+    memcpy(h + 40, info->bounds, 24);
+    memcpy(h + 64, &info->build_seconds, 8);
+    put32(h + 76, ENDIAN_TAG);
+    memcpy(h + 128, info->spec, PRT_FILE_SPEC_BYTES - 1);
+    size_t off = align64(table_end);
+    for (uint32_t i = 0; i < w->count; i++) {
+        uint8_t *e = h + PRT_FILE_HEADER_BYTES + (size_t)i * ENTRY_BYTES;
+        put32(e, w->s[i].tag);
+        put32(e + 4, crc_of(w->s[i].data, w->s[i].size));
+        put64(e + 8, off);
+        put64(e + 16, w->s[i].size);
+        off = align64(off + w->s[i].size);
+    }
+    put64(h + 16, off);
+    put32(h + 72, crc_of(h, table_end));
+    return table_end;
+}
+
+prt_status prt__file_save(const char *path, const prt_file_info *info,
+                          prt_status (*fill)(const void *ctx, prt_writer *w), const void *ctx) {
+    prt_writer w = {0};
+    prt_status s = fill(ctx, &w);
+    if (s) return s;
+    uint8_t header[PRT_FILE_HEADER_BYTES + PRT_FILE_MAX_SECTIONS * ENTRY_BYTES];
+    size_t table_end = make_header(header, info, &w);
+    /* Write beside the target and rename, so a failed save never leaves half a file. */
+    char tmp[4096];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
+        return prt__fail(PRT_ERROR_ARGUMENT, "path too long: %s", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    static const uint8_t zeros[PRT_FILE_ALIGN];
+    bool ok = fwrite(header, 1, table_end, f) == table_end;
+    size_t pos = table_end;
+    for (uint32_t i = 0; i < w.count && ok; i++) {
+        size_t pad = align64(pos) - pos;
+        ok = fwrite(zeros, 1, pad, f) == pad && fwrite(w.s[i].data, 1, w.s[i].size, f) == w.s[i].size;
+        pos += pad + w.s[i].size;
+    }
+    size_t pad = align64(pos) - pos;
+    ok = ok && fwrite(zeros, 1, pad, f) == pad;
+    ok = (fclose(f) == 0) && ok;
+    if (!ok || rename(tmp, path) != 0) {
+        int e = errno;
+        remove(tmp);
+        return prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(e));
+    }
+    return PRT_OK;
+}
+
+prt_status prt__file_open(const void *data, size_t size, bool verify_crc, prt_file_info *info, prt_reader *r) {
+    const uint8_t *h = data;
+    memset(r, 0, sizeof *r);
+    if (size < 4 || memcmp(h, PRT_FILE_MAGIC, 4) != 0)
+        return prt__fail(PRT_ERROR_CORRUPT, "not a packrt .prt file (no PRT1 magic)");
+    if (size < PRT_FILE_HEADER_BYTES)
+        return prt__fail(PRT_ERROR_CORRUPT, "truncated .prt file: %zu bytes, the header alone is %d", size,
+                         PRT_FILE_HEADER_BYTES);
+    if (get32(h + 76) != ENDIAN_TAG)
+        return prt__fail(PRT_ERROR_UNSUPPORTED, ".prt file of the other byte order (or corrupt)");
+    if (get32(h + 4) != PRT_FILE_VERSION)
+        return prt__fail(PRT_ERROR_UNSUPPORTED, ".prt version %u, this packrt reads version %u", get32(h + 4),
+                         PRT_FILE_VERSION);
+    uint32_t count = get32(h + 12);
+    if (get32(h + 8) != PRT_FILE_HEADER_BYTES || count == 0 || count > PRT_FILE_MAX_SECTIONS)
+        return prt__fail(PRT_ERROR_CORRUPT, "corrupt .prt header (header size or section count)");
+    size_t table_end = PRT_FILE_HEADER_BYTES + (size_t)count * ENTRY_BYTES;
+    if (get64(h + 16) != size)
+        return prt__fail(PRT_ERROR_CORRUPT, ".prt file is %zu bytes but its header says %llu: truncated or padded",
+                         size, (unsigned long long)get64(h + 16));
+    if (size < table_end) return prt__fail(PRT_ERROR_CORRUPT, "truncated .prt section table");
+    if (verify_crc) {
+        uint8_t copy[PRT_FILE_HEADER_BYTES + PRT_FILE_MAX_SECTIONS * ENTRY_BYTES];
+        memcpy(copy, h, table_end);
+        put32(copy + 72, 0);
+        if (crc_of(copy, table_end) != get32(h + 72))
+            return prt__fail(PRT_ERROR_CORRUPT, ".prt header checksum mismatch");
+    }
+    if (memchr(h + 128, 0, PRT_FILE_SPEC_BYTES) == NULL)
+        return prt__fail(PRT_ERROR_CORRUPT, "corrupt .prt header (spec string not terminated)");
+    memcpy(info->spec, h + 128, PRT_FILE_SPEC_BYTES);
+    info->triangles = get64(h + 24);
+    info->triangles_built = get64(h + 32);
+    memcpy(info->bounds, h + 40, 24);
+    memcpy(&info->build_seconds, h + 64, 8);
+    uint64_t prev_end = table_end;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint8_t *e = h + PRT_FILE_HEADER_BYTES + (size_t)i * ENTRY_BYTES;
+        uint64_t off = get64(e + 8), len = get64(e + 16);
+        if (off % PRT_FILE_ALIGN || off < prev_end || off > size || len > size - off)
+            return prt__fail(PRT_ERROR_CORRUPT, ".prt section %u lies outside the file (offset %llu, %llu bytes)", i,
+                             (unsigned long long)off, (unsigned long long)len);
+        if (verify_crc && crc_of(h + off, len) != get32(e + 4))
+            return prt__fail(PRT_ERROR_CORRUPT, ".prt section %u ('%.4s') checksum mismatch", i, (const char *)e);
+        r->sections[i].tag = get32(e);
+        r->sections[i].offset = off;
+        r->sections[i].size = len;
+        prev_end = off + len;
+    }
+    r->data = h;
+    r->size = size;
+    r->count = count;
+    return PRT_OK;
+}
+
+prt_status prt__reader_section(prt_reader *r, uint32_t tag, size_t min_size, const void **data, size_t *size) {
+    for (uint32_t i = 0; i < r->count; i++)
+        if (r->sections[i].tag == tag) {
+            if (r->sections[i].size < min_size)
+                return prt__fail(PRT_ERROR_CORRUPT, ".prt section '%.4s' is too small", (const char *)&tag);
+            *data = r->data + r->sections[i].offset;
+            *size = r->sections[i].size;
+            return PRT_OK;
+        }
+    return prt__fail(PRT_ERROR_CORRUPT, ".prt file has no '%.4s' section", (const char *)&tag);
+}
+
+void prt__unmap(void *p, size_t size) { munmap(p, size); }
+
+prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out);
+
+prt_status prt_accel_load(const char *path, prt_accel **out) {
+    if (!path || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_load: NULL argument");
+    *out = NULL;
+    int fd = open(path, O_RDONLY);
+    if (fd < 0) return prt__fail(PRT_ERROR_IO, "%s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return prt__fail(PRT_ERROR_IO, "%s: not a regular file", path);
+    }
+    size_t size = (size_t)st.st_size;
+    if (size < PRT_FILE_HEADER_BYTES) {
+        close(fd);
+        return prt__fail(PRT_ERROR_CORRUPT, "%s: %zu bytes is too short for a .prt file", path, size);
+    }
+    void *map = mmap(NULL, size, PROT_READ, MAP_PRIVATE, fd, 0);
+    close(fd);
+    if (map == MAP_FAILED) return prt__fail(PRT_ERROR_IO, "%s: mmap failed: %s", path, strerror(errno));
+    prt_accel *a;
+    prt_status s = prt__accel_open(map, size, true, &a);
+    if (s) {
+        munmap(map, size);
+        char msg[1024];
+        snprintf(msg, sizeof msg, "%s", prt_last_error());
+        return prt__fail(s, "%s: %s", path, msg);
+    }
+    a->file_mapping = map;
+    a->file_mapping_size = size;
+    *out = a;
+    return PRT_OK;
+}

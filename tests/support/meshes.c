@@ -1,0 +1,66 @@
+/* Small meshes and rays made inside tests. */
+#include "support/meshes.h"
+#include "core/rng.h"
+#include "support/reference.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+prt_mesh *mesh_random_soup(size_t n, uint64_t seed) {
+    prt_mesh *m;
+    if (prt_mesh_create(3 * n, n, &m)) return NULL;
+    prt_rng r = prt_rng_seed(seed, 1);
+    for (size_t i = 0; i < n; i++) {
+        float c[3], s = 0.02f + 0.2f * prt_rng_float(&r);
+        for (int k = 0; k < 3; k++) c[k] = prt_rng_float(&r);
+        for (int v = 0; v < 3; v++)
+            for (int k = 0; k < 3; k++) m->vertices[9 * i + 3 * v + k] = c[k] + s * (prt_rng_float(&r) - 0.5f);
+        for (int v = 0; v < 3; v++) m->triangles[3 * i + v] = (uint32_t)(3 * i + v);
+    }
+    return m;
+}
+
+prt_mesh *mesh_same_centroid(size_t n) {
+    prt_mesh *m;
+    if (prt_mesh_create(3 * n, n, &m)) return NULL;
+    for (size_t i = 0; i < n; i++) {
+        float a = (float)i * 0.7f, s = 0.1f + 0.001f * (float)i;
+        float p[3][3] = {{s * cosf(a), s * sinf(a), 0}, {s * cosf(a + 2.0944f), s * sinf(a + 2.0944f), 0.1f},
+                         {s * cosf(a + 4.1888f), s * sinf(a + 4.1888f), -0.1f}};
+        float cx = (p[0][0] + p[1][0] + p[2][0]) / 3, cy = (p[0][1] + p[1][1] + p[2][1]) / 3;
+        for (int v = 0; v < 3; v++) {
+            m->vertices[9 * i + 3 * v + 0] = p[v][0] - cx;
+            m->vertices[9 * i + 3 * v + 1] = p[v][1] - cy;
+            m->vertices[9 * i + 3 * v + 2] = p[v][2];
+            m->triangles[3 * i + v] = (uint32_t)(3 * i + v);
+        }
+    }
+    return m;
+}
+
+prt_ray *rays_random(const prt_mesh *m, size_t n, uint64_t seed) {
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    double c[3], R = 0.5 * ref_diagonal(m) * 1.1;
+    for (int k = 0; k < 3; k++) c[k] = 0.5 * ((double)lo[k] + hi[k]);
+    prt_ray *rays = malloc(n * sizeof *rays);
+    prt_rng r = prt_rng_seed(seed, 7);
+    for (size_t i = 0; i < n; i++) {
+        double a[3], b[3];
+        for (int pass = 0; pass < 2; pass++) {
+            double *p = pass ? b : a, len;
+            do {
+                for (int k = 0; k < 3; k++) p[k] = 2.0 * prt_rng_float(&r) - 1.0;
+                len = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            } while (len > 1 || len < 1e-3);
+            for (int k = 0; k < 3; k++) p[k] = pass ? c[k] + p[k] * R * 0.25 : c[k] + p[k] / len * R;
+        }
+        for (int k = 0; k < 3; k++) {
+            rays[i].org[k] = (float)a[k];
+            rays[i].dir[k] = (float)(b[k] - a[k]);
+        }
+        rays[i].tnear = 0;
+        rays[i].tfar = INFINITY;
+    }
+    return rays;
+}

@@ -1,0 +1,16 @@
+/* Small meshes made inside tests, independent of the generators under test elsewhere. */
+#ifndef PRT_TESTS_MESHES_H
+#define PRT_TESTS_MESHES_H
+
+#include "packrt.h"
+
+/* n random triangles of random size inside the unit cube (seeded). */
+prt_mesh *mesh_random_soup(size_t n, uint64_t seed);
+
+/* n triangles that all share one centroid (worst case for splitters). */
+prt_mesh *mesh_same_centroid(size_t n);
+
+/* Random rays: origins on a sphere around the mesh, aimed inside it (Rouwé's workload). */
+prt_ray *rays_random(const prt_mesh *m, size_t n, uint64_t seed);
+
+#endif

@@ -1,0 +1,110 @@
+/* Builders: every splitter and leaf size yields a tree that references every hittable
+ * triangle exactly once, respects the leaf size, nests children inside parents and stays
+ * within the traversal depth limit. */
+#include "bvh/tree.h"
+#include "support/meshes.h"
+#include "test.h"
+
+static bvh_prim *prims_of(const prt_mesh *m) {
+    bvh_prim *p = calloc(m->triangle_count, sizeof *p);
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        prt_aabb b = prt_aabb_empty();
+        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
+        memcpy(p[t].lo, b.lo, 12);
+        memcpy(p[t].hi, b.hi, 12);
+        p[t].id = (uint32_t)t;
+    }
+    return p;
+}
+
+/* Returns the number of violations found in the subtree of node i. */
+static int check_node(const bvh_tree *t, const bvh_node *parent, uint32_t i, int max_leaf, uint8_t *seen,
+                      const bvh_prim *orig) {
+    const bvh_node *n = &t->nodes[i];
+    int bad = 0;
+    if (parent && !prt_aabb_contains(&parent->box, &n->box)) bad++;
+    if (n->count) {
+        if ((int)n->count > max_leaf) bad++;
+        for (uint32_t k = 0; k < n->count; k++) {
+            uint32_t id = t->prims[n->index + k];
+            if (seen[id]++) bad++;
+            prt_aabb pb = {{orig[id].lo[0], orig[id].lo[1], orig[id].lo[2]}, {orig[id].hi[0], orig[id].hi[1], orig[id].hi[2]}};
+            if (!prt_aabb_contains(&n->box, &pb)) bad++;
+        }
+        return bad;
+    }
+    if (n->index + 1 >= t->node_count) return bad + 1;
+    return bad + check_node(t, n, n->index, max_leaf, seen, orig) + check_node(t, n, n->index + 1, max_leaf, seen, orig);
+}
+
+static void check_all_splitters(const prt_mesh *m) {
+    static const int leaves[] = {1, 2, 4, 8, 16};
+    bvh_prim *orig = prims_of(m);
+    for (int s = 0; s < BVH_SPLIT_COUNT; s++)
+        for (size_t l = 0; l < PRT_ARRAY_SIZE(leaves); l++)
+            for (int block = 1; block <= 4; block += 3) {
+                bvh_prim *p = prims_of(m);
+                bvh_build_params bp = {(bvh_split)s, leaves[l], block, 0};
+                bvh_tree t;
+                prt_status st = bvh_build(p, m->triangle_count, &bp, &t);
+                CHECK_OK(st);
+                if (st) continue;
+                uint8_t *seen = calloc(m->triangle_count, 1);
+                int bad = check_node(&t, NULL, 0, leaves[l], seen, orig);
+                size_t missing = 0;
+                for (size_t i = 0; i < m->triangle_count; i++) missing += seen[i] != 1;
+                CHECK_MSG(bad == 0 && missing == 0, "split=%s leaf=%d block=%d: %d violations, %zu ids not seen once",
+                          bvh_split_names[s], leaves[l], block, bad, missing);
+                CHECK_MSG(t.depth <= BVH_MAX_DEPTH, "depth %u", t.depth);
+                CHECK(t.prim_count == m->triangle_count);
+                free(seen);
+                bvh_tree_free(&t);
+                free(p);
+            }
+    free(orig);
+}
+
+TEST(test_every_splitter_and_leaf_size_references_each_triangle_once) {
+    prt_mesh *m = mesh_random_soup(3000, 11);
+    check_all_splitters(m);
+    prt_mesh_free(m);
+}
+
+TEST(test_identical_centroids_still_respect_leaf_size) {
+    prt_mesh *m = mesh_same_centroid(500);
+    check_all_splitters(m);
+    prt_mesh_free(m);
+}
+
+TEST(test_single_triangle_tree_is_one_leaf) {
+    prt_mesh *m = mesh_random_soup(1, 3);
+    bvh_prim *p = prims_of(m);
+    bvh_build_params bp = {BVH_SPLIT_SAH, 8, 1, 0};
+    bvh_tree t;
+    CHECK_OK(bvh_build(p, 1, &bp, &t));
+    CHECK(t.node_count == 1 && t.nodes[0].count == 1 && t.prims[0] == 0 && t.depth == 1);
+    bvh_tree_free(&t);
+    free(p);
+    prt_mesh_free(m);
+}
+
+TEST(test_sah_tree_is_shallower_than_linear) {
+    prt_mesh *m = mesh_random_soup(20000, 5);
+    bvh_prim *p = prims_of(m);
+    bvh_build_params bp = {BVH_SPLIT_SAH, 4, 1, 0};
+    bvh_tree t;
+    CHECK_OK(bvh_build(p, m->triangle_count, &bp, &t));
+    /* log2(20000/4) is about 12; a sane SAH tree over a uniform soup stays near that. */
+    CHECK_MSG(t.depth < 40, "depth %u", t.depth);
+    bvh_tree_free(&t);
+    free(p);
+    prt_mesh_free(m);
+}
+
+int main(void) {
+    RUN(test_every_splitter_and_leaf_size_references_each_triangle_once);
+    RUN(test_identical_centroids_still_respect_leaf_size);
+    RUN(test_single_triangle_tree_is_one_leaf);
+    RUN(test_sah_tree_is_shallower_than_linear);
+    TEST_END();
+}

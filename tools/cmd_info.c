@@ -1,0 +1,107 @@
+/* packrt info MESH|FILE.prt: what a mesh or a saved representation holds. For a mesh:
+ * counts, bounds, degenerate triangles, connectivity, and the memory of each representation
+ * built over it. */
+#include "cli.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static int usage(void) {
+    printf("usage: packrt info MESH|FILE.prt [-r SPEC|all]\n"
+           "  a mesh: triangles, vertices, bounds, degenerate triangles, edge connectivity and the\n"
+           "  bytes per triangle of each representation (-r to choose; default all)\n"
+           "  a .prt file: its representation, bounds and memory\n");
+    return 0;
+}
+
+static void print_stats(const prt_accel *a) {
+    prt_stats s;
+    prt_accel_stats(a, &s);
+    double n = (double)s.triangles;
+    printf("  %-22s %8.2f B/tri  (tree %6.2f, geometry %6.2f, other %.2f)  nodes %zu  leaves %zu  depth %u  build %.3f s\n",
+           prt_accel_spec(a), (double)(s.bytes_tree + s.bytes_geometry + s.bytes_other) / n, (double)s.bytes_tree / n,
+           (double)s.bytes_geometry / n, (double)s.bytes_other / n, s.nodes, s.leaves, s.depth, s.build_seconds);
+}
+
+static int cmp_u64(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Edge connectivity by sorting undirected edge keys: boundary (1 use), manifold (2), more. */
+static void connectivity(const prt_mesh *m) {
+    size_t n = 3 * m->triangle_count;
+    uint64_t *e = malloc(n * sizeof *e);
+    if (!e) return;
+    for (size_t t = 0; t < m->triangle_count; t++)
+        for (int k = 0; k < 3; k++) {
+            uint64_t a = m->triangles[3 * t + k], b = m->triangles[3 * t + (k + 1) % 3];
+            e[3 * t + k] = a < b ? (a << 32) | b : (b << 32) | a;
+        }
+    qsort(e, n, sizeof *e, cmp_u64);
+    size_t edges = 0, boundary = 0, manifold = 0, nonmanifold = 0;
+    for (size_t i = 0; i < n;) {
+        size_t j = i;
+        while (j < n && e[j] == e[i]) j++;
+        edges++;
+        if (j - i == 1) boundary++;
+        else if (j - i == 2) manifold++;
+        else nonmanifold++;
+        i = j;
+    }
+    free(e);
+    printf("edges        %zu (boundary %zu, shared by two %zu, by more %zu)%s\n", edges, boundary, manifold, nonmanifold,
+           boundary == 0 && nonmanifold == 0 ? "  closed" : "");
+}
+
+int cmd_info(int argc, char **argv) {
+    const char *path = NULL, *spec = "all";
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
+        if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
+        else if (argv[i][0] == '-') return cli_usage("info", "unknown option '%s'", argv[i]);
+        else if (!path) path = argv[i];
+        else return cli_usage("info", "more than one input given ('%s')", argv[i]);
+    }
+    if (!path) return cli_usage("info", "needs MESH or FILE.prt");
+    prt_status s;
+    if (cli_is_prt_file(path)) {
+        prt_accel *a;
+        if ((s = prt_accel_load(path, &a))) return cli_fail("info", path, s);
+        prt_stats st;
+        prt_accel_stats(a, &st);
+        printf("file         %s\nrepresentation %s\ntriangles    %zu (%zu hittable)\n", path, prt_accel_spec(a), st.triangles,
+               st.triangles_built);
+        print_stats(a);
+        prt_accel_free(a);
+        return 0;
+    }
+    prt_mesh *m;
+    if ((s = prt_mesh_load(path, &m))) return cli_fail("info", path, s);
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    printf("mesh         %s\ntriangles    %zu (degenerate, never hit: %zu)\nvertices     %zu\n", path, m->triangle_count,
+           prt_mesh_count_degenerate(m), m->vertex_count);
+    printf("bounds       (%g, %g, %g) - (%g, %g, %g)\n", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    connectivity(m);
+    printf("memory per representation:\n");
+    int rc = 0;
+    for (size_t i = 0; i < prt_repr_count(); i++) {
+        const char *name = prt_repr_name(i);
+        if (strcmp(spec, "all") && strcmp(spec, name)) continue;
+        prt_accel *a;
+        if ((s = prt_build(m, name, NULL, &a))) {
+            rc = cli_fail("info", name, s);
+            continue;
+        }
+        print_stats(a);
+        prt_accel_free(a);
+    }
+    if (strcmp(spec, "all") && strchr(spec, ',')) {
+        prt_accel *a;
+        if ((s = prt_build(m, spec, NULL, &a))) rc = cli_fail("info", spec, s);
+        else print_stats(a), prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+    return rc;
+}
