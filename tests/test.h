@@ -16,6 +16,7 @@ static int test_passed, test_failed, test_skipped;
 static const char *test_current;
 
 #define TEST(name) static void name(void)
+#define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
 
 #define CHECK(cond)                                                                                  \
     do {                                                                                             \

@@ -1,0 +1,255 @@
+/* Queries of every representation against the brute-force double-precision reference:
+ * hit/miss agree on every ray away from edges, t within 1e-5 of the scene diagonal, the
+ * same primitive wherever the hit is unambiguous; any-hit agrees with closest-hit; the
+ * stream and packet paths give what prt_intersect1 gives. */
+#include "support/meshes.h"
+#include "support/reference.h"
+#include "test.h"
+
+/* A hit closer than this (in barycentric units) to an edge may legitimately go to either
+ * neighbour, or slip through the reference's own non-watertight test. */
+#define EDGE_EPS 1e-4
+#define T_TOL 1e-5
+
+typedef struct agreement {
+    size_t rays, compared, hitmiss, prim, t;
+} agreement;
+
+/* Reference answers for a ray set, computed once and shared by every representation. */
+typedef struct reference {
+    prt_hit *hit;
+    double *edge;
+} reference;
+
+static reference reference_of(const prt_mesh *m, const prt_ray *rays, size_t n) {
+    reference ref = {malloc(n * sizeof(prt_hit)), malloc(n * sizeof(double))};
+#pragma omp parallel for schedule(dynamic, 16)
+    for (size_t i = 0; i < n; i++) ref.hit[i] = ref_intersect(m, &rays[i], &ref.edge[i]);
+    return ref;
+}
+
+static void reference_free(reference *r) {
+    free(r->hit);
+    free(r->edge);
+}
+
+static agreement compare_with_reference(const prt_mesh *m, const char *spec, const prt_ray *rays, size_t n,
+                                        const reference *ref) {
+    agreement g = {n, 0, 0, 0, 0};
+    prt_accel *a;
+    prt_status s = prt_build(m, spec, NULL, &a);
+    CHECK_MSG(s == PRT_OK, "%s: %s", spec, prt_last_error());
+    if (s) return g;
+    double diag = ref_diagonal(m);
+    for (size_t i = 0; i < n; i++) {
+        prt_hit want = ref->hit[i];
+        if (ref->edge[i] < EDGE_EPS) continue;
+        prt_ray r = rays[i];
+        prt_hit got;
+        prt_intersect1(a, &r, &got);
+        g.compared++;
+        bool hw = want.prim != PRT_INVALID, hg = got.prim != PRT_INVALID;
+        if (hw != hg) {
+            g.hitmiss++;
+            continue;
+        }
+        if (!hw) continue;
+        if (fabs((double)got.t - want.t) > T_TOL * diag) g.t++;
+        /* The same primitive unless another triangle is hit at (nearly) the same t. */
+        if (got.prim != want.prim) {
+            prt_ray r2 = rays[i];
+            r2.tfar = want.t - (float)(T_TOL * diag);
+            prt_hit other = ref_intersect(m, &r2, NULL);
+            if (other.prim == PRT_INVALID) g.prim++;
+        }
+        /* Any-hit must agree with the closest hit on the same ray. */
+        if (!prt_occluded1(a, &rays[i])) g.hitmiss++;
+    }
+    prt_accel_free(a);
+    CHECK_MSG(g.compared > n / 2, "%s: only %zu of %zu rays were unambiguous", spec, g.compared, n);
+    CHECK_MSG(g.hitmiss == 0 && g.prim == 0 && g.t == 0, "%s: %zu rays compared, %zu hit/miss, %zu prim, %zu t disagreements",
+              spec, g.compared, g.hitmiss, g.prim, g.t);
+    return g;
+}
+
+static void all_representations(const prt_mesh *m, const prt_ray *rays, size_t n) {
+    reference ref = reference_of(m, rays, n);
+    for (size_t i = 0; i < prt_repr_count(); i++) compare_with_reference(m, prt_repr_name(i), rays, n, &ref);
+    reference_free(&ref);
+}
+
+TEST(test_every_representation_matches_brute_force_on_random_soup) {
+    prt_mesh *m = mesh_random_soup(2000, 1);
+    prt_ray *rays = rays_random(m, 5000, 2);
+    all_representations(m, rays, 5000);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_every_splitter_matches_brute_force) {
+    static const char *specs[] = {"aabb:float3,split=mean", "aabb:float3,split=longest,leaf=2",
+                                  "quad:float3-soa4,split=morton,leaf=16", "quad:float3-soa4,split=fixed,leaf=8",
+                                  "aabb:float3-soa4,split=fixed,leaf=1", "quad:float3,leaf=1"};
+    prt_mesh *m = mesh_random_soup(1500, 3);
+    prt_ray *rays = rays_random(m, 3000, 4);
+    reference ref = reference_of(m, rays, 3000);
+    for (size_t i = 0; i < COUNT_OF(specs); i++) compare_with_reference(m, specs[i], rays, 3000, &ref);
+    reference_free(&ref);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_bunny_matches_brute_force) {
+    const char *path = ref_shared_path("bunny.ply");
+    if (!path) SKIP("../shared/data/bunny.ply is absent");
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(path, &m);
+    CHECK_OK(s);
+    if (s) return;
+    prt_ray *rays = rays_random(m, 4000, 5);
+    all_representations(m, rays, 4000);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_stream_and_packet_equal_single_rays) {
+    prt_mesh *m = mesh_random_soup(3000, 9);
+    size_t n = 20000;
+    prt_ray *rays = rays_random(m, n, 10);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        prt_ray *r1 = malloc(n * sizeof *r1), *r2 = malloc(n * sizeof *r2), *r3 = malloc(n * sizeof *r3);
+        prt_hit *h1 = malloc(n * sizeof *h1), *h2 = malloc(n * sizeof *h2), *h3 = malloc(n * sizeof *h3);
+        uint8_t *occ = malloc(n);
+        memcpy(r1, rays, n * sizeof *r1), memcpy(r2, rays, n * sizeof *r2), memcpy(r3, rays, n * sizeof *r3);
+        for (size_t i = 0; i < n; i++) prt_intersect1(a, &r1[i], &h1[i]);
+        prt_intersect_stream(a, r2, h2, n, 2);
+        for (size_t i = 0; i < n; i += 16) {
+            prt_packet p = {r3 + i, h3 + i, (uint32_t)(n - i < 16 ? n - i : 16), 4};
+            prt_intersect_packet(a, &p);
+        }
+        prt_occluded_stream(a, rays, occ, n, 2);
+        size_t diff = 0, occ_diff = 0;
+        for (size_t i = 0; i < n; i++) {
+            diff += memcmp(&h1[i], &h2[i], sizeof h1[i]) != 0 || memcmp(&h1[i], &h3[i], sizeof h1[i]) != 0;
+            diff += memcmp(&r1[i], &r2[i], sizeof r1[i]) != 0;
+            occ_diff += occ[i] != (h1[i].prim != PRT_INVALID);
+        }
+        CHECK_MSG(diff == 0 && occ_diff == 0, "%s: %zu stream/packet and %zu occluded differences", prt_repr_name(k), diff,
+                  occ_diff);
+        free(r1), free(r2), free(r3), free(h1), free(h2), free(h3), free(occ);
+        prt_accel_free(a);
+    }
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_hit_shrinks_ray_and_miss_leaves_it) {
+    prt_mesh *m = mesh_random_soup(500, 12);
+    prt_ray *rays = rays_random(m, 2000, 13);
+    prt_accel *a;
+    CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &a));
+    for (size_t i = 0; i < 2000; i++) {
+        prt_ray r = rays[i];
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        if (h.prim == PRT_INVALID) CHECK(r.tfar == rays[i].tfar && isinf(h.t));
+        else CHECK(r.tfar == h.t && h.u >= 0 && h.v >= 0 && h.u + h.v <= 1.0001f);
+    }
+    prt_accel_free(a);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_tnear_and_tfar_bound_the_hit_interval) {
+    /* One triangle in the plane z = 1, a ray along +z from the origin. */
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(3, 1, &m));
+    float v[9] = {-1, -1, 1, 1, -1, 1, 0, 1, 1};
+    uint32_t t[3] = {0, 1, 2};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        prt_ray r = {{0, 0, 0}, 0, {0, 0, 1}, INFINITY};
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        CHECK(h.prim == 0 && h.t == 1.0f);
+        prt_ray shorter = {{0, 0, 0}, 0, {0, 0, 1}, 0.999f}, later = {{0, 0, 0}, 1.001f, {0, 0, 1}, 5};
+        prt_ray exact = {{0, 0, 0}, 1.0f, {0, 0, 1}, 1.0f};
+        CHECK(!prt_occluded1(a, &shorter) && !prt_occluded1(a, &later) && prt_occluded1(a, &exact));
+        prt_ray nan_ray = {{NAN, 0, 0}, 0, {0, 0, 1}, INFINITY}, zero_dir = {{0, 0, 0}, 0, {0, 0, 0}, INFINITY};
+        prt_intersect1(a, &nan_ray, &h);
+        CHECK(h.prim == PRT_INVALID);
+        prt_intersect1(a, &zero_dir, &h);
+        CHECK(h.prim == PRT_INVALID && !prt_occluded1(a, &zero_dir));
+        prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+}
+
+TEST(test_degenerate_triangles_are_never_hit) {
+    /* A collinear triangle and one with a repeated index lie exactly on the ray's path. */
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(6, 3, &m));
+    float v[18] = {-1, 0, 1, 0, 0, 1, 1, 0, 1, /* collinear along x at z = 1 */
+                   -1, -1, 3, 1, -1, 3, 0, 1, 3};
+    uint32_t t[9] = {0, 1, 2, 3, 3, 4, 3, 4, 5};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    CHECK(prt_mesh_count_degenerate(m) == 2);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        prt_stats st;
+        prt_accel_stats(a, &st);
+        CHECK(st.triangles == 3 && st.triangles_built == 1);
+        prt_ray r = {{0, 0, 0}, 0, {0, 0, 1}, INFINITY};
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        CHECK_MSG(h.prim == 2 && h.t == 3.0f, "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
+        prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+}
+
+TEST(test_all_degenerate_mesh_is_an_error) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(3, 1, &m));
+    float v[9] = {0, 0, 0, 1, 1, 1, 2, 2, 2};
+    uint32_t t[3] = {0, 1, 2};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    prt_accel *a = (prt_accel *)1;
+    CHECK(prt_build(m, "aabb:float3", NULL, &a) == PRT_ERROR_MESH && a == NULL);
+    CHECK(strstr(prt_last_error(), "degenerate") != NULL);
+    prt_mesh_free(m);
+}
+
+TEST(test_bad_specs_are_rejected_with_a_reason) {
+    prt_mesh *m = mesh_random_soup(10, 1);
+    static const char *bad[] = {"", "nosuch:float3", "aabb:nosuch", "aabb:float3,leaf=0", "aabb:float3,leaf=17",
+                                "aabb:float3,split=magic", "aabb:float3,colour=red", "aabb:float3,leaf", "aabb:float3,leaf=4,leaf=8"};
+    for (size_t i = 0; i < COUNT_OF(bad); i++) {
+        prt_accel *a = NULL;
+        prt_status s = prt_build(m, bad[i], NULL, &a);
+        CHECK_MSG(s == PRT_ERROR_ARGUMENT && a == NULL && *prt_last_error(), "'%s' gave %s", bad[i], prt_status_string(s));
+    }
+    prt_accel *a;
+    CHECK_OK(prt_build(m, "quad:float3-soa4,leaf=8", NULL, &a));
+    CHECK(strcmp(prt_accel_spec(a), "quad:float3-soa4,leaf=8,split=sah") == 0);
+    prt_accel_free(a);
+    prt_mesh_free(m);
+}
+
+int main(void) {
+    RUN(test_every_representation_matches_brute_force_on_random_soup);
+    RUN(test_every_splitter_matches_brute_force);
+    RUN(test_bunny_matches_brute_force);
+    RUN(test_stream_and_packet_equal_single_rays);
+    RUN(test_hit_shrinks_ray_and_miss_leaves_it);
+    RUN(test_tnear_and_tfar_bound_the_hit_interval);
+    RUN(test_degenerate_triangles_are_never_hit);
+    RUN(test_all_degenerate_mesh_is_an_error);
+    RUN(test_bad_specs_are_rejected_with_a_reason);
+    TEST_END();
+}
