@@ -45,6 +45,10 @@ typedef struct prt_repr_family {
     bool (*name_at)(size_t i, const char **name, const char **description);
 } prt_repr_family;
 
+/* Open an accel over a .prt image in memory (64-byte aligned, kept alive by the caller).
+ * verify_crc=false skips the checksums so fuzzing reaches the structural checks. */
+prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out);
+
 /* Family that accepts spec, or NULL with an error message naming the valid ones. */
 const prt_repr_family *prt__registry_find(const prt_spec *spec);
 

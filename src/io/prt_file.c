@@ -13,22 +13,38 @@
 
 #define ENDIAN_TAG 0x01020304u
 #define ENTRY_BYTES 32
+/* Header plus a table of PRT_FILE_MAX_SECTIONS entries; sections start after it. */
+#define RESERVED_BYTES (PRT_FILE_HEADER_BYTES + PRT_FILE_MAX_SECTIONS * ENTRY_BYTES)
 
+/* Sections are streamed to the file as they are added (so callers may pass temporaries);
+ * the header and table are written last into the space reserved for them. */
 struct prt_writer {
+    FILE *f;
+    uint64_t pos;
+    bool failed;
     uint32_t count;
     struct {
-        uint32_t tag;
-        const void *data;
-        size_t size;
+        uint32_t tag, crc;
+        uint64_t offset, size;
     } s[PRT_FILE_MAX_SECTIONS];
 };
 
+static uint32_t crc_of(const void *data, size_t size);
+
 prt_status prt__writer_section(prt_writer *w, uint32_t tag, const void *data, size_t size) {
     if (w->count == PRT_FILE_MAX_SECTIONS) return prt__fail(PRT_ERROR_LIMIT, "too many sections in a .prt file");
+    static const uint8_t zeros[PRT_FILE_ALIGN];
+    size_t pad = (size_t)((PRT_FILE_ALIGN - w->pos % PRT_FILE_ALIGN) % PRT_FILE_ALIGN);
+    if (fwrite(zeros, 1, pad, w->f) != pad || fwrite(data, 1, size, w->f) != size) {
+        w->failed = true;
+        return prt__fail(PRT_ERROR_IO, "write failed: %s", strerror(errno));
+    }
     w->s[w->count].tag = tag;
-    w->s[w->count].data = data;
+    w->s[w->count].crc = crc_of(data, size);
+    w->s[w->count].offset = w->pos + pad;
     w->s[w->count].size = size;
     w->count++;
+    w->pos += pad + size;
     return PRT_OK;
 }
 
@@ -43,68 +59,64 @@ static uint32_t crc_of(const void *data, size_t size) {
     return (uint32_t)c;
 }
 
-static size_t align64(size_t x) { return (x + PRT_FILE_ALIGN - 1) & ~(size_t)(PRT_FILE_ALIGN - 1); }
-
 static void put32(uint8_t *p, uint32_t v) { memcpy(p, &v, 4); }
 static void put64(uint8_t *p, uint64_t v) { memcpy(p, &v, 8); }
 static uint32_t get32(const uint8_t *p) { uint32_t v; memcpy(&v, p, 4); return v; }
 static uint64_t get64(const uint8_t *p) { uint64_t v; memcpy(&v, p, 8); return v; }
 
-/* Header and table in one buffer; offsets of sections laid out 64-byte aligned. */
-static size_t make_header(uint8_t *h, const prt_file_info *info, const prt_writer *w) {
-    size_t table_end = PRT_FILE_HEADER_BYTES + (size_t)w->count * ENTRY_BYTES;
-    memset(h, 0, table_end);
+/* Header and section table (the table's unused entries stay zero). */
+static void make_header(uint8_t *h, const prt_file_info *info, const prt_writer *w, uint64_t file_bytes) {
+    memset(h, 0, RESERVED_BYTES);
     memcpy(h, PRT_FILE_MAGIC, 4);
     put32(h + 4, PRT_FILE_VERSION);
     put32(h + 8, PRT_FILE_HEADER_BYTES);
     put32(h + 12, w->count);
+    put64(h + 16, file_bytes);
     put64(h + 24, info->triangles);
     put64(h + 32, info->triangles_built);
     memcpy(h + 40, info->bounds, 24);
     memcpy(h + 64, &info->build_seconds, 8);
     put32(h + 76, ENDIAN_TAG);
     memcpy(h + 128, info->spec, PRT_FILE_SPEC_BYTES - 1);
-    size_t off = align64(table_end);
     for (uint32_t i = 0; i < w->count; i++) {
         uint8_t *e = h + PRT_FILE_HEADER_BYTES + (size_t)i * ENTRY_BYTES;
         put32(e, w->s[i].tag);
-        put32(e + 4, crc_of(w->s[i].data, w->s[i].size));
-        put64(e + 8, off);
+        put32(e + 4, w->s[i].crc);
+        put64(e + 8, w->s[i].offset);
         put64(e + 16, w->s[i].size);
-        off = align64(off + w->s[i].size);
     }
-    put64(h + 16, off);
-    put32(h + 72, crc_of(h, table_end));
-    return table_end;
+    put32(h + 72, crc_of(h, RESERVED_BYTES));
 }
 
 prt_status prt__file_save(const char *path, const prt_file_info *info,
                           prt_status (*fill)(const void *ctx, prt_writer *w), const void *ctx) {
-    prt_writer w = {0};
-    prt_status s = fill(ctx, &w);
-    if (s) return s;
-    uint8_t header[PRT_FILE_HEADER_BYTES + PRT_FILE_MAX_SECTIONS * ENTRY_BYTES];
-    size_t table_end = make_header(header, info, &w);
     /* Write beside the target and rename, so a failed save never leaves half a file. */
     char tmp[4096];
     if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
         return prt__fail(PRT_ERROR_ARGUMENT, "path too long: %s", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    prt_writer w = {0};
+    w.f = fopen(tmp, "wb");
+    if (!w.f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    static uint8_t header[RESERVED_BYTES];
+    _Static_assert(RESERVED_BYTES % PRT_FILE_ALIGN == 0, "sections start aligned");
+    memset(header, 0, sizeof header);
+    bool ok = fwrite(header, 1, RESERVED_BYTES, w.f) == RESERVED_BYTES;
+    w.pos = RESERVED_BYTES;
+    prt_status s = ok ? fill(ctx, &w) : PRT_ERROR_IO;
     static const uint8_t zeros[PRT_FILE_ALIGN];
-    bool ok = fwrite(header, 1, table_end, f) == table_end;
-    size_t pos = table_end;
-    for (uint32_t i = 0; i < w.count && ok; i++) {
-        size_t pad = align64(pos) - pos;
-        ok = fwrite(zeros, 1, pad, f) == pad && fwrite(w.s[i].data, 1, w.s[i].size, f) == w.s[i].size;
-        pos += pad + w.s[i].size;
+    size_t pad = (size_t)((PRT_FILE_ALIGN - w.pos % PRT_FILE_ALIGN) % PRT_FILE_ALIGN);
+    uint8_t h[RESERVED_BYTES];
+    if (!s) {
+        make_header(h, info, &w, w.pos + pad);
+        ok = fwrite(zeros, 1, pad, w.f) == pad && fseek(w.f, 0, SEEK_SET) == 0 &&
+             fwrite(h, 1, RESERVED_BYTES, w.f) == RESERVED_BYTES;
     }
-    size_t pad = align64(pos) - pos;
-    ok = ok && fwrite(zeros, 1, pad, f) == pad;
-    ok = (fclose(f) == 0) && ok;
+    int e = errno;
+    ok = (fclose(w.f) == 0) && ok && !s && !w.failed;
     if (!ok || rename(tmp, path) != 0) {
-        int e = errno;
+        e = ok ? errno : e;
         remove(tmp);
+        if (s) return s;
         return prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(e));
     }
     return PRT_OK;
@@ -126,16 +138,16 @@ prt_status prt__file_open(const void *data, size_t size, bool verify_crc, prt_fi
     uint32_t count = get32(h + 12);
     if (get32(h + 8) != PRT_FILE_HEADER_BYTES || count == 0 || count > PRT_FILE_MAX_SECTIONS)
         return prt__fail(PRT_ERROR_CORRUPT, "corrupt .prt header (header size or section count)");
-    size_t table_end = PRT_FILE_HEADER_BYTES + (size_t)count * ENTRY_BYTES;
+    size_t table_end = RESERVED_BYTES;
     if (get64(h + 16) != size)
         return prt__fail(PRT_ERROR_CORRUPT, ".prt file is %zu bytes but its header says %llu: truncated or padded",
                          size, (unsigned long long)get64(h + 16));
     if (size < table_end) return prt__fail(PRT_ERROR_CORRUPT, "truncated .prt section table");
     if (verify_crc) {
-        uint8_t copy[PRT_FILE_HEADER_BYTES + PRT_FILE_MAX_SECTIONS * ENTRY_BYTES];
-        memcpy(copy, h, table_end);
+        uint8_t copy[RESERVED_BYTES];
+        memcpy(copy, h, RESERVED_BYTES);
         put32(copy + 72, 0);
-        if (crc_of(copy, table_end) != get32(h + 72))
+        if (crc_of(copy, RESERVED_BYTES) != get32(h + 72))
             return prt__fail(PRT_ERROR_CORRUPT, ".prt header checksum mismatch");
     }
     if (memchr(h + 128, 0, PRT_FILE_SPEC_BYTES) == NULL)
@@ -178,8 +190,6 @@ prt_status prt__reader_section(prt_reader *r, uint32_t tag, size_t min_size, con
 }
 
 void prt__unmap(void *p, size_t size) { munmap(p, size); }
-
-prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out);
 
 prt_status prt_accel_load(const char *path, prt_accel **out) {
     if (!path || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_load: NULL argument");
