@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs the Debian packages packrt needs (see README "Dependencies"). Skips apt
+# entirely when everything is already there; otherwise runs apt-get update first.
+# Usage: scripts/deps.sh [--test]   (--test adds clang for the libFuzzer targets)
+set -euo pipefail
+pkgs=(cmake make gcc pkg-config zlib1g-dev libembree-dev libpng-dev)
+if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev); fi
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  echo "deps: installing ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+fi

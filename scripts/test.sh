@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The whole test suite: install what is missing, build with AddressSanitizer and
+# UndefinedBehaviorSanitizer, run every ctest test, then run each libFuzzer target
+# briefly (FUZZ_SECONDS each, default 30; 0 skips them).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/deps.sh --test
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+cmake -S . -B build-test -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON >/dev/null
+cmake --build build-test -j"$(nproc)"
+(cd build-test && ctest --output-on-failure -j"$(nproc)")
+
+seconds=${FUZZ_SECONDS:-30}
+if [ "$seconds" -gt 0 ] && command -v clang >/dev/null; then
+  CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON -DPRT_FUZZ=ON \
+    -DPRT_WITH_EMBREE=OFF >/dev/null
+  cmake --build build-fuzz -j"$(nproc)" --target fuzz_ply fuzz_obj fuzz_prt >/dev/null
+  for f in fuzz_ply fuzz_obj fuzz_prt; do
+    corpus=$(mktemp -d)
+    cp tests/data/good/* tests/data/bad/* "$corpus"/ 2>/dev/null || true
+    echo "fuzz: $f for ${seconds}s"
+    build-fuzz/$f "$corpus" -max_total_time="$seconds" -max_len=65536 -print_final_stats=0 2>&1 | tail -n 1
+    rm -rf "$corpus"
+  done
+  echo "fuzz: no crash, leak or undefined behaviour found"
+fi

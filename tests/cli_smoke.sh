@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The CLI as scripts outside the project call it: gen -> build -> cast -> info -> list,
+# plus the exit codes of mistakes. Usage: cli_smoke.sh PACKRT SOURCE_DIR
+set -u
+packrt=$1
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail=0 pass=0
+check() { # check NAME EXPECTED_EXIT COMMAND...
+  local name=$1 want=$2; shift 2
+  "$@" >"$dir/out" 2>"$dir/err"; local got=$?
+  if [ "$got" -eq "$want" ]; then pass=$((pass + 1)); echo "ok   $name"
+  else fail=$((fail + 1)); echo "FAIL $name: exit $got, wanted $want"; cat "$dir/err"; fi
+}
+
+check gen_sphere 0 "$packrt" gen sphere --tris 20k -o "$dir/s.ply"
+check build_quad 0 "$packrt" build "$dir/s.ply" -r quad:float3-soa4 -o "$dir/s.prt"
+check info_prt 0 "$packrt" info "$dir/s.prt"
+grep -q "quad:float3-soa4" "$dir/out" || { fail=$((fail + 1)); echo "FAIL info_prt names the representation"; }
+check info_mesh 0 "$packrt" info "$dir/s.ply"
+grep -q "closed" "$dir/out" || { fail=$((fail + 1)); echo "FAIL info_mesh sees the sphere closed"; }
+check list 0 "$packrt" list
+[ "$(cut -d' ' -f1 "$dir/out" | grep -c ':')" -ge 2 ] || { fail=$((fail + 1)); echo "FAIL list prints names"; }
+
+# Rays from the centre outwards: every one must hit the closed sphere.
+python3 - "$dir/in.rays" <<'PY' || { echo "FAIL python3 needed for the ray file"; exit 1; }
+import math, struct, sys
+n = 1000
+with open(sys.argv[1], "wb") as f:
+    f.write(b"PRTRAYS1" + struct.pack("<Q", n))
+    for i in range(n):
+        z = 1 - 2 * (i + 0.5) / n; r = math.sqrt(1 - z * z); a = i * 2.399963
+        f.write(struct.pack("<8f", 0, 0, 0, 0, r * math.cos(a), r * math.sin(a), z, math.inf))
+PY
+check cast_prt 0 "$packrt" cast "$dir/s.prt" --rays "$dir/in.rays" -o "$dir/out.hits"
+check cast_mesh 0 "$packrt" cast "$dir/s.ply" -r aabb:float3 --rays "$dir/in.rays" -o "$dir/mesh.hits"
+check cast_occluded 0 "$packrt" cast "$dir/s.prt" --rays "$dir/in.rays" -o "$dir/occ.hits" --occluded
+python3 - "$dir/out.hits" "$dir/mesh.hits" "$dir/occ.hits" <<'PY'
+import struct, sys
+def hits(p):
+    d = open(p, "rb").read(); assert d[:8] == b"PRTHITS1"; n, = struct.unpack("<Q", d[8:16])
+    return [struct.unpack("<fIff", d[16 + 16 * i: 32 + 16 * i]) for i in range(n)]
+a, b, o = hits(sys.argv[1]), hits(sys.argv[2]), hits(sys.argv[3])
+assert len(a) == 1000 and all(h[1] != 0xFFFFFFFF and 0.98 < h[0] < 1.001 for h in a), "every ray hits at t ~ 1"
+assert all(abs(x[0] - y[0]) < 1e-5 for x, y in zip(a, b)), "both representations agree on t"
+assert all(h[0] == 0 and h[1] == 0 for h in o), "occluded records are t=0, prim=0"
+PY
+if [ $? -eq 0 ]; then pass=$((pass + 1)); echo "ok   cast_results"; else fail=$((fail + 1)); echo "FAIL cast_results"; fi
+
+check bench_json 0 "$packrt" bench "$dir/s.ply" -r quad:float3-soa4 --rays 2000 --reps 1 --size 32x32 --json
+python3 -c "import json,sys; d=json.load(open('$dir/out')); r=d['results'][0]; assert r['name'].startswith('quad') and r['bytes_per_tri_total'] > 0" \
+  && { pass=$((pass + 1)); echo "ok   bench_json_fields"; } || { fail=$((fail + 1)); echo "FAIL bench_json_fields"; }
+
+# Mistakes: usage errors exit 2, failures exit 1 with a message, never a crash.
+check no_command 2 "$packrt"
+check unknown_command 2 "$packrt" frobnicate
+check build_missing_args 2 "$packrt" build "$dir/s.ply"
+check build_bad_spec 1 "$packrt" build "$dir/s.ply" -r nosuch:thing -o "$dir/x.prt"
+check cast_missing_rays 1 "$packrt" cast "$dir/s.prt" --rays "$dir/nonexistent.rays" -o "$dir/x.hits"
+check info_missing_file 1 "$packrt" info "$dir/nonexistent.ply"
+head -c 3000 "$dir/s.prt" >"$dir/trunc.prt"
+check info_truncated_prt 1 "$packrt" info "$dir/trunc.prt"
+check gen_unknown_kind 2 "$packrt" gen teapot -o "$dir/t.ply"
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

@@ -1,0 +1,92 @@
+/* Watertightness: rays from inside a closed generated sphere must all hit, for every
+ * representation, including rays aimed exactly at vertices and edge midpoints, where a
+ * non-watertight test lets rays slip between neighbouring triangles. */
+#include "core/rng.h"
+#include "test.h"
+
+static size_t count_misses(const prt_accel *a, prt_ray *rays, size_t n) {
+    prt_hit *h = malloc(n * sizeof *h);
+    uint8_t *occ = malloc(n);
+    prt_occluded_stream(a, rays, occ, n, 0);
+    prt_intersect_stream(a, rays, h, n, 0);
+    size_t misses = 0;
+    for (size_t i = 0; i < n; i++) misses += h[i].prim == PRT_INVALID || !occ[i];
+    free(h);
+    free(occ);
+    return misses;
+}
+
+static prt_ray ray_from(const float o[3], const float target[3]) {
+    prt_ray r = {{o[0], o[1], o[2]}, 0, {target[0] - o[0], target[1] - o[1], target[2] - o[2]}, INFINITY};
+    return r;
+}
+
+TEST(test_million_rays_from_inside_a_closed_sphere_all_hit) {
+    prt_mesh *m;
+    prt_status s = prt_mesh_generate("sphere", 20000, 1, &m);
+    CHECK_OK(s);
+    if (s) return;
+    const size_t n = 1000000;
+    prt_ray *rays = malloc(n * sizeof *rays), *work = malloc(n * sizeof *rays);
+    prt_rng rng = prt_rng_seed(99, 3);
+    for (size_t i = 0; i < n; i++) {
+        float o[3], d[3], len;
+        for (int k = 0; k < 3; k++) o[k] = 0.9f * (2 * prt_rng_float(&rng) - 1) / 1.7320508f;
+        do {
+            for (int k = 0; k < 3; k++) d[k] = 2 * prt_rng_float(&rng) - 1;
+            len = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        } while (len > 1 || len < 1e-6f);
+        rays[i] = (prt_ray){{o[0], o[1], o[2]}, 0, {d[0], d[1], d[2]}, INFINITY};
+    }
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        memcpy(work, rays, n * sizeof *rays);
+        size_t misses = count_misses(a, work, n);
+        CHECK_MSG(misses == 0, "%s: %zu of %zu rays escaped the closed sphere", prt_repr_name(k), misses, n);
+        prt_accel_free(a);
+    }
+    free(rays);
+    free(work);
+    prt_mesh_free(m);
+}
+
+TEST(test_rays_through_every_vertex_and_edge_midpoint_hit) {
+    prt_mesh *m;
+    prt_status s = prt_mesh_generate("sphere", 5000, 1, &m);
+    CHECK_OK(s);
+    if (s) return;
+    /* From the centre and from an off-centre point, through each vertex and each edge midpoint. */
+    const float origins[2][3] = {{0, 0, 0}, {0.123f, -0.217f, 0.05f}};
+    size_t n = 2 * (m->vertex_count + 3 * m->triangle_count);
+    prt_ray *rays = malloc(n * sizeof *rays);
+    size_t c = 0;
+    for (int o = 0; o < 2; o++) {
+        for (size_t v = 0; v < m->vertex_count; v++) rays[c++] = ray_from(origins[o], m->vertices + 3 * v);
+        for (size_t t = 0; t < m->triangle_count; t++)
+            for (int e = 0; e < 3; e++) {
+                const float *a = m->vertices + 3 * (size_t)m->triangles[3 * t + e];
+                const float *b = m->vertices + 3 * (size_t)m->triangles[3 * t + (e + 1) % 3];
+                float mid[3] = {0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2])};
+                rays[c++] = ray_from(origins[o], mid);
+            }
+    }
+    prt_ray *work = malloc(n * sizeof *rays);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        memcpy(work, rays, n * sizeof *rays);
+        size_t misses = count_misses(a, work, n);
+        CHECK_MSG(misses == 0, "%s: %zu of %zu vertex/edge rays escaped", prt_repr_name(k), misses, n);
+        prt_accel_free(a);
+    }
+    free(rays);
+    free(work);
+    prt_mesh_free(m);
+}
+
+int main(void) {
+    RUN(test_million_rays_from_inside_a_closed_sphere_all_hit);
+    RUN(test_rays_through_every_vertex_and_edge_midpoint_hit);
+    TEST_END();
+}
