@@ -218,8 +218,18 @@ typedef struct bench_check {
     size_t rays;
     size_t hit_miss;    /* one hit, the other missed (or occluded flags differ) */
     size_t prim_differ; /* both hit, different triangles (often a shared edge: fine when t agrees) */
+    size_t t_differ;    /* both hit, |t - t_ref| > BENCH_CHECK_T_REL x scene diagonal */
     double max_dt_rel;  /* max |t - t_ref| / scene diagonal over rays both hit */
 } bench_check;
+
+/* Relative t tolerance of a "t_differ" ray: RayCastTest's mismatch threshold (1e-5 of the
+ * model size). */
+#define BENCH_CHECK_T_REL 1e-5
+
+/* True when a check shows a wrong backend rather than edge cases: more than 1 ray in 10^4
+ * disagreeing on hit/miss or on t. Embree itself (float, not watertight) differs from an exact
+ * answer on a few rays per million that graze edges or slivers. */
+bool bench_check_bad(const bench_check *c);
 
 void bench_check_hits(const prt_hit *hits, const prt_hit *ref, size_t n, double diagonal,
                       bench_check *c);

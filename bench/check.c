@@ -22,8 +22,13 @@ void bench_check_hits(const prt_hit *hits, const prt_hit *ref, size_t n, double 
          * counted, but only t decides whether a hit is right. */
         if (hits[i].prim != ref[i].prim) c->prim_differ++;
         double dt = fabs((double)hits[i].t - (double)ref[i].t) * scale;
+        if (!(dt <= BENCH_CHECK_T_REL)) c->t_differ++;
         if (!(dt <= c->max_dt_rel)) c->max_dt_rel = dt; /* NaN t shows as NaN */
     }
+}
+
+bool bench_check_bad(const bench_check *c) {
+    return c->done && (c->hit_miss + c->t_differ) * 10000 > c->rays;
 }
 
 void bench_check_occluded(const uint8_t *occ, const uint8_t *ref, size_t n, bench_check *c) {

@@ -141,8 +141,8 @@ void bench_report_text(FILE *f, const bench_report *r) {
         fprintf(f, "\ncheck: no reference backend, results not compared\n");
         return;
     }
-    fprintf(f, "\ncheck against %s (hit/miss disagreements / rays; different triangles; max |t - t_ref| / diagonal):\n",
-            r->reference);
+    fprintf(f, "\ncheck against %s: W hit/miss disagreements/rays, t differs > %g of the diagonal, "
+               "different triangle, max |t - t_ref| / diagonal\n", r->reference, BENCH_CHECK_T_REL);
     for (size_t i = 0; i < r->row_count; i++) {
         const bench_row *row = &r->rows[i];
         if (!row->ok || !strcmp(row->name, r->reference)) continue;
@@ -152,10 +152,8 @@ void bench_report_text(FILE *f, const bench_report *r) {
             const bench_check *c = &row->check[w];
             if (!r->workload_on[w] || !c->done) continue;
             fprintf(f, "  %s %zu/%zu", bench_workload_name((bench_workload)w), c->hit_miss, c->rays);
-            if (w != BENCH_SHADOW) fprintf(f, " %zu %.1e", c->prim_differ, c->max_dt_rel);
-            /* One ray in 10^4 may graze an edge differently; more, or a t error above 1e-4 of
-             * the scene, is a wrong representation. */
-            if (c->hit_miss * 10000 > c->rays || !(c->max_dt_rel <= 1e-4)) bad = true;
+            if (w != BENCH_SHADOW) fprintf(f, " %zu %zu %.1e", c->t_differ, c->prim_differ, c->max_dt_rel);
+            bad |= bench_check_bad(c);
         }
         fprintf(f, "%s\n", bad ? "  <-- DISAGREES" : "");
     }
@@ -235,6 +233,7 @@ void bench_report_json(FILE *f, const bench_report *r) {
             if (!r->workload_on[w] || !c->done) continue;
             fprintf(f, ", \"%s_check_disagreements\": %zu", bench_workload_name((bench_workload)w), c->hit_miss);
             if (w != BENCH_SHADOW) {
+                fprintf(f, ", \"%s_check_t_differ\": %zu", bench_workload_name((bench_workload)w), c->t_differ);
                 char key[64];
                 snprintf(key, sizeof key, "%s_check_max_dt_rel", bench_workload_name((bench_workload)w));
                 json_number(f, key, c->max_dt_rel, true);
