@@ -5,8 +5,10 @@
 #include "bvh/tree.h"
 
 #define BINS 32
-/* Cost of one traversal step relative to one block intersection. */
-#define COST_TRAVERSAL 1.0f
+/* Cost of one traversal step relative to one block intersection. 3 rather than the
+ * textbook 1: on the bunny it costs 3% more instructions per ray (callgrind) and saves a
+ * quarter of aabb:float3's memory, because leaves stop at the leaf size instead of 1. */
+#define COST_TRAVERSAL 3.0f
 
 static float blocks(size_t n, int block) { return (float)((n + (size_t)block - 1) / (size_t)block); }
 
