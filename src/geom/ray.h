@@ -50,10 +50,12 @@ static inline void prt__rayx_init(prt__rayx *x, const prt_ray *r) {
 /* True when a ray can be traced: finite, non-zero direction, tnear <= tfar. The API layer
  * answers a miss for anything else rather than letting NaNs into the kernels. */
 static inline bool prt__ray_valid(const prt_ray *r) {
-    for (int k = 0; k < 3; k++)
-        if (!isfinite(r->org[k]) || !isfinite(r->dir[k])) return false;
+    /* x * 0 is 0 for finite x and NaN otherwise: one sum checks all six components. */
+    float z = r->org[0] * 0.0f + r->org[1] * 0.0f + r->org[2] * 0.0f + r->dir[0] * 0.0f + r->dir[1] * 0.0f +
+              r->dir[2] * 0.0f;
+    if (z != 0.0f) return false;
     if (r->dir[0] == 0.0f && r->dir[1] == 0.0f && r->dir[2] == 0.0f) return false;
-    return !isnan(r->tnear) && !isnan(r->tfar) && r->tnear <= r->tfar;
+    return r->tnear <= r->tfar; /* false for NaN too */
 }
 
 /* Ize 2013: scaling the far slab distance by 1 + 2*gamma(3) makes the box test
