@@ -12,6 +12,7 @@ static char *tmp_path(const char *name) {
 }
 
 static unsigned char *read_all(const char *path, size_t *size) {
+    *size = 0;
     FILE *f = fopen(path, "rb");
     if (!f) return NULL;
     fseek(f, 0, SEEK_END);
@@ -59,7 +60,7 @@ TEST(test_save_load_cast_is_bit_identical) {
         }
         CHECK_MSG(diff == 0, "%s: %zu rays differ after reload", prt_repr_name(k), diff);
         /* The same image from (misaligned) memory loads too. */
-        size_t size;
+        size_t size = 0;
         unsigned char *img = read_all(path, &size);
         unsigned char *shifted = malloc(size + 1);
         memcpy(shifted + 1, img, size);
@@ -85,7 +86,7 @@ TEST(test_corrupted_files_are_rejected) {
         const char *path = tmp_path("good.prt");
         CHECK_OK(prt_accel_save(a, path));
         prt_accel_free(a);
-        size_t size;
+        size_t size = 0;
         unsigned char *img = read_all(path, &size);
         remove(path);
         size_t accepted = 0;
@@ -140,7 +141,7 @@ TEST(test_rays_and_hits_files_round_trip) {
     CHECK(n == 1000 && memcmp(back, rays, sizeof(prt_ray) * n) == 0);
     prt_free(back);
     /* A .rays file whose count lies about its size. */
-    size_t size;
+    size_t size = 0;
     unsigned char *img = read_all(rp, &size);
     write_all(rp, img, size - 5);
     CHECK(prt_rays_read(rp, &back, &n) == PRT_ERROR_FORMAT);

@@ -1,6 +1,7 @@
 /* packrt build MESH -r SPEC -o out.prt: preprocess a mesh and save the representation. */
 #include "cli.h"
 
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 

@@ -2,6 +2,7 @@
  * file. Scripts outside the project call this exact form: keep it stable. */
 #include "cli.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 static int usage(void) {
@@ -40,16 +41,20 @@ int cmd_cast(int argc, char **argv) {
     }
     if (occluded) {
         uint8_t *occ = calloc(n ? n : 1, 1);
-        if (!occ) rc = fprintf(stderr, "packrt cast: out of memory\n"), 1;
-        else {
+        if (!occ) {
+            fprintf(stderr, "packrt cast: out of memory for %zu rays\n", n);
+            rc = 1;
+        } else {
             prt_occluded_stream(a, rays, occ, n, threads);
             if ((s = prt_hits_write_occluded(out, occ, n))) rc = cli_fail("cast", out, s);
             free(occ);
         }
     } else {
         prt_hit *hits = malloc((n ? n : 1) * sizeof *hits);
-        if (!hits) rc = fprintf(stderr, "packrt cast: out of memory\n"), 1;
-        else {
+        if (!hits) {
+            fprintf(stderr, "packrt cast: out of memory for %zu rays\n", n);
+            rc = 1;
+        } else {
             prt_intersect_stream(a, rays, hits, n, threads);
             if ((s = prt_hits_write(out, hits, n))) rc = cli_fail("cast", out, s);
             free(hits);
