@@ -18,7 +18,7 @@ static void print_stats(const prt_accel *a) {
     prt_stats s;
     prt_accel_stats(a, &s);
     double n = (double)s.triangles;
-    printf("  %-22s %8.2f B/tri  (tree %6.2f, geometry %6.2f, other %.2f)  nodes %zu  leaves %zu  depth %u  build %.3f s\n",
+    printf("  %-36s %7.2f B/tri  (tree %6.2f, geometry %6.2f, other %.2f)  nodes %zu  leaves %zu  depth %u  build %.3f s\n",
            prt_accel_spec(a), (double)(s.bytes_tree + s.bytes_geometry + s.bytes_other) / n, (double)s.bytes_tree / n,
            (double)s.bytes_geometry / n, (double)s.bytes_other / n, s.nodes, s.leaves, s.depth, s.build_seconds);
 }
