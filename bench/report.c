@@ -64,7 +64,9 @@ static void cell(FILE *f, int width, int prec, double v, bool have) {
 
 void bench_report_text(FILE *f, const bench_report *r) {
     const bench_row *em = embree_row(r);
-    fprintf(f, "packrt bench: %s: %zu triangles, %zu vertices\n", r->mesh_path, r->triangles, r->vertices);
+    fprintf(f, "packrt bench: %s: %zu triangles", r->mesh_path, r->triangles);
+    if (r->vertices) fprintf(f, ", %zu vertices", r->vertices); /* a .prt file does not say */
+    fputc('\n', f);
     fprintf(f, "machine: %s; commit %s; mt = %d threads; %d repetitions (median)\n", r->machine,
             r->commit, r->threads_mt, r->options.reps < 5 ? 5 : r->options.reps);
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
@@ -143,9 +145,11 @@ void bench_report_text(FILE *f, const bench_report *r) {
     }
     fprintf(f, "\ncheck against %s: W hit/miss disagreements/rays, t differs > %g of the diagonal, "
                "different triangle, max |t - t_ref| / diagonal\n", r->reference, BENCH_CHECK_T_REL);
+    size_t compared = 0;
     for (size_t i = 0; i < r->row_count; i++) {
         const bench_row *row = &r->rows[i];
         if (!row->ok || !strcmp(row->name, r->reference)) continue;
+        compared++;
         fprintf(f, "  %-*s", nw, row->name);
         bool bad = false;
         for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++) {
@@ -157,6 +161,7 @@ void bench_report_text(FILE *f, const bench_report *r) {
         }
         fprintf(f, "%s\n", bad ? "  <-- DISAGREES" : "");
     }
+    if (!compared) fprintf(f, "  (no other row to compare)\n");
 }
 
 /* ---- JSON ------------------------------------------------------------------------------ */
