@@ -68,6 +68,14 @@ int ref_occluded(const prt_mesh *m, const prt_ray *r, double edge_eps) {
     return ambiguous ? -1 : 0;
 }
 
+bool ref_hits_triangle(const prt_mesh *m, const prt_ray *r, uint32_t prim, double *t) {
+    if (prim >= m->triangle_count) return false;
+    double o[3] = {r->org[0], r->org[1], r->org[2]}, d[3] = {r->dir[0], r->dir[1], r->dir[2]}, u, v;
+    const uint32_t *i = m->triangles + 3 * (size_t)prim;
+    return hit_tri(o, d, m->vertices + 3 * (size_t)i[0], m->vertices + 3 * (size_t)i[1], m->vertices + 3 * (size_t)i[2],
+                   t, &u, &v);
+}
+
 const char *ref_shared_path(const char *name) {
     static _Thread_local char path[4096];
     snprintf(path, sizeof path, "%s/data/%s", PRT_SHARED_DIR, name);

@@ -4,6 +4,8 @@
 
 #include "packrt.h"
 
+#include <stdbool.h>
+
 /* Closest hit with t in [tnear, tfar]; also returns in *edge_dist the smallest barycentric
  * coordinate of the hit (how far from an edge it is, 0..1/3) so tests can skip ambiguous
  * rays that graze edges. Misses: prim = PRT_INVALID, t = +inf. */
@@ -12,6 +14,10 @@ prt_hit ref_intersect(const prt_mesh *m, const prt_ray *r, double *edge_dist);
 /* Any hit with t in [tnear, tfar], ignoring hits closer than edge_eps to an edge when
  * edge_eps > 0 (returns -1 when only such ambiguous hits exist). */
 int ref_occluded(const prt_mesh *m, const prt_ray *r, double edge_eps);
+
+/* Whether triangle prim is hit by r (any t), and where: for telling a tie between
+ * coplanar overlapping triangles (both answers right) from a wrong primitive. */
+bool ref_hits_triangle(const prt_mesh *m, const prt_ray *r, uint32_t prim, double *t);
 
 /* Path of a file in ../shared/data, or NULL (and a message) when the folder is absent. */
 const char *ref_shared_path(const char *name);

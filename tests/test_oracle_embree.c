@@ -1,0 +1,123 @@
+/* Every representation against Embree on 100k random and 65k primary rays per mesh (the
+ * bunny, BART frames, generated meshes). Where packrt and Embree disagree, the brute-force
+ * double-precision reference decides: packrt must agree with it on every ray whose hit is
+ * not within EDGE_EPS of a triangle edge (Embree is not watertight, so it may be the one
+ * that is wrong there). */
+#include "bench.h"
+#include "support/reference.h"
+#include "test.h"
+
+#define EDGE_EPS 1e-4
+#define T_TOL 1e-5
+
+static bool same_hit(const prt_hit *a, const prt_hit *b, double tol) {
+    if ((a->prim == PRT_INVALID) != (b->prim == PRT_INVALID)) return false;
+    if (a->prim == PRT_INVALID) return true;
+    return fabs((double)a->t - b->t) <= tol && a->prim == b->prim;
+}
+
+/* packrt's answer is acceptable when it matches the reference, or the reference's hit is
+ * ambiguous (near an edge), or packrt's triangle is hit at the same t as the reference's
+ * (coplanar overlapping triangles, common in the BART kitchen: a tie). */
+static bool acceptable(const prt_mesh *m, const prt_ray *ray, const prt_hit *got, double tol) {
+    double edge;
+    prt_hit want = ref_intersect(m, ray, &edge);
+    if (edge < EDGE_EPS) return true;
+    if ((want.prim == PRT_INVALID) != (got->prim == PRT_INVALID)) return false;
+    if (want.prim == PRT_INVALID) return true;
+    if (fabs((double)got->t - want.t) > tol) return false;
+    if (got->prim == want.prim) return true;
+    double t_other;
+    return ref_hits_triangle(m, ray, got->prim, &t_other) && fabs(t_other - want.t) <= tol;
+}
+
+static void compare_mesh(const char *label, const prt_mesh *m) {
+    bench_embree *e;
+    prt_status s = bench_embree_create(m, NULL, &e);
+    CHECK_OK(s);
+    if (s) return;
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    double tol = T_TOL * ref_diagonal(m);
+    bench_rays sets[2];
+    bench_camera cam;
+    bench_camera_default(lo, hi, &cam);
+    CHECK_OK(bench_rays_random(lo, hi, 100000, 7, &sets[0]));
+    CHECK_OK(bench_rays_primary(&cam, 256, 256, 8, &sets[1]));
+    for (int w = 0; w < 2; w++) {
+        size_t n = sets[w].count;
+        prt_ray *rays = malloc(n * sizeof *rays);
+        prt_hit *ref = malloc(n * sizeof *ref), *got = malloc(n * sizeof *got);
+        memcpy(rays, sets[w].rays, n * sizeof *rays);
+        bench_embree_intersect_stream(e, rays, ref, n, 0);
+        for (size_t k = 0; k < prt_repr_count(); k++) {
+            prt_accel *a;
+            CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+            memcpy(rays, sets[w].rays, n * sizeof *rays);
+            prt_intersect_stream(a, rays, got, n, 0);
+            size_t differ = 0, wrong = 0, hits = 0;
+            for (size_t i = 0; i < n; i++) {
+                hits += got[i].prim != PRT_INVALID;
+                if (same_hit(&got[i], &ref[i], tol)) continue;
+                differ++;
+                if (!acceptable(m, &sets[w].rays[i], &got[i], tol)) {
+                    if (wrong++ < 3)
+                        fprintf(stderr, "  %s %s %s ray %zu: packrt prim %u t %.9g, embree prim %u t %.9g\n", label,
+                                bench_workload_name(sets[w].kind), prt_repr_name(k), i, got[i].prim, (double)got[i].t,
+                                ref[i].prim, (double)ref[i].t);
+                }
+            }
+            CHECK_MSG(wrong == 0, "%s, %s rays, %s: %zu of %zu rays wrong against the reference", label,
+                      bench_workload_name(sets[w].kind), prt_repr_name(k), wrong, n);
+            CHECK_MSG(hits > n / 20, "%s, %s: only %zu of %zu rays hit: the workload misses the mesh", label,
+                      bench_workload_name(sets[w].kind), hits, n);
+            printf("     %-10s %-8s %-18s %6zu rays, %6zu hits, %4zu differ from Embree, all explained\n", label,
+                   bench_workload_name(sets[w].kind), prt_repr_name(k), n, hits, differ);
+            prt_accel_free(a);
+        }
+        free(rays), free(ref), free(got);
+        bench_rays_free(&sets[w]);
+    }
+    bench_embree_free(e);
+}
+
+static void shared_mesh(const char *label, const char *name) {
+    if (!bench_embree_available()) SKIP("Embree is not installed");
+    const char *path = ref_shared_path(name);
+    if (!path) SKIP("../shared/data/%s is absent", name);
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(path, &m);
+    CHECK_OK(s);
+    if (s) return;
+    compare_mesh(label, m);
+    prt_mesh_free(m);
+}
+
+static void generated_mesh(const char *kind, size_t tris) {
+    if (!bench_embree_available()) SKIP("Embree is not installed");
+    prt_mesh *m;
+    prt_status s = prt_mesh_generate(kind, tris, 3, &m);
+    CHECK_OK(s);
+    if (s) return;
+    compare_mesh(kind, m);
+    prt_mesh_free(m);
+}
+
+TEST(test_bunny_agrees_with_embree) { shared_mesh("bunny", "bunny.ply"); }
+TEST(test_bart_kitchen_agrees_with_embree) { shared_mesh("kitchen", "bart_kitchen/kitchen_010.ply.gz"); }
+TEST(test_bart_robots_agrees_with_embree) { shared_mesh("robots", "bart_robots/robots_000.ply.gz"); }
+TEST(test_bart_museum_agrees_with_embree) { shared_mesh("museum5", "bart_museum5/museum5_020.ply.gz"); }
+TEST(test_generated_sphere_agrees_with_embree) { generated_mesh("sphere", 50000); }
+TEST(test_generated_terrain_agrees_with_embree) { generated_mesh("terrain", 50000); }
+TEST(test_generated_mandelbulb_agrees_with_embree) { generated_mesh("mandelbulb", 50000); }
+
+int main(void) {
+    RUN(test_bunny_agrees_with_embree);
+    RUN(test_bart_kitchen_agrees_with_embree);
+    RUN(test_bart_robots_agrees_with_embree);
+    RUN(test_bart_museum_agrees_with_embree);
+    RUN(test_generated_sphere_agrees_with_embree);
+    RUN(test_generated_terrain_agrees_with_embree);
+    RUN(test_generated_mandelbulb_agrees_with_embree);
+    TEST_END();
+}
