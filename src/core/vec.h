@@ -13,6 +13,11 @@ typedef struct prt_aabb {
     float lo[3], hi[3];
 } prt_aabb;
 
+/* min/max without libm's NaN rules: fminf/fmaxf compile to calls, these to one instruction.
+ * Builder inputs are validated finite. */
+static inline float prt_minf(float a, float b) { return a < b ? a : b; }
+static inline float prt_maxf(float a, float b) { return a > b ? a : b; }
+
 static inline prt_vec3 prt_v3(float x, float y, float z) { return (prt_vec3){x, y, z}; }
 static inline prt_vec3 prt_v3_load(const float *p) { return (prt_vec3){p[0], p[1], p[2]}; }
 static inline prt_vec3 prt_v3_add(prt_vec3 a, prt_vec3 b) { return prt_v3(a.x + b.x, a.y + b.y, a.z + b.z); }
@@ -30,14 +35,14 @@ static inline prt_aabb prt_aabb_empty(void) {
 }
 static inline void prt_aabb_grow_point(prt_aabb *b, const float *p) {
     for (int k = 0; k < 3; k++) {
-        b->lo[k] = fminf(b->lo[k], p[k]);
-        b->hi[k] = fmaxf(b->hi[k], p[k]);
+        b->lo[k] = prt_minf(b->lo[k], p[k]);
+        b->hi[k] = prt_maxf(b->hi[k], p[k]);
     }
 }
 static inline void prt_aabb_grow(prt_aabb *b, const prt_aabb *o) {
     for (int k = 0; k < 3; k++) {
-        b->lo[k] = fminf(b->lo[k], o->lo[k]);
-        b->hi[k] = fmaxf(b->hi[k], o->hi[k]);
+        b->lo[k] = prt_minf(b->lo[k], o->lo[k]);
+        b->hi[k] = prt_maxf(b->hi[k], o->hi[k]);
     }
 }
 static inline prt_aabb prt_aabb_union(prt_aabb a, prt_aabb b) {

@@ -1,5 +1,6 @@
 /* prt_mesh: allocation, validation, bounds and the degenerate-triangle rule. */
 #include "core/common.h"
+#include "core/vec.h"
 #include "mesh/mesh.h"
 
 #include <math.h>
@@ -56,8 +57,8 @@ void prt_mesh_bounds(const prt_mesh *m, float lo[3], float hi[3]) {
     for (size_t t = 0; t < 3 * m->triangle_count; t++) {
         const float *v = m->vertices + 3 * (size_t)m->triangles[t];
         for (int k = 0; k < 3; k++) {
-            lo[k] = fminf(lo[k], v[k]);
-            hi[k] = fmaxf(hi[k], v[k]);
+            lo[k] = prt_minf(lo[k], v[k]);
+            hi[k] = prt_maxf(hi[k], v[k]);
         }
     }
 }

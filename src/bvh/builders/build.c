@@ -1,6 +1,7 @@
 /* The builder driver shared by every splitter: recursion, node allocation, leaf rules,
  * depth limit and OpenMP tasks for large subtrees. A splitter only partitions. */
 #include "bvh/tree.h"
+#include "core/simd.h"
 
 #include <omp.h>
 #include <stdatomic.h>
@@ -13,17 +14,18 @@ const char *const bvh_split_names[BVH_SPLIT_COUNT] = {"sah", "mean", "longest", 
 #define TASK_MIN_PRIMS 8192
 
 static void bounds_of(const bvh_prim *p, size_t n, prt_aabb *box, prt_aabb *cbox) {
-    prt_aabb b = prt_aabb_empty(), c = prt_aabb_empty();
+    vf4 lo = vf4_set1(FLT_MAX), hi = vf4_set1(-FLT_MAX), clo = lo, chi = hi;
     for (size_t i = 0; i < n; i++) {
-        for (int k = 0; k < 3; k++) {
-            b.lo[k] = fminf(b.lo[k], p[i].lo[k]);
-            b.hi[k] = fmaxf(b.hi[k], p[i].hi[k]);
-            float m = bvh_centroid(&p[i], k);
-            c.lo[k] = fminf(c.lo[k], m);
-            c.hi[k] = fmaxf(c.hi[k], m);
-        }
+        vf4 a = vf4_load(p[i].lo), b = vf4_load(p[i].hi);
+        a[3] = b[3] = 0.0f; /* lane 3 holds the id's bits: often a denormal, which is slow */
+        vf4 c = (a + b) * vf4_set1(0.5f);
+        lo = vf4_min(lo, a), hi = vf4_max(hi, b);
+        clo = vf4_min(clo, c), chi = vf4_max(chi, c);
     }
-    *box = b, *cbox = c;
+    for (int k = 0; k < 3; k++) {
+        box->lo[k] = lo[k], box->hi[k] = hi[k];
+        cbox->lo[k] = clo[k], cbox->hi[k] = chi[k];
+    }
 }
 
 static void swap_prims(bvh_prim *a, bvh_prim *b) {
@@ -40,7 +42,7 @@ static void select_nth(bvh_prim *p, size_t n, size_t k, int axis) {
     while (hi - lo > 1) {
         float a = bvh_centroid(&p[lo], axis), b = bvh_centroid(&p[lo + (hi - lo) / 2], axis),
               c = bvh_centroid(&p[hi - 1], axis);
-        float pivot = fmaxf(fminf(a, b), fminf(fmaxf(a, b), c));
+        float pivot = prt_maxf(prt_minf(a, b), prt_minf(prt_maxf(a, b), c));
         size_t lt = lo, i = lo, gt = hi;
         while (i < gt) {
             float x = bvh_centroid(&p[i], axis);

@@ -11,8 +11,8 @@ prt_status bvh_build_fixed(bvh_builder *b, bvh_prim *p, size_t n, bvh_tree *out)
     for (size_t i = 0; i < n; i++)
         for (int k = 0; k < 3; k++) {
             float c = bvh_centroid(&p[i], k);
-            cbox.lo[k] = fminf(cbox.lo[k], c);
-            cbox.hi[k] = fmaxf(cbox.hi[k], c);
+            cbox.lo[k] = prt_minf(cbox.lo[k], c);
+            cbox.hi[k] = prt_maxf(cbox.hi[k], c);
         }
     uint32_t *codes = bvh_morton_sort(p, n, &cbox);
     if (!codes) return prt__fail(PRT_ERROR_NOMEM, "out of memory for Morton codes");
