@@ -192,6 +192,9 @@ void prt_accel_free(prt_accel *a);
 /* The canonical spec string of an accel (with every option spelled out). */
 const char *prt_accel_spec(const prt_accel *a);
 
+/* Bounds of the triangles the accel can hit: lo[3], hi[3]. */
+void prt_accel_bounds(const prt_accel *a, float lo[3], float hi[3]);
+
 /* Memory and build statistics. */
 void prt_accel_stats(const prt_accel *a, prt_stats *s);
 

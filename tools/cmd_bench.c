@@ -4,7 +4,6 @@
 #include "bench.h"
 #include "cli.h"
 
-#include "api/accel.h" /* bounds of a loaded .prt: the public API has no accessor yet */
 #include "core/common.h"
 
 #include <math.h>
@@ -256,8 +255,7 @@ int cmd_bench(int argc, char **argv) {
         prt_mesh_bounds(mesh, lo, hi);
         triangles = mesh->triangle_count, vertices = mesh->vertex_count;
     } else {
-        memcpy(lo, file_accel->bounds, sizeof lo);
-        memcpy(hi, file_accel->bounds + 3, sizeof hi);
+        prt_accel_bounds(file_accel, lo, hi);
         prt_stats st;
         prt_accel_stats(file_accel, &st);
         triangles = st.triangles;

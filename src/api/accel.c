@@ -46,6 +46,11 @@ void prt_accel_free(prt_accel *a) {
 
 const char *prt_accel_spec(const prt_accel *a) { return a->spec; }
 
+void prt_accel_bounds(const prt_accel *a, float lo[3], float hi[3]) {
+    memcpy(lo, a->bounds, 3 * sizeof(float));
+    memcpy(hi, a->bounds + 3, 3 * sizeof(float));
+}
+
 void prt_accel_stats(const prt_accel *a, prt_stats *s) {
     memset(s, 0, sizeof *s);
     a->ops->stats(a, s);
