@@ -158,8 +158,11 @@ typedef struct prt_packet {
 typedef struct prt_accel prt_accel;
 
 typedef struct prt_build_options {
-    int threads;   /* 0: all cores */
-    bool progress; /* draw a progress bar on stderr (callers decide whether it is a tty) */
+    int threads; /* 0: all cores */
+    /* Called now and then with the fraction of the build done (0..1), always from the
+     * thread that called prt_build; NULL for none. The CLI draws its progress bar with it. */
+    void (*progress)(void *user, float fraction);
+    void *progress_user;
 } prt_build_options;
 
 /* Memory of an accel, split as in Rouwé's and Benthin's tables. Every byte that a query

@@ -44,7 +44,7 @@ static void check_all_splitters(const prt_mesh *m) {
         for (size_t l = 0; l < PRT_ARRAY_SIZE(leaves); l++)
             for (int block = 1; block <= 4; block += 3) {
                 bvh_prim *p = prims_of(m);
-                bvh_build_params bp = {(bvh_split)s, leaves[l], block, 0};
+                bvh_build_params bp = {.split = (bvh_split)s, .max_leaf = leaves[l], .block = block};
                 bvh_tree t;
                 prt_status st = bvh_build(p, m->triangle_count, &bp, &t);
                 CHECK_OK(st);
@@ -79,7 +79,7 @@ TEST(test_identical_centroids_still_respect_leaf_size) {
 TEST(test_single_triangle_tree_is_one_leaf) {
     prt_mesh *m = mesh_random_soup(1, 3);
     bvh_prim *p = prims_of(m);
-    bvh_build_params bp = {BVH_SPLIT_SAH, 8, 1, 0};
+    bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 8, .block = 1};
     bvh_tree t;
     CHECK_OK(bvh_build(p, 1, &bp, &t));
     CHECK(t.node_count == 1 && t.nodes[0].count == 1 && t.prims[0] == 0 && t.depth == 1);
@@ -91,7 +91,7 @@ TEST(test_single_triangle_tree_is_one_leaf) {
 TEST(test_sah_tree_is_shallower_than_linear) {
     prt_mesh *m = mesh_random_soup(20000, 5);
     bvh_prim *p = prims_of(m);
-    bvh_build_params bp = {BVH_SPLIT_SAH, 4, 1, 0};
+    bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 4, .block = 1};
     bvh_tree t;
     CHECK_OK(bvh_build(p, m->triangle_count, &bp, &t));
     /* log2(20000/4) is about 12; a sane SAH tree over a uniform soup stays near that. */

@@ -67,8 +67,12 @@ int cli_open_accel(const char *cmd, const char *path, const char *spec, const ch
     }
     prt_mesh *m;
     if ((s = prt_mesh_load(path, &m))) return cli_fail(cmd, path, s);
-    prt_build_options o = {0, isatty(2) != 0};
-    if ((s = prt_build(m, spec ? spec : default_spec, &o, accel))) {
+    cli_progress bar;
+    cli_progress_begin(&bar, "building");
+    prt_build_options o = {0, cli_progress_callback, &bar};
+    s = prt_build(m, spec ? spec : default_spec, &o, accel);
+    cli_progress_end(&bar);
+    if (s) {
         prt_mesh_free(m);
         return cli_fail(cmd, spec ? spec : default_spec, s);
     }
@@ -106,6 +110,8 @@ void cli_progress_update(cli_progress *p, double fraction) {
     fprintf(stderr, "] %3d%% %.1fs", (int)(fraction * 100), t - p->start);
     fflush(stderr);
 }
+
+void cli_progress_callback(void *user, float fraction) { cli_progress_update(user, fraction); }
 
 void cli_progress_end(cli_progress *p) {
     if (p->drawn) fprintf(stderr, "\r\033[K");

@@ -41,5 +41,7 @@ typedef struct cli_progress {
 void cli_progress_begin(cli_progress *p, const char *label);
 void cli_progress_update(cli_progress *p, double fraction);
 void cli_progress_end(cli_progress *p);
+/* prt_build_options.progress callback: user is a cli_progress. */
+void cli_progress_callback(void *user, float fraction);
 
 #endif

@@ -3,7 +3,6 @@
 
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 static int usage(void) {
     printf("usage: packrt build MESH -r SPEC -o out.prt [--threads N]\n"
@@ -28,9 +27,12 @@ int cmd_build(int argc, char **argv) {
     prt_mesh *m;
     prt_status s = prt_mesh_load(mesh_path, &m);
     if (s) return cli_fail("build", mesh_path, s);
-    prt_build_options o = {threads, isatty(2) != 0};
+    cli_progress bar;
+    cli_progress_begin(&bar, "building");
+    prt_build_options o = {threads, cli_progress_callback, &bar};
     prt_accel *a;
     s = prt_build(m, spec, &o, &a);
+    cli_progress_end(&bar);
     prt_mesh_free(m);
     if (s) return cli_fail("build", spec, s);
     s = prt_accel_save(a, out);

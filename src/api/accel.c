@@ -24,6 +24,7 @@ prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_o
     prt_accel *a = NULL;
     if ((s = f->ops->build(m, &spec, o, &a))) return s;
     a->build_seconds = prt__now() - t0;
+    if (o && o->progress) o->progress(o->progress_user, 1.0f);
     prt_memory_usage(NULL, &peak);
     a->build_peak_bytes = peak > mem0 ? peak - mem0 : 0;
     a->triangles = m->triangle_count;

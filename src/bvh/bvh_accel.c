@@ -105,7 +105,11 @@ extern const prt_accel_ops prt__bvh_ops;
 static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
     int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
     const bvh_codec *c = &bvh_codecs[codec];
-    bvh_build_params p = {.block = c->block, .threads = o ? o->threads : 0};
+    bvh_build_params p = {.block = c->block,
+                          .threads = o ? o->threads : 0,
+                          .progress = o ? o->progress : NULL,
+                          .progress_user = o ? o->progress_user : NULL,
+                          .progress_scale = 0.9f};
     int split, leaf;
     prt_status s;
     if ((s = prt__spec_enum(spec, "split", bvh_split_names, BVH_SPLIT_COUNT, BVH_SPLIT_SAH, &split)) ||

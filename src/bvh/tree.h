@@ -52,6 +52,10 @@ typedef struct bvh_build_params {
     int max_leaf; /* 1..16 primitives per leaf */
     int block;    /* primitives tested together by the codec: leaf cost is ceil(n / block) */
     int threads;  /* 0: all cores */
+    /* Progress callback (fraction 0..1 of primitives placed in leaves), or NULL. */
+    void (*progress)(void *user, float fraction);
+    void *progress_user;
+    float progress_scale; /* the builder reports fraction * progress_scale */
 } bvh_build_params;
 
 /* Build over n prims (permuted in place). On success *out owns its arrays. */
@@ -76,6 +80,9 @@ struct bvh_builder {
     size_t node_capacity;
     size_t node_next;     /* atomic */
     uint32_t depth;       /* atomic max */
+    size_t placed;        /* atomic: primitives in finished leaves, for progress */
+    size_t total;
+    size_t next_report;   /* read and written by the calling thread only */
 };
 
 static inline float bvh_centroid(const bvh_prim *p, int k) { return 0.5f * (p->lo[k] + p->hi[k]); }

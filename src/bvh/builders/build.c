@@ -95,6 +95,12 @@ static void build_node(bvh_builder *b, size_t node, bvh_prim *p, size_t n, uint3
     if (!split) {
         nd->index = (uint32_t)(p - b->base);
         nd->count = (uint32_t)n;
+        size_t placed = atomic_fetch_add((_Atomic size_t *)&b->placed, n) + n;
+        /* Only the calling thread (OpenMP thread 0 of the build team) reports. */
+        if (b->params.progress && placed >= b->next_report && omp_get_thread_num() == 0) {
+            b->next_report = placed + b->total / 100;
+            b->params.progress(b->params.progress_user, b->params.progress_scale * (float)placed / (float)b->total);
+        }
         return;
     }
     size_t c = atomic_fetch_add((_Atomic size_t *)&b->node_next, 2);
@@ -119,6 +125,9 @@ prt_status bvh_build_with(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *o
     if (!b->nodes) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu BVH nodes", b->node_capacity);
     b->node_next = 1;
     b->depth = 0;
+    b->placed = 0;
+    b->total = n;
+    b->next_report = 0;
     int threads = prt__threads(b->params.threads);
 #pragma omp parallel num_threads(threads)
 #pragma omp single
