@@ -1,0 +1,43 @@
+/* prt_mesh_generate: argument checks and dispatch to the generator of each kind
+ * (gen_sphere.c, gen_terrain.c, gen_mandelbulb.c). */
+#include "mesh/gen.h"
+
+#include <string.h>
+
+/* Above this the triangles' 32-bit ids (prt_hit.prim) and the machine's memory run out
+ * long before any generator's own limit; a request this large is a typo. */
+#define GEN_MAX_TRIANGLES ((size_t)1 << 31)
+
+static const struct {
+    const char *name;
+    prt_status (*generate)(size_t triangles, uint64_t seed, prt_mesh **out);
+} g_kinds[] = {
+    {"sphere", gen_sphere},
+    {"terrain", gen_terrain},
+    {"mandelbulb", gen_mandelbulb},
+};
+
+const char *prt_gen_kinds(void) {
+    return "sphere terrain mandelbulb";
+}
+
+prt_status prt_mesh_generate(const char *kind, size_t triangles, uint64_t seed, prt_mesh **out) {
+    if (!out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_generate: out is NULL");
+    *out = NULL;
+    if (!kind)
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_generate: kind is NULL (one of: %s)",
+                         prt_gen_kinds());
+    size_t k = 0;
+    while (k < PRT_ARRAY_SIZE(g_kinds) && strcmp(kind, g_kinds[k].name)) k++;
+    if (k == PRT_ARRAY_SIZE(g_kinds))
+        return prt__fail(PRT_ERROR_ARGUMENT, "unknown mesh kind '%s' (one of: %s)", kind,
+                         prt_gen_kinds());
+    if (triangles == 0)
+        return prt__fail(PRT_ERROR_ARGUMENT, "%s: triangle count must be at least 1", kind);
+    if (triangles > GEN_MAX_TRIANGLES)
+        return prt__fail(PRT_ERROR_LIMIT, "%s: %zu triangles requested; at most %zu are supported",
+                         kind, triangles, GEN_MAX_TRIANGLES);
+    prt_status st = g_kinds[k].generate(triangles, seed, out);
+    if (st == PRT_OK) prt__clear_error();
+    return st;
+}

@@ -1,0 +1,488 @@
+/* Sparse marching cubes over bricks of GEN_BRICK^3 cells: an octree of distance tests seeds
+ * the bricks near the surface, a flood fill follows the surface across brick faces, and
+ * the bricks' pieces are stitched into one indexed mesh (vertices shared per grid edge). */
+#include "mesh/isosurface.h"
+#include "mesh/marching_cubes.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+#define B GEN_BRICK
+#define S (GEN_BRICK + 1)         /* samples per brick side */
+#define OWN_SLOTS (3 * B * B * B) /* edges a brick owns: 3 axes x B^3 origins */
+#define OWN_WORDS ((OWN_SLOTS + 63) / 64)
+#define MAX_BRICK_TRIS (B * B * B * GEN_MC_MAX_TRIS)
+
+/* An octree node is skipped when its centre's distance estimate exceeds this many
+ * half-diagonals. Estimators overshoot (the Mandelbulb's by up to 6x in places), so this
+ * only picks seeds: a surface piece wrongly skipped here is still reached by the flood
+ * fill from any brick of its component. */
+#define CULL_FACTOR 1.0
+
+/* The extracted piece of one brick. It owns the grid edges whose lower end lies in its
+ * half-open box [0, B)^3 and stores the vertices of those that the surface crosses, in
+ * slot order; its triangles name edges by "extended slot" (axis, x, y, z in 0..B), which
+ * may belong to the +x/+y/+z neighbours. */
+typedef struct brick {
+    uint32_t id, nvert, ntri;
+    uint64_t owned[OWN_WORDS];
+    uint16_t rank[OWN_WORDS]; /* owned crossings in the words before this one */
+    float *vert;
+    uint16_t *tri;
+} brick;
+
+typedef struct brick_result {
+    uint32_t ntri;
+    uint32_t neighbours; /* bit (dz+1)*9 + (dy+1)*3 + (dx+1): bricks sharing a crossed edge */
+    brick *rec;
+    int failed;
+} brick_result;
+
+typedef struct iso {
+    const gen_iso_params *p;
+    const gen_mc_table *mc;
+    uint32_t nb; /* bricks per side */
+    double h;    /* cell size */
+    bool count_only;
+    uint16_t ext_off[12]; /* extended-slot offset of each cell edge from the cell's origin */
+} iso;
+
+static inline size_t sidx(int x, int y, int z) {
+    return ((size_t)z * S + y) * S + x;
+}
+
+static double coord(const iso *s, int axis, uint32_t g) {
+    return s->p->lo[axis] + (double)g * s->h;
+}
+
+/* A batch of points for the field. */
+typedef struct batch {
+    double x[S * S * S], y[S * S * S], z[S * S * S], f[S * S * S];
+} batch;
+
+/* Evaluate the listed samples of brick (bx, by, bz) into val (one batch for the field). */
+static void eval_samples(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, const uint16_t *list,
+                         int n, batch *q, float *val) {
+    for (int i = 0; i < n; i++) {
+        int j = list[i], x = j % S, y = j / S % S, z = j / (S * S);
+        q->x[i] = coord(s, 0, bx * B + x);
+        q->y[i] = coord(s, 1, by * B + y);
+        q->z[i] = coord(s, 2, bz * B + z);
+    }
+    if (n) s->p->field(s->p->ctx, (size_t)n, q->x, q->y, q->z, q->f);
+    for (int i = 0; i < n; i++) val[list[i]] = (float)q->f[i];
+}
+
+/* Set the brick's samples (those at multiples of step) on or past the domain's faces to
+ * outside, so that every surface closes inside the domain. */
+static void force_outside_faces(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, float *val,
+                                int step) {
+    uint32_t R = s->p->resolution;
+    if (bx && by && bz && (bx + 1) * B < R && (by + 1) * B < R && (bz + 1) * B < R) return;
+    for (int z = 0; z < S; z += step)
+        for (int y = 0; y < S; y += step)
+            for (int x = 0; x < S; x += step) {
+                uint32_t gx = bx * B + x, gy = by * B + y, gz = bz * B + z;
+                if (!gx || !gy || !gz || gx >= R || gy >= R || gz >= R) val[sidx(x, y, z)] = 1.0f;
+            }
+}
+
+/* Samples of brick (bx, by, bz), every one of them. Skipping samples by the distance
+ * estimate is not safe: the Mandelbulb's estimator overshoots by up to 6x in places (the
+ * 8-iteration "inside" reaches beyond the set the estimate measures), and a skipped
+ * sample that another brick computes breaks the shared edges. The domain's faces, and the
+ * samples past them in the last bricks, are then forced outside. */
+static void sample_brick(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, float *val) {
+    uint16_t list[S * S * S];
+    batch q;
+    for (int i = 0; i < S * S * S; i++) list[i] = (uint16_t)i;
+    eval_samples(s, bx, by, bz, list, S * S * S, &q, val);
+    force_outside_faces(s, bx, by, bz, val, 1);
+}
+
+static void process_brick(const iso *s, uint32_t id, brick_result *res) {
+    uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
+    float val[S * S * S];
+    uint16_t tri[3 * MAX_BRICK_TRIS];
+    sample_brick(s, bx, by, bz, val);
+
+    uint32_t ntri = 0, neighbours = 0;
+    for (int z = 0; z < B; z++)
+        for (int y = 0; y < B; y++)
+            for (int x = 0; x < B; x++) {
+                size_t o = sidx(x, y, z);
+                int m = 0;
+                for (int k = 0; k < 8; k++)
+                    m |= (val[o + sidx(k & 1, (k >> 1) & 1, (k >> 2) & 1)] < 0) << k;
+                int n = s->mc->count[m];
+                if (!n) continue;
+                const uint8_t *e = s->mc->edges[m];
+                for (int i = 0; i < 3 * n; i++)
+                    tri[3 * ntri + i] = (uint16_t)(s->ext_off[e[i]] + o);
+                /* Cells on the brick's boundary share edges with neighbouring bricks, which
+                 * must be visited too, or the surface would stop at this brick's face. */
+                if (x == 0 || y == 0 || z == 0 || x == B - 1 || y == B - 1 || z == B - 1)
+                    for (int i = 0; i < 3 * n; i++) {
+                        int eo[3], a = gen_mc_edge_axis(e[i]), l[3] = {x, y, z}, lo[3], hi[3];
+                        gen_mc_edge_origin(e[i], eo);
+                        for (int k = 0; k < 3; k++) {
+                            l[k] += eo[k];
+                            lo[k] = k != a && l[k] == 0 ? -1 : 0;
+                            hi[k] = k != a && l[k] == B ? 1 : 0;
+                        }
+                        for (int dz = lo[2]; dz <= hi[2]; dz++)
+                            for (int dy = lo[1]; dy <= hi[1]; dy++)
+                                for (int dx = lo[0]; dx <= hi[0]; dx++)
+                                    neighbours |= 1u << ((dz + 1) * 9 + (dy + 1) * 3 + dx + 1);
+                    }
+                ntri += (uint32_t)n;
+            }
+    neighbours &= ~(1u << 13); /* the brick itself */
+    res->ntri = ntri;
+    res->neighbours = neighbours;
+    res->rec = NULL;
+    res->failed = 0;
+    if (s->count_only || ntri == 0) return;
+
+    /* Owned crossed edges, then their vertices in slot order. */
+    uint64_t owned[OWN_WORDS] = {0};
+    uint32_t nvert = 0;
+    static const size_t stride[3] = {1, S, S * S};
+    for (int a = 0; a < 3; a++)
+        for (int z = 0; z < B; z++)
+            for (int y = 0; y < B; y++)
+                for (int x = 0; x < B; x++) {
+                    size_t p = sidx(x, y, z);
+                    if ((val[p] < 0) != (val[p + stride[a]] < 0)) {
+                        int slot = ((a * B + z) * B + y) * B + x;
+                        owned[slot >> 6] |= 1ull << (slot & 63);
+                        nvert++;
+                    }
+                }
+    size_t bytes =
+        sizeof(brick) + (size_t)nvert * 3 * sizeof(float) + (size_t)ntri * 3 * sizeof(uint16_t);
+    brick *r = prt__alloc(bytes);
+    if (!r) {
+        res->failed = 1;
+        return;
+    }
+    r->id = id;
+    r->nvert = nvert;
+    r->ntri = ntri;
+    r->vert = (float *)(r + 1);
+    r->tri = (uint16_t *)(r->vert + 3 * (size_t)nvert);
+    memcpy(r->owned, owned, sizeof owned);
+    memcpy(r->tri, tri, (size_t)ntri * 3 * sizeof(uint16_t));
+    uint32_t v = 0;
+    for (int w = 0; w < OWN_WORDS; w++) {
+        r->rank[w] = (uint16_t)v;
+        for (uint64_t bits = owned[w]; bits; bits &= bits - 1) {
+            int slot = w * 64 + __builtin_ctzll(bits);
+            int a = slot / (B * B * B), x = slot % B, y = slot / B % B, z = slot / (B * B) % B;
+            size_t p = sidx(x, y, z);
+            float t = gen_mc_crossing(val[p], val[p + stride[a]]);
+            uint32_t g[3] = {bx * B + x, by * B + y, bz * B + z};
+            for (int k = 0; k < 3; k++) {
+                double c = (double)g[k] + (k == a ? (double)t : 0.0);
+                r->vert[3 * v + k] = (float)(s->p->lo[k] + c * s->h);
+            }
+            v++;
+        }
+    }
+    res->rec = r;
+}
+
+/* True when the samples of brick (bx, by, bz) at every 4th grid point are not all on one
+ * side of the surface. */
+static bool coarse_sign_change(const iso *s, uint32_t bx, uint32_t by, uint32_t bz) {
+    enum { STEP = B >= 4 ? B / 2 : 1, M = B / STEP + 1 };
+    uint16_t list[M * M * M];
+    float val[S * S * S];
+    batch q;
+    int n = 0;
+    for (int z = 0; z <= B; z += STEP)
+        for (int y = 0; y <= B; y += STEP)
+            for (int x = 0; x <= B; x += STEP) list[n++] = (uint16_t)sidx(x, y, z);
+    eval_samples(s, bx, by, bz, list, n, &q, val);
+    force_outside_faces(s, bx, by, bz, val, STEP);
+    int inside = 0;
+    for (int i = 0; i < n; i++) inside += val[list[i]] < 0;
+    return inside > 0 && inside < n;
+}
+
+/* Bricks whose centre is within CULL_FACTOR half-diagonals of the surface from outside:
+ * an octree over the brick grid, refined level by level (each level in parallel, kept in
+ * order so the result does not depend on the thread count). Nodes whose centre is inside
+ * are refined too (the field gives no distance there) but only outside bricks seed. */
+static prt_status seed_bricks(const iso *s, uint32_t **seeds, size_t *nseeds) {
+    uint32_t nb = s->nb, top = 1;
+    while (top < nb) top <<= 1;
+    size_t n = 1;
+    uint32_t *cur = prt__alloc(sizeof *cur); /* packed x | y << 10 | z << 20 */
+    if (!cur) return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+    cur[0] = 0;
+    for (uint32_t size = top;; size >>= 1) {
+        uint8_t *keep = prt__alloc(n ? n : 1);
+        if (!keep) {
+            prt__free(cur);
+            return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+        }
+        double half = 0.5 * size * B * s->h, reach = CULL_FACTOR * sqrt(3.0) * half;
+        /* 0: far outside; 1: inside, keep refining; 2: near the surface, outside. */
+#pragma omp parallel for schedule(dynamic, 1)
+        for (size_t c0 = 0; c0 < n; c0 += 256) {
+            double p[3][256], f[256];
+            size_t c1 = PRT_MIN(n, c0 + 256);
+            for (size_t i = c0; i < c1; i++) {
+                uint32_t c[3] = {cur[i] & 1023, cur[i] >> 10 & 1023, cur[i] >> 20 & 1023};
+                for (int k = 0; k < 3; k++)
+                    p[k][i - c0] = s->p->lo[k] + (double)c[k] * B * s->h + half;
+            }
+            s->p->field(s->p->ctx, c1 - c0, p[0], p[1], p[2], f);
+            for (size_t i = c0; i < c1; i++)
+                keep[i] = f[i - c0] > reach ? 0 : (f[i - c0] < 0 ? 1 : 2);
+        }
+        if (size == 1) {
+            /* Near bricks seed only where a coarse look (every 4th sample) sees the
+             * surface: a brick that merely comes near it would cost a full extraction for
+             * nothing, and one seed per component is enough for the flood fill. Not on
+             * coarse grids, where the look is too coarse to see anything. */
+            bool filter = s->p->resolution >= 16 * B;
+#pragma omp parallel for schedule(dynamic, 16)
+            for (size_t i = 0; i < n; i++)
+                if (filter && keep[i] == 2 &&
+                    !coarse_sign_change(s, cur[i] & 1023, cur[i] >> 10 & 1023, cur[i] >> 20 & 1023))
+                    keep[i] = 0;
+            size_t m = 0;
+            for (size_t i = 0; i < n; i++)
+                if (keep[i] == 2) {
+                    uint32_t x = cur[i] & 1023, y = cur[i] >> 10 & 1023, z = cur[i] >> 20 & 1023;
+                    cur[m++] = (z * nb + y) * nb + x;
+                }
+            prt__free(keep);
+            *seeds = cur;
+            *nseeds = m;
+            return PRT_OK;
+        }
+        size_t kept = 0;
+        for (size_t i = 0; i < n; i++) kept += keep[i] != 0;
+        uint32_t *next = prt__alloc((kept ? kept : 1) * 8 * sizeof *next);
+        if (!next) {
+            prt__free(keep);
+            prt__free(cur);
+            return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+        }
+        size_t m = 0;
+        uint32_t h = size >> 1;
+        for (size_t i = 0; i < n; i++) {
+            if (!keep[i]) continue;
+            uint32_t x = cur[i] & 1023, y = cur[i] >> 10 & 1023, z = cur[i] >> 20 & 1023;
+            for (int k = 0; k < 8; k++) {
+                uint32_t cx = x + (k & 1 ? h : 0), cy = y + (k & 2 ? h : 0),
+                         cz = z + (k & 4 ? h : 0);
+                if (cx < nb && cy < nb && cz < nb) next[m++] = cx | cy << 10 | cz << 20;
+            }
+        }
+        prt__free(keep);
+        prt__free(cur);
+        cur = next;
+        n = m;
+    }
+}
+
+static int cmp_brick(const void *a, const void *b) {
+    uint32_t x = (*(brick *const *)a)->id, y = (*(brick *const *)b)->id;
+    return (x > y) - (x < y);
+}
+
+static void free_bricks(brick **recs, size_t n) {
+    for (size_t i = 0; i < n; i++) prt__free(recs[i]);
+    prt__free(recs);
+}
+
+/* Index of brick id among the sorted records, or -1. */
+static ptrdiff_t find_brick(brick *const *recs, size_t n, uint32_t id) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (recs[mid]->id < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && recs[lo]->id == id ? (ptrdiff_t)lo : -1;
+}
+
+static inline uint32_t owned_rank(const brick *r, int slot) {
+    int w = slot >> 6;
+    uint64_t below = r->owned[w] & ((1ull << (slot & 63)) - 1);
+    return r->rank[w] + (uint32_t)__builtin_popcountll(below);
+}
+
+/* Stitch the sorted records into one mesh: vertices in brick order, then each triangle's
+ * extended slots resolved to the owning brick's vertex. */
+static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) {
+    qsort(recs, n, sizeof *recs, cmp_brick);
+    size_t *vbase = prt__alloc((n + 1) * sizeof *vbase),
+           *tbase = prt__alloc((n + 1) * sizeof *tbase);
+    if (!vbase || !tbase) {
+        prt__free(vbase);
+        prt__free(tbase);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory assembling the isosurface");
+    }
+    vbase[0] = tbase[0] = 0;
+    for (size_t i = 0; i < n; i++) {
+        vbase[i + 1] = vbase[i] + recs[i]->nvert;
+        tbase[i + 1] = tbase[i] + recs[i]->ntri;
+    }
+    prt_status st = PRT_OK;
+    if (vbase[n] >= UINT32_MAX)
+        st = prt__fail(PRT_ERROR_LIMIT,
+                       "isosurface has %zu vertices: more than 32-bit indices hold", vbase[n]);
+    prt_mesh *m = NULL;
+    if (!st) st = prt_mesh_create(vbase[n], tbase[n], &m);
+    if (st) {
+        prt__free(vbase);
+        prt__free(tbase);
+        return st;
+    }
+    int missing = 0;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (size_t i = 0; i < n; i++) {
+        const brick *r = recs[i];
+        memcpy(m->vertices + 3 * vbase[i], r->vert, (size_t)r->nvert * 3 * sizeof(float));
+        /* The owners of this brick's edges: itself and its +x/+y/+z neighbours (index
+         * o = dx | dy << 1 | dz << 2). The flood fill visited every one that owns a crossed
+         * edge, and all compute the same samples, so an owner without the edge is a bug:
+         * reported rather than left as a wrong index. */
+        ptrdiff_t own[8];
+        uint32_t bx = r->id % nb, by = r->id / nb % nb, bz = r->id / nb / nb;
+        for (int o = 0; o < 8; o++) {
+            uint32_t x = bx + (o & 1), y = by + (o >> 1 & 1), z = bz + (o >> 2 & 1);
+            own[o] = x < nb && y < nb && z < nb ? find_brick(recs, n, (z * nb + y) * nb + x) : -1;
+        }
+        uint32_t *t = m->triangles + 3 * tbase[i];
+        for (uint32_t j = 0; j < 3 * r->ntri; j++) {
+            int e = r->tri[j];
+            int x = e % S, y = e / S % S, z = e / (S * S) % S, a = e / (S * S * S);
+            int o = (x == B) | (y == B) << 1 | (z == B) << 2;
+            int slot = ((a * B + (z & (B - 1))) * B + (y & (B - 1))) * B + (x & (B - 1));
+            if (own[o] < 0 || !(recs[own[o]]->owned[slot >> 6] >> (slot & 63) & 1)) {
+#pragma omp atomic write
+                missing = 1;
+                t[j] = 0;
+                continue;
+            }
+            t[j] = (uint32_t)(vbase[own[o]] + owned_rank(recs[own[o]], slot));
+        }
+    }
+    prt__free(vbase);
+    prt__free(tbase);
+    if (missing) {
+        prt_mesh_free(m);
+        return prt__fail(PRT_ERROR_MESH,
+                         "isosurface: a crossed edge has no vertex in its owning brick (bug)");
+    }
+    *out = m;
+    return PRT_OK;
+}
+
+prt_status gen_isosurface(const gen_iso_params *p, prt_mesh **out, size_t *triangles) {
+    if (out) *out = NULL;
+    if (triangles) *triangles = 0;
+    if (!p || !p->field || p->resolution < 2 || p->resolution > GEN_ISO_MAX_RES || !(p->cell > 0))
+        return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: bad grid (%u cells per side; 2 to %u)",
+                         p ? p->resolution : 0, GEN_ISO_MAX_RES);
+    gen_mc_table mc;
+    gen_mc_table_build(&mc);
+    iso s = {p, &mc, (p->resolution + B - 1) / B, p->cell, out == NULL, {0}};
+    for (int e = 0; e < 12; e++) {
+        int o[3];
+        gen_mc_edge_origin(e, o);
+        s.ext_off[e] = (uint16_t)(gen_mc_edge_axis(e) * S * S * S + sidx(o[0], o[1], o[2]));
+    }
+    uint32_t nb = s.nb;
+    size_t nbricks = (size_t)nb * nb * nb;
+
+    uint32_t *frontier = NULL;
+    size_t nfront = 0;
+    prt_status st = seed_bricks(&s, &frontier, &nfront);
+    if (st) return st;
+    uint64_t *visited = prt__calloc((nbricks + 63) / 64, sizeof *visited);
+    brick **recs = NULL;
+    size_t nrec = 0, caprec = 0, total = 0;
+    if (!visited) st = prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu bricks", nbricks);
+    for (size_t i = 0; !st && i < nfront; i++)
+        visited[frontier[i] >> 6] |= 1ull << (frontier[i] & 63);
+
+    /* Breadth-first rounds: the bricks of a round are extracted in parallel, then their
+     * unvisited neighbours form the next round. The set of bricks reached is the closure
+     * of the seeds, whatever the order, and the output is sorted by brick below. */
+    while (!st && nfront) {
+        brick_result *res = prt__alloc(nfront * sizeof *res);
+        if (!res) {
+            st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+            break;
+        }
+#pragma omp parallel for schedule(dynamic, 4)
+        for (size_t i = 0; i < nfront; i++) process_brick(&s, frontier[i], &res[i]);
+
+        size_t nnext = 0, capnext = 0;
+        uint32_t *next = NULL;
+        for (size_t i = 0; i < nfront && !st; i++) {
+            if (res[i].failed) {
+                st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+                break;
+            }
+            total += res[i].ntri;
+            if (res[i].rec) {
+                if (nrec == caprec) {
+                    size_t c = caprec ? 2 * caprec : 1024;
+                    brick **q = prt__realloc(recs, c * sizeof *q);
+                    if (!q) {
+                        prt__free(res[i].rec);
+                        res[i].rec = NULL;
+                        st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+                        break;
+                    }
+                    recs = q;
+                    caprec = c;
+                }
+                recs[nrec++] = res[i].rec;
+                res[i].rec = NULL;
+            }
+            uint32_t id = frontier[i], bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
+            for (uint32_t bits = res[i].neighbours; bits; bits &= bits - 1) {
+                int k = __builtin_ctz(bits);
+                int64_t x = (int64_t)bx + k % 3 - 1, y = (int64_t)by + k / 3 % 3 - 1,
+                        z = (int64_t)bz + k / 9 - 1;
+                if (x < 0 || y < 0 || z < 0 || x >= nb || y >= nb || z >= nb) continue;
+                uint32_t nid = (uint32_t)((z * nb + y) * nb + x);
+                if (visited[nid >> 6] >> (nid & 63) & 1) continue;
+                visited[nid >> 6] |= 1ull << (nid & 63);
+                if (nnext == capnext) {
+                    size_t c = capnext ? 2 * capnext : 1024;
+                    uint32_t *q = prt__realloc(next, c * sizeof *q);
+                    if (!q) {
+                        st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+                        break;
+                    }
+                    next = q;
+                    capnext = c;
+                }
+                next[nnext++] = nid;
+            }
+        }
+        for (size_t i = 0; i < nfront; i++) prt__free(res[i].rec); /* only left after a failure */
+        prt__free(res);
+        prt__free(frontier);
+        frontier = next;
+        nfront = nnext;
+    }
+    prt__free(frontier);
+    prt__free(visited);
+    if (!st && triangles) *triangles = total;
+    if (!st && out) st = assemble(recs, nrec, nb, out);
+    free_bricks(recs, nrec);
+    return st;
+}
