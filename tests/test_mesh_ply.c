@@ -3,6 +3,8 @@
  * prt_mesh_save_ply round-trips. */
 #include "test.h"
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #define GOOD PRT_SOURCE_DIR "/tests/data/good/"
@@ -252,6 +254,50 @@ TEST(test_ascii_spanning_many_read_windows_plain_and_gzip) {
     prt_mesh_free(g);
 }
 
+/* Load `data` through a pipe, which has no size: the reader cannot check counts against
+ * the input length and must grow its arrays with the data. */
+static prt_status load_through_pipe(const void *data, size_t n, prt_mesh **out) {
+    int fd[2];
+    if (pipe(fd) != 0) return PRT_ERROR_IO;
+    pid_t pid = fork();
+    if (pid == 0) {
+        close(fd[0]);
+        for (size_t done = 0; done < n;) {
+            ssize_t w = write(fd[1], (const char *)data + done, n - done);
+            if (w <= 0) _exit(1);
+            done += (size_t)w;
+        }
+        _exit(0);
+    }
+    close(fd[1]);
+    char path[64];
+    snprintf(path, sizeof path, "/dev/fd/%d", fd[0]);
+    prt_status st = prt_mesh_load(path, out);
+    close(fd[0]);
+    waitpid(pid, NULL, 0);
+    return st;
+}
+
+TEST(test_pipe_input_of_unknown_size_loads_by_growing) {
+    prt_mesh *g = make_grid(600);
+    CHECK(g != NULL);
+    if (!g) return;
+    const char *path = PRT_BINARY_DIR "/test_mesh_ply_pipe.ply";
+    CHECK_OK(prt_mesh_save_ply(g, path));
+    size_t n;
+    unsigned char *data = read_file(path, &n);
+    prt_mesh *m = NULL;
+    CHECK_OK(load_through_pipe(data, n, &m));
+    CHECK(same_mesh(m, g->vertices, g->vertex_count, g->triangles, g->triangle_count));
+    prt_mesh_free(m);
+    m = NULL;
+    CHECK(load_through_pipe(data, n - 5, &m) == PRT_ERROR_FORMAT); /* and truncation is seen */
+    CHECK(strstr(prt_last_error(), "truncated") != NULL);
+    free(data);
+    remove(path);
+    prt_mesh_free(g);
+}
+
 TEST(test_save_then_load_gives_identical_arrays) {
     prt_mesh *g = make_grid(37);
     CHECK(g != NULL);
@@ -331,6 +377,7 @@ int main(void) {
     RUN(test_ascii_coordinates_are_correctly_rounded_to_float);
     RUN(test_binary_spanning_many_read_windows_plain_and_gzip);
     RUN(test_ascii_spanning_many_read_windows_plain_and_gzip);
+    RUN(test_pipe_input_of_unknown_size_loads_by_growing);
     RUN(test_save_then_load_gives_identical_arrays);
     RUN(test_saved_file_is_binary_le_float_xyz_and_uchar_int_lists);
     RUN(test_saving_an_invalid_mesh_is_refused);

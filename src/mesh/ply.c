@@ -301,8 +301,7 @@ static prt_status check_size(ply_reader *r) {
         if (need > s->total)
             return prt__fail(PRT_ERROR_FORMAT,
                              "%s: truncated: element '%s' (%llu rows of at least %llu bytes) needs "
-                             "the data to reach "
-                             "byte %llu at least, but the file ends at byte %llu",
+                             "the data to reach byte %llu at least, but the file ends at byte %llu",
                              r->name, el->name, (unsigned long long)el->count,
                              (unsigned long long)row,
                              (unsigned long long)(at == UINT64_MAX ? UINT64_MAX : need),
@@ -316,8 +315,10 @@ static prt_status check_size(ply_reader *r) {
  * rest), and a modest start when the size is unknown (gzip). */
 static size_t proven(const ply_reader *r, uint64_t count, uint64_t row_bytes) {
     const mesh_source *s = r->s;
+    uint64_t at = mesh_source_offset(s, s->cur);
     uint64_t fit = s->total == UINT64_MAX ? UNPROVEN_RESERVE
-                                          : (s->total - mesh_source_offset(s, s->cur)) / row_bytes;
+                   : s->total > at        ? (s->total - at) / row_bytes
+                                          : 0;
     return (size_t)PRT_MIN(count, fit);
 }
 
