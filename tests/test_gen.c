@@ -82,7 +82,8 @@ static double ratio(const prt_mesh *m, size_t want) {
 
 TEST(test_gen_kinds_names_every_generator) {
     const char *k = prt_gen_kinds();
-    CHECK(strstr(k, "sphere") && strstr(k, "terrain") && strstr(k, "mandelbulb"));
+    CHECK(strstr(k, "sphere") && strstr(k, "terrain") && strstr(k, "mandelbulb") &&
+          strstr(k, "cad"));
 }
 
 TEST(test_gen_unknown_kind_is_an_argument_error_listing_the_kinds) {
@@ -257,8 +258,45 @@ TEST(test_mandelbulb_tiny_request_is_still_a_closed_surface) {
     prt_mesh_free(m);
 }
 
+TEST(test_cad_count_is_exact_and_parts_stay_in_the_cube) {
+    static const size_t want[] = {1, 7, 8, 13, 1000, 100000};
+    for (size_t i = 0; i < N_OF(want); i++) {
+        prt_mesh *m;
+        CHECK_OK(prt_mesh_generate("cad", want[i], 3, &m));
+        if (!m) continue;
+        CHECK_MSG(m->triangle_count == want[i], "%zu triangles for %zu", m->triangle_count,
+                  want[i]);
+        CHECK_OK(prt_mesh_validate(m));
+        CHECK(prt_mesh_count_degenerate(m) == 0);
+        CHECK(all_within(m, -1.00001f, 1.00001f));
+        size_t unused = m->vertex_count;
+        uint8_t *seen = calloc(m->vertex_count, 1);
+        for (size_t k = 0; k < 3 * m->triangle_count; k++)
+            unused -= !seen[m->triangles[k]], seen[m->triangles[k]] = 1;
+        CHECK_MSG(unused == 0, "%zu vertices unused", unused);
+        free(seen);
+        prt_mesh_free(m);
+    }
+}
+
+TEST(test_cad_parts_face_outward_with_unwelded_faces) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("cad", 100000, 3, &m));
+    if (!m) return;
+    size_t repeated, boundary;
+    edge_census(m, &repeated, &boundary);
+    /* Faces keep their own vertices (as CAD exports do): consistently wound within each
+     * face, but their borders are open, and there are more vertices than triangles. */
+    CHECK_MSG(repeated == 0, "%zu repeated directed edges", repeated);
+    CHECK_MSG(boundary > m->triangle_count / 2, "only %zu border edges", boundary);
+    CHECK(m->vertex_count > m->triangle_count);
+    /* Every part is closed in space and wound outward, so their volumes add up. */
+    CHECK_MSG(signed_volume(m) > 0, "volume %g", signed_volume(m));
+    prt_mesh_free(m);
+}
+
 TEST(test_generators_are_deterministic_for_any_thread_count) {
-    static const char *kinds[] = {"sphere", "terrain", "mandelbulb"};
+    static const char *kinds[] = {"sphere", "terrain", "mandelbulb", "cad"};
     int threads = omp_get_max_threads();
     for (size_t i = 0; i < N_OF(kinds); i++) {
         prt_mesh *a = NULL, *b = NULL, *c = NULL;
@@ -288,6 +326,8 @@ int main(void) {
     RUN(test_mandelbulb_is_closed_outward_and_near_the_request);
     RUN(test_mandelbulb_counts_track_the_request);
     RUN(test_mandelbulb_tiny_request_is_still_a_closed_surface);
+    RUN(test_cad_count_is_exact_and_parts_stay_in_the_cube);
+    RUN(test_cad_parts_face_outward_with_unwelded_faces);
     RUN(test_generators_are_deterministic_for_any_thread_count);
     TEST_END();
 }

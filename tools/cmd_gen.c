@@ -18,11 +18,12 @@ static void usage(FILE *f) {
         "                sphere      closed cube sphere, radius 1: 12 k^2 triangles\n"
         "                terrain     noise height field over [-1, 1]^2, y up: 2 nx nz triangles\n"
         "                mandelbulb  power-8 Mandelbulb isosurface (marching cubes)\n"
+        "                cad         many boxes, plates, cylinders; unwelded faces; exact N\n"
         "  --tris N    triangle budget, with k/M/G suffixes (100M); default 1M.\n"
         "              The count is as near N as the kind's construction allows\n"
         "              (docs/generators.md).\n"
-        "  --seed S    unsigned integer seed, default 1 (terrain; the other kinds\n"
-        "              have one shape). Same kind, N and seed: the same file.\n"
+        "  --seed S    unsigned integer seed, default 1 (terrain and cad; sphere and\n"
+        "              mandelbulb have one shape). Same kind, N, seed: the same file.\n"
         "  -o FILE     output path\n",
         prt_gen_kinds());
 }

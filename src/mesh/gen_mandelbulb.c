@@ -15,61 +15,62 @@
 #define ISO 0.002
 #define HALF_EXTENT 1.2 /* the bulb spans about [-1.07, 1.09]^3 with y as its axis */
 
-/* Four lanes of doubles: GCC/Clang vector extensions, AVX2 where -march allows. Every
+/* LANES doubles at a time with GCC/Clang vector extensions: with AVX2 each operation is
+ * two registers wide, which hides the latency of the square roots and the division. Every
  * operation is lane-wise IEEE arithmetic (no FMA contraction in this build), so a point
  * gets the same value in whichever lane and batch it is computed. */
 #define LANES 8
-typedef double v4d __attribute__((vector_size(8 * LANES)));
-typedef long long v4l __attribute__((vector_size(8 * LANES)));
+typedef double vd __attribute__((vector_size(8 * LANES)));
+typedef long long vl __attribute__((vector_size(8 * LANES)));
 
 /* Macros rather than functions: 64-byte vectors passed by value would make GCC warn
  * about an ABI that differs with AVX-512 (-Wpsabi), though everything here is inlined. */
-#define BLEND(mask, a, b) ((v4d)(((v4l)(a) & (mask)) | ((v4l)(b) & ~(mask))))
+#define BLEND(mask, a, b) ((vd)(((vl)(a) & (mask)) | ((vl)(b) & ~(mask))))
 #define SQRT(r, a)                                                                                 \
     for (int k_ = 0; k_ < LANES; k_++) (r)[k_] = sqrt((a)[k_]) /* one vsqrtpd per register */
 
-/* Distance from four points to the offset surface, or -ISO inside (no distance known
+/* Distance from LANES points to the offset surface, or -ISO inside (no distance known
  * there). z <- z^8 + c in spherical coordinates (y the polar axis), expanded into
  * polynomials; dr tracks |dz/dc| for the estimate 0.5 |z| log|z| / dr. Lanes that escape
  * keep their |z|^2 and dr and stop changing; the loop ends when all have escaped. */
-static void bulb4(const double *cx_, const double *cy_, const double *cz_, double *out) {
-    v4d px, py, pz;
+static void bulb_lanes(const double *cx_, const double *cy_, const double *cz_, double *out) {
+    vd px, py, pz;
     memcpy(&px, cx_, sizeof px);
     memcpy(&py, cy_, sizeof py);
     memcpy(&pz, cz_, sizeof pz);
-    v4d zero = {0}, x = px, y = py, z = pz, dr = zero + 1.0, m = x * x + y * y + z * z;
-    const v4d bail = zero + BAILOUT2, tiny = zero + 1e-30;
-    v4l alive = m <= bail;
-    v4d em = m, edr = dr; /* |z|^2 and dr where each lane escaped */
+    vd zero = {0}, x = px, y = py, z = pz, dr = zero + 1.0, m = x * x + y * y + z * z;
+    const vd bail = zero + BAILOUT2, tiny = zero + 1e-30;
+    vl alive = m <= bail;
+    vd em = m, edr = dr; /* |z|^2 and dr where each lane escaped */
     for (int i = 0; i < ITERATIONS; i++) {
         long long any = 0;
         for (int k = 0; k < LANES; k++) any |= alive[k];
         if (!any) break;
-        v4d sm, s7;
+        vd sm, s7;
         SQRT(sm, m);
-        v4d ndr = 8.0 * m * m * m * sm * dr + 1.0;
-        v4d x2 = x * x, y2 = y * y, z2 = z * z;
-        v4d x4 = x2 * x2, y4 = y2 * y2, z4 = z2 * z2;
-        v4d k3 = x2 + z2;
+        vd ndr = 8.0 * m * m * m * sm * dr + 1.0;
+        vd x2 = x * x, y2 = y * y, z2 = z * z;
+        vd x4 = x2 * x2, y4 = y2 * y2, z4 = z2 * z2;
+        vd k3 = x2 + z2;
         /* 1 / (x^2 + z^2)^3.5; the factors it multiplies vanish faster on the polar axis,
          * so the limit there is 0. */
         SQRT(s7, k3 * k3 * k3 * k3 * k3 * k3 * k3);
-        v4d k2 = BLEND(k3 > tiny, 1.0 / s7, zero);
-        v4d k1 = x4 + y4 + z4 - 6.0 * y2 * z2 - 6.0 * x2 * y2 + 2.0 * z2 * x2;
-        v4d k4 = x2 - y2 + z2;
-        v4d nx = px + 64.0 * x * y * z * (x2 - z2) * k4 * (x4 - 6.0 * x2 * z2 + z4) * k1 * k2;
-        v4d ny = py - 16.0 * y2 * k3 * k4 * k4 + k1 * k1;
-        v4d nz = pz - 8.0 * y * k4 *
-                          (x4 * x4 - 28.0 * x4 * x2 * z2 + 70.0 * x4 * z4 - 28.0 * x2 * z2 * z4 +
-                           z4 * z4) *
-                          k1 * k2;
-        v4d nm = nx * nx + ny * ny + nz * nz;
+        vd k2 = BLEND(k3 > tiny, 1.0 / s7, zero);
+        vd k1 = x4 + y4 + z4 - 6.0 * y2 * z2 - 6.0 * x2 * y2 + 2.0 * z2 * x2;
+        vd k4 = x2 - y2 + z2;
+        vd nx = px + 64.0 * x * y * z * (x2 - z2) * k4 * (x4 - 6.0 * x2 * z2 + z4) * k1 * k2;
+        vd ny = py - 16.0 * y2 * k3 * k4 * k4 + k1 * k1;
+        vd nz = pz - 8.0 * y * k4 *
+                         (x4 * x4 - 28.0 * x4 * x2 * z2 + 70.0 * x4 * z4 - 28.0 * x2 * z2 * z4 +
+                          z4 * z4) *
+                         k1 * k2;
+        vd nm = nx * nx + ny * ny + nz * nz;
         x = BLEND(alive, nx, x);
         y = BLEND(alive, ny, y);
         z = BLEND(alive, nz, z);
         dr = BLEND(alive, ndr, dr);
         m = BLEND(alive, nm, m);
-        v4l escaped = alive & (m > bail);
+        vl escaped = alive & (m > bail);
         em = BLEND(escaped, m, em);
         edr = BLEND(escaped, dr, edr);
         alive &= ~escaped;
@@ -82,12 +83,12 @@ static void bulb_field(const void *ctx, size_t n, const double *x, const double 
                        double *out) {
     (void)ctx;
     size_t i = 0;
-    for (; i + LANES <= n; i += LANES) bulb4(x + i, y + i, z + i, out + i);
+    for (; i + LANES <= n; i += LANES) bulb_lanes(x + i, y + i, z + i, out + i);
     if (i < n) {
         /* The tail in a padded batch: lanes are independent, so padding changes nothing. */
         double px[LANES] = {0}, py[LANES] = {0}, pz[LANES] = {0}, f[LANES];
         for (size_t k = 0; k < n - i; k++) px[k] = x[i + k], py[k] = y[i + k], pz[k] = z[i + k];
-        bulb4(px, py, pz, f);
+        bulb_lanes(px, py, pz, f);
         for (size_t k = 0; k < n - i; k++) out[i + k] = f[k];
     }
 }
