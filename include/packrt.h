@@ -62,8 +62,9 @@ const char *prt_last_error(void);
 
 /* Replace the allocator used for every allocation packrt makes (default: malloc/free).
  * Call before any other packrt function; passing NULL for both restores the default.
- * alloc must return memory aligned to at least 16 bytes or NULL. This is the library's
- * one documented piece of global mutable state. */
+ * alloc must return memory aligned to at least 16 bytes or NULL, and must be thread-safe:
+ * builders and generators allocate from worker threads. This is the library's one
+ * documented piece of global mutable state. */
 void prt_set_allocator(void *(*alloc)(size_t size), void (*dealloc)(void *ptr));
 
 /* Bytes currently allocated through packrt, and the peak since the last
@@ -116,8 +117,9 @@ size_t prt_mesh_count_degenerate(const prt_mesh *m);
 
 /* Procedural meshes, deterministic for a given kind, triangle budget and seed. The
  * result has approximately `triangles` triangles (exact count depends on the kind).
- * kind: "sphere" (closed geodesic-like UV sphere), "terrain" (noise height field),
- * "mandelbulb" (marching-cubes isosurface). See prt_gen_kinds(). */
+ * kind: "sphere" (closed cube sphere, 12k^2 triangles), "terrain" (noise height field),
+ * "mandelbulb" (closed marching-cubes isosurface), "cad" (many separate boxes and
+ * cylinders, poor connectivity). See prt_gen_kinds() and docs/generators.md. */
 prt_status prt_mesh_generate(const char *kind, size_t triangles, uint64_t seed, prt_mesh **out);
 
 /* Space-separated list of the kinds prt_mesh_generate accepts. */

@@ -12,7 +12,7 @@ static const struct {
     {"build", cmd_build, "build MESH -r SPEC -o out.prt       preprocess and save"},
     {"cast", cmd_cast, "cast FILE -r SPEC --rays in.rays -o out.hits [--occluded] [--threads N]"},
     {"bench", cmd_bench, "bench [MESH] [-r SPEC|all] [--workload W] [--vs embree] [--json]"},
-    {"gen", cmd_gen, "gen KIND [--tris N] [--seed S] -o out.ply   (sphere, terrain, mandelbulb)"},
+    {"gen", cmd_gen, "gen KIND [--tris N] [--seed S] -o out.ply   (sphere, terrain, mandelbulb, cad)"},
     {"list", cmd_list, "list                               all representation names, name first"},
 };
 
