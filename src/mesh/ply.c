@@ -572,8 +572,9 @@ static prt_status binary_faces(ply_reader *r, const ply_element *el) {
     const uint64_t lim = p->type == T_I32 ? PRT_MIN(r->nverts, (uint64_t)INT32_MAX + 1) : r->nverts;
     uint64_t row = 0;
     while (row < el->count) {
-        if (fast) {
-            size_t n = (size_t)PRT_MIN(el->count - row, (uint64_t)(mesh_source_avail(s) / 13));
+        size_t n =
+            fast ? (size_t)PRT_MIN(el->count - row, (uint64_t)(mesh_source_avail(s) / 13)) : 0;
+        if (n) { /* (with n = 0 the array may still be NULL: no arithmetic on it) */
             prt_status st = mesh_arrays_triangle_room(&r->a, n, (size_t)face_expect(r));
             if (st != PRT_OK) return st;
             const uint8_t *q = s->cur;
