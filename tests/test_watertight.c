@@ -16,6 +16,20 @@ static size_t count_misses(const prt_accel *a, prt_ray *rays, size_t n) {
     return misses;
 }
 
+/* Every representation must hit with every ray (rays are copied; the originals stay). */
+static void expect_all_hit(const prt_mesh *m, const prt_ray *rays, size_t n, const char *what) {
+    prt_ray *work = malloc(n * sizeof *rays);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        memcpy(work, rays, n * sizeof *rays);
+        size_t misses = count_misses(a, work, n);
+        CHECK_MSG(misses == 0, "%s: %zu of %zu %s escaped the closed sphere", prt_repr_name(k), misses, n, what);
+        prt_accel_free(a);
+    }
+    free(work);
+}
+
 static prt_ray ray_from(const float o[3], const float target[3]) {
     prt_ray r = {{o[0], o[1], o[2]}, 0, {target[0] - o[0], target[1] - o[1], target[2] - o[2]}, INFINITY};
     return r;
@@ -27,7 +41,7 @@ TEST(test_million_rays_from_inside_a_closed_sphere_all_hit) {
     CHECK_OK(s);
     if (s) return;
     const size_t n = 1000000;
-    prt_ray *rays = malloc(n * sizeof *rays), *work = malloc(n * sizeof *rays);
+    prt_ray *rays = malloc(n * sizeof *rays);
     prt_rng rng = prt_rng_seed(99, 3);
     for (size_t i = 0; i < n; i++) {
         float o[3], d[3], len;
@@ -38,16 +52,8 @@ TEST(test_million_rays_from_inside_a_closed_sphere_all_hit) {
         } while (len > 1 || len < 1e-6f);
         rays[i] = (prt_ray){{o[0], o[1], o[2]}, 0, {d[0], d[1], d[2]}, INFINITY};
     }
-    for (size_t k = 0; k < prt_repr_count(); k++) {
-        prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
-        memcpy(work, rays, n * sizeof *rays);
-        size_t misses = count_misses(a, work, n);
-        CHECK_MSG(misses == 0, "%s: %zu of %zu rays escaped the closed sphere", prt_repr_name(k), misses, n);
-        prt_accel_free(a);
-    }
+    expect_all_hit(m, rays, n, "random rays");
     free(rays);
-    free(work);
     prt_mesh_free(m);
 }
 
@@ -71,17 +77,8 @@ TEST(test_rays_through_every_vertex_and_edge_midpoint_hit) {
                 rays[c++] = ray_from(origins[o], mid);
             }
     }
-    prt_ray *work = malloc(n * sizeof *rays);
-    for (size_t k = 0; k < prt_repr_count(); k++) {
-        prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
-        memcpy(work, rays, n * sizeof *rays);
-        size_t misses = count_misses(a, work, n);
-        CHECK_MSG(misses == 0, "%s: %zu of %zu vertex/edge rays escaped", prt_repr_name(k), misses, n);
-        prt_accel_free(a);
-    }
+    expect_all_hit(m, rays, n, "vertex and edge-midpoint rays");
     free(rays);
-    free(work);
     prt_mesh_free(m);
 }
 
