@@ -80,6 +80,15 @@ TEST(test_hexagon_fans_around_its_first_vertex) {
     prt_mesh_free(m);
 }
 
+TEST(test_utf8_byte_order_mark_is_skipped) {
+    const char *obj =
+        "\xEF\xBB\xBFv 0.5 -1 2\nv 1.5 -1 2.25\nv 1.5 1 2.5\nv 0.5 1 2.75\nf 1 2 3 4\n";
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load_memory(obj, strlen(obj), "bom.obj", &m));
+    CHECK(same_mesh(m, QUAD_V, 4, QUAD_T, 2));
+    prt_mesh_free(m);
+}
+
 TEST(test_relative_indices_are_relative_to_the_face_position) {
     /* -1 means the last vertex defined before the face line, not the last in the file. */
     const char *obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 5 5 5\nf -4 -3 -1\n";
@@ -232,6 +241,7 @@ int main(void) {
     RUN(test_extra_vertex_values_are_ignored);
     RUN(test_all_four_face_vertex_forms);
     RUN(test_hexagon_fans_around_its_first_vertex);
+    RUN(test_utf8_byte_order_mark_is_skipped);
     RUN(test_relative_indices_are_relative_to_the_face_position);
     RUN(test_malformed_number_names_its_line);
     RUN(test_index_past_the_vertices_names_line_and_index);

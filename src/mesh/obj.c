@@ -130,6 +130,7 @@ static prt_status parse(obj_reader *r) {
         if (st != PRT_OK) return st;
         if (!got) break;
         const char *p = line, *e = line + len;
+        if (s->line == 1 && len >= 3 && !memcmp(line, "\xEF\xBB\xBF", 3)) p += 3; /* UTF-8 BOM */
         if (!mesh_next_token(&p, e, &kw, &kn) || kw[0] == '#') continue;
         if (!is_letter(kw[0]) || has_control(line, len)) {
             char q[MESH_QUOTE_SIZE];

@@ -187,7 +187,8 @@ prt_status mesh_source_open_file(mesh_source *s, const char *path) {
     /* Pipes and devices have no size: parsers then grow their arrays with the data. */
     uint64_t total = S_ISREG(sb.st_mode) ? (uint64_t)sb.st_size : UINT64_MAX;
     posix_fadvise(im->fd, 0, 0, POSIX_FADV_SEQUENTIAL); /* a hint: read ahead further */
-    im->cap = WINDOW_CHUNK;
+    /* A small file needs no 4 MiB window (one byte more than the file sees its end). */
+    im->cap = (size_t)PRT_MIN((uint64_t)WINDOW_CHUNK, PRT_MAX(total, (uint64_t)15) + 1);
     im->buf = prt__alloc(im->cap);
     if (!im->buf) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the read window", path);
     size_t got;
