@@ -37,4 +37,28 @@ static inline float vf4_hmin(vf4 a) {
     return b[0];
 }
 
+/* 8 lanes: AVX where the target has it (x86-64-v3 and up), plain loops otherwise. */
+typedef float vf8 __attribute__((vector_size(32)));
+typedef int32_t vi8 __attribute__((vector_size(32)));
+
+static inline vf8 vf8_set1(float x) { return (vf8){x, x, x, x, x, x, x, x}; }
+static inline vf8 vf8_load(const float *p) { vf8 v; memcpy(&v, p, sizeof v); return v; }
+
+#if defined(__AVX__)
+static inline vf8 vf8_min(vf8 a, vf8 b) { return (vf8)_mm256_min_ps((__m256)a, (__m256)b); }
+static inline vf8 vf8_max(vf8 a, vf8 b) { return (vf8)_mm256_max_ps((__m256)a, (__m256)b); }
+static inline int vi8_mask(vi8 m) { return _mm256_movemask_ps((__m256)m); }
+static inline vf8 vf8_select(vi8 m, vf8 a, vf8 b) { return (vf8)_mm256_blendv_ps((__m256)b, (__m256)a, (__m256)m); }
+#else
+static inline vf8 vf8_min(vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = a[i] < b[i] ? a[i] : b[i]; return r; }
+static inline vf8 vf8_max(vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = a[i] > b[i] ? a[i] : b[i]; return r; }
+static inline int vi8_mask(vi8 m) { int r = 0; for (int i = 0; i < 8; i++) r |= (m[i] < 0) << i; return r; }
+static inline vf8 vf8_select(vi8 m, vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = m[i] ? a[i] : b[i]; return r; }
+#endif
+
+static inline float vf8_hmin(vf8 a) {
+    vf4 lo = __builtin_shufflevector(a, a, 0, 1, 2, 3), hi = __builtin_shufflevector(a, a, 4, 5, 6, 7);
+    return vf4_hmin(vf4_min(lo, hi));
+}
+
 #endif

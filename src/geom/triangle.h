@@ -45,61 +45,13 @@ static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float
     return true;
 }
 
-/* Four triangles in SOA form: p[c] for c = 0..8 holds component c%3 of vertex c/3 for the
- * four lanes. Padding lanes hold NaN vertices, which never hit. Returns the mask of lanes
- * hit within [tnear, tfar]; when non-zero, t (+inf in lanes not hit), u and v are set. */
-typedef struct prt__rayx4t {
-    vf4 org[3], sx, sy, sz;
-    vf4 tnear;
-} prt__rayx4t;
-
-static inline void prt__rayx4t_init(prt__rayx4t *x, const prt__rayx *r) {
-    for (int k = 0; k < 3; k++) x->org[k] = vf4_set1(r->org[k]);
-    x->sx = vf4_set1(r->sx), x->sy = vf4_set1(r->sy), x->sz = vf4_set1(r->sz);
-    x->tnear = vf4_set1(r->tnear);
-}
-
-PRT_NOINLINE static void prt__tri4_fix_edges(vi4 zero, const vf4 *ax, const vf4 *ay, const vf4 *bx,
-                                             const vf4 *by, const vf4 *cx, const vf4 *cy, vf4 *u, vf4 *v,
-                                             vf4 *w) {
-    for (int i = 0; i < 4; i++)
-        if (zero[i]) {
-            float uu, vv, ww;
-            prt__tri_edges_double((*ax)[i], (*ay)[i], (*bx)[i], (*by)[i], (*cx)[i], (*cy)[i], &uu, &vv, &ww);
-            (*u)[i] = uu, (*v)[i] = vv, (*w)[i] = ww;
-        }
-}
-
-static inline int prt__tri4_hit(const prt__rayx *r, const prt__rayx4t *r4, const float *p, vf4 tfar,
-                                vf4 *t_out, vf4 *u_out, vf4 *v_out) {
-    const int kx = r->kx, ky = r->ky, kz = r->kz;
-    const vf4 az0 = vf4_load(p + 4 * (0 + kz)) - r4->org[kz];
-    const vf4 bz0 = vf4_load(p + 4 * (3 + kz)) - r4->org[kz];
-    const vf4 cz0 = vf4_load(p + 4 * (6 + kz)) - r4->org[kz];
-    const vf4 ax = (vf4_load(p + 4 * (0 + kx)) - r4->org[kx]) - r4->sx * az0;
-    const vf4 ay = (vf4_load(p + 4 * (0 + ky)) - r4->org[ky]) - r4->sy * az0;
-    const vf4 bx = (vf4_load(p + 4 * (3 + kx)) - r4->org[kx]) - r4->sx * bz0;
-    const vf4 by = (vf4_load(p + 4 * (3 + ky)) - r4->org[ky]) - r4->sy * bz0;
-    const vf4 cx = (vf4_load(p + 4 * (6 + kx)) - r4->org[kx]) - r4->sx * cz0;
-    const vf4 cy = (vf4_load(p + 4 * (6 + ky)) - r4->org[ky]) - r4->sy * cz0;
-    vf4 u = cx * by - cy * bx;
-    vf4 v = ax * cy - ay * cx;
-    vf4 w = bx * ay - by * ax;
-    const vf4 zero = vf4_set1(0.0f);
-    const vi4 any_zero = (u == zero) | (v == zero) | (w == zero);
-    if (PRT_UNLIKELY(vi4_mask(any_zero))) prt__tri4_fix_edges(any_zero, &ax, &ay, &bx, &by, &cx, &cy, &u, &v, &w);
-    const vi4 mixed = ((u < zero) | (v < zero) | (w < zero)) & ((u > zero) | (v > zero) | (w > zero));
-    const vf4 det = u + v + w;
-    const vf4 T = u * (r4->sz * az0) + v * (r4->sz * bz0) + w * (r4->sz * cz0);
-    const vf4 t = T / det;
-    const vi4 ok = ~mixed & (det != zero) & (t >= r4->tnear) & (t <= tfar);
-    int mask = vi4_mask(ok);
-    if (mask) {
-        *t_out = vf4_select(ok, t, vf4_set1(INFINITY));
-        *u_out = v / det;
-        *v_out = w / det;
-    }
-    return mask;
-}
+/* N triangles at once (N = 4 and 8, from geom/triangle_simd.inc): prt__rayx4t /
+ * prt__tri4_hit and prt__rayx8t / prt__tri8_hit. */
+#define TRI_W 4
+#include "geom/triangle_simd.inc"
+#undef TRI_W
+#define TRI_W 8
+#include "geom/triangle_simd.inc"
+#undef TRI_W
 
 #endif

@@ -14,7 +14,8 @@
 /* X(id, name, description) */
 #define BVH_CODECS(X)                                                                                 \
     X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle")       \
-    X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test")
+    X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test") \
+    X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,

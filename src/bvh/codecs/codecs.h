@@ -5,5 +5,6 @@
 #include "bvh/codecs/codec.h"
 #include "bvh/codecs/float3.h"
 #include "bvh/codecs/float3_soa4.h"
+#include "bvh/codecs/float3_soa8.h"
 
 #endif

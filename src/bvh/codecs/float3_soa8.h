@@ -1,0 +1,14 @@
+/* Float3SOA8 (Rouwé 2019, §3.3): blocks of eight triangles in SOA form, 320 bytes, tested
+ * eight at a time with the watertight AVX kernel. */
+#ifndef PRT_BVH_CODECS_FLOAT3_SOA8_H
+#define PRT_BVH_CODECS_FLOAT3_SOA8_H
+
+#include "geom/triangle.h"
+
+#include <math.h>
+
+#define SOA_W 8
+#include "bvh/codecs/float3_soa.inc"
+#undef SOA_W
+
+#endif
