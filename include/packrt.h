@@ -261,6 +261,120 @@ prt_status prt_hits_write_occluded(const char *path, const uint8_t *occluded, si
 /* Free memory that packrt returned (ray and hit arrays). */
 void prt_free(void *p);
 
+/* ---------------------------------------------------------------------------------
+ * Rendering (src/render/; shading modes, camera conventions, determinism: docs/render.md)
+ * --------------------------------------------------------------------------------- */
+
+/* A pinhole camera. World space is right-handed; the image's x runs along
+ * cross(target - eye, up) (to the right), its y along up projected on the image plane
+ * (upward on screen; row 0 of an image is the top). up need not be perpendicular to the
+ * view direction but must not be parallel to it. */
+typedef struct prt_camera {
+    float eye[3];    /* centre of projection */
+    float target[3]; /* the point seen at the centre of the image */
+    float up[3];     /* world up, usually (0, 1, 0) */
+    float fov_y_deg; /* vertical field of view in degrees, in (0, 180) */
+} prt_camera;
+
+/* The default framing of a box lo..hi: looking at its centre from the front (+z), a little
+ * above and to the right (+x, +y), y up, 40 degrees vertical field of view, far enough that
+ * the bounding sphere fills the image height. The same view as `packrt bench`'s primary
+ * workload. */
+void prt_camera_default(const float lo[3], const float hi[3], prt_camera *c);
+
+/* Shading modes (docs/render.md). */
+typedef enum prt_shade {
+    PRT_SHADE_NORMAL,  /* geometric normal facing the ray, as colour 0.5 + 0.5 n */
+    PRT_SHADE_DIFFUSE, /* Lambert with a light at the eye: no secondary rays */
+    PRT_SHADE_SHADOWS, /* Lambert with a point light and hard shadows (one any-hit ray) */
+    PRT_SHADE_AO,      /* ambient occlusion: one cosine-weighted any-hit ray per sample */
+    PRT_SHADE_GI,      /* point light with shadows + one diffuse bounce (sky and light) */
+    PRT_SHADE_COUNT
+} prt_shade;
+
+/* "normal", "diffuse", "shadows", "ao", "gi"; "?" past the end. */
+const char *prt_shade_name(prt_shade s);
+
+/* Parse one of the names above; PRT_ERROR_ARGUMENT (message lists the names) otherwise. */
+prt_status prt_shade_parse(const char *name, prt_shade *out);
+
+typedef struct prt_render_options {
+    uint32_t width, height; /* image size in pixels; 0 for either: 640 x 480 */
+    prt_shade shade;
+    /* Samples per pixel; each is one camera ray (at the pixel centre when spp is 1, else
+     * jittered inside the pixel) plus the secondary rays of the mode. 0: 1 for normal,
+     * diffuse and shadows, 16 for ao and gi. */
+    uint32_t spp;
+    int threads;   /* 0: all cores. The image does not depend on it. */
+    uint64_t seed; /* of every random choice (jitter, sample directions); 0 is a valid seed */
+    /* gi: filter the indirect light with an edge-avoiding a-trous wavelet (Dammertz et
+     * al. 2010), guided by normals and positions; direct light stays unfiltered. */
+    bool denoise;
+    /* Point light for shadows and gi; when use_light is false, a default above, in front
+     * of and to the left of the scene bounds (as `packrt bench`'s shadow workload). */
+    bool use_light;
+    float light[3];
+    /* ao: length of the occlusion rays; 0: 0.15 x the bounds diagonal. */
+    float ao_radius;
+    /* Called now and then with the fraction of pixels done (0..1), always from the thread
+     * that called prt_render; NULL for none. */
+    void (*progress)(void *user, float fraction);
+    void *progress_user;
+} prt_render_options;
+
+/* An 8-bit sRGB image: 3 bytes (r, g, b) per pixel, rows top to bottom, no padding.
+ * A zero-initialised prt_image is an empty image; free one with prt_image_free. */
+typedef struct prt_image {
+    uint32_t width, height;
+    uint8_t *rgb;
+    /* Set by prt_render: rays cast (camera and secondary, normal-estimation rays included)
+     * and wall-clock seconds of the render. */
+    uint64_t rays;
+    double seconds;
+} prt_image;
+
+/* Render accel a seen from camera c (NULL: prt_camera_default of the accel's bounds) into
+ * *img. Pixels are rendered in 8x8 tiles spread over the threads; each tile's camera rays
+ * go to prt_intersect_packet, so representations with packet traversal use it.
+ *
+ * m is the mesh a was built from, or NULL. Shading needs the geometric normal of each hit:
+ * with m it is taken from triangle hit.prim of m (m->triangle_count must equal the accel's
+ * triangle count, else PRT_ERROR_ARGUMENT); without m (a .prt file loaded alone) it is
+ * estimated from two extra rays parallel to the hit ray, a small offset apart, which costs
+ * rays and blurs normals at creases and silhouettes (docs/render.md).
+ *
+ * The image is a pure function of (a's hits, m, c, options other than threads and
+ * progress): the same call gives the same bytes on any number of threads.
+ *
+ * img may be empty or hold an earlier result, whose pixel buffer is reused when the size
+ * matches (a viewer renders frame after frame without allocating). options may be NULL
+ * (all defaults). On failure img is left empty. Errors: PRT_ERROR_ARGUMENT (NULL a or img,
+ * bad size, fov or camera), PRT_ERROR_NOMEM. */
+prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c,
+                      const prt_render_options *options, prt_image *img);
+
+/* Write img as an 8-bit RGB PNG (libpng). PRT_ERROR_UNSUPPORTED when this build has no
+ * libpng (use prt_image_save_ppm), PRT_ERROR_IO when the file cannot be written. */
+prt_status prt_image_save_png(const prt_image *img, const char *path);
+
+/* Write img as a binary PPM (P6); needs no library. */
+prt_status prt_image_save_ppm(const prt_image *img, const char *path);
+
+/* True when prt_image_save_png is available in this build. */
+bool prt_image_png_supported(void);
+
+/* Compare two images of the same size. *max_diff receives the largest absolute difference
+ * of any channel of any pixel (0..255), *differing the number of pixels that differ,
+ * *psnr_db the peak signal-to-noise ratio in dB over all channels (+inf when identical);
+ * any output pointer may be NULL. When diff is not NULL it receives a new image showing
+ * where they differ: black where equal, red scaled so that the largest difference is
+ * full red. PRT_ERROR_ARGUMENT when the sizes differ. */
+prt_status prt_image_compare(const prt_image *a, const prt_image *b, int *max_diff,
+                             size_t *differing, double *psnr_db, prt_image *diff);
+
+/* Free an image's pixels and reset it to empty. NULL is ignored. */
+void prt_image_free(prt_image *img);
+
 #ifdef __cplusplus
 }
 #endif

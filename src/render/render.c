@@ -1,0 +1,197 @@
+/* prt_render: 8x8 pixel tiles spread over OpenMP threads, each sample of a tile cast as one
+ * packet (prt_intersect_packet), shaded per pixel with the pixel's own random stream, then
+ * the optional gi filter and the conversion to 8-bit sRGB. */
+#include "render/render.h"
+
+#include <math.h>
+#include <omp.h>
+
+#define TILE 8
+/* Larger images are refused rather than risk size arithmetic near overflow. */
+#define MAX_SIDE 32768u
+
+typedef struct tile_job {
+    const render_scene *scene;
+    const render_camera *cam;
+    render_framebuffer *fb;
+    uint32_t spp;
+    uint64_t seed;
+} tile_job;
+
+/* Render tile (tx, ty) into the framebuffer; returns the rays it cast. */
+static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
+    const render_camera *cam = j->cam;
+    uint32_t x0 = tx * TILE, y0 = ty * TILE;
+    uint32_t w = PRT_MIN(TILE, cam->width - x0), h = PRT_MIN(TILE, cam->height - y0), n = w * h;
+    prt_ray rays[TILE * TILE];
+    prt_hit hits[TILE * TILE];
+    prt_rng rng[TILE * TILE];
+    float direct[TILE * TILE][3] = {{0}}, indirect[TILE * TILE][3] = {{0}};
+    float normal[TILE * TILE][3] = {{0}}, position[TILE * TILE][3] = {{0}},
+                        hit_count[TILE * TILE] = {0};
+    uint64_t cast = 0;
+    for (uint32_t i = 0; i < n; i++) rng[i] = render_pixel_rng(j->seed, x0 + i % w, y0 + i / w);
+    for (uint32_t s = 0; s < j->spp; s++) {
+        for (uint32_t i = 0; i < n; i++) {
+            /* One sample looks through the pixel centre (so spp 1 gives the benchmark's primary
+             * rays); more are spread uniformly over the pixel, which also antialiases. */
+            float jx = 0.5f, jy = 0.5f;
+            if (j->spp > 1) jx = prt_rng_float(&rng[i]), jy = prt_rng_float(&rng[i]);
+            render_camera_ray(cam, (float)(x0 + i % w) + jx, (float)(y0 + i / w) + jy, &rays[i]);
+        }
+        prt_packet p = {rays, hits, n, w};
+        prt_intersect_packet(j->scene->accel, &p);
+        cast += n;
+        for (uint32_t i = 0; i < n; i++) {
+            render_sample smp;
+            render_surface surf;
+            bool hit = render_shade(j->scene, &rays[i], &hits[i], &rng[i], &smp, &surf, &cast);
+            direct[i][0] += smp.direct.x, direct[i][1] += smp.direct.y,
+                direct[i][2] += smp.direct.z;
+            indirect[i][0] += smp.indirect.x, indirect[i][1] += smp.indirect.y,
+                indirect[i][2] += smp.indirect.z;
+            if (hit) {
+                normal[i][0] += surf.n.x, normal[i][1] += surf.n.y, normal[i][2] += surf.n.z;
+                position[i][0] += surf.p.x, position[i][1] += surf.p.y, position[i][2] += surf.p.z;
+                hit_count[i] += 1.0f;
+            }
+        }
+    }
+    render_framebuffer *fb = j->fb;
+    float inv = 1.0f / (float)j->spp;
+    for (uint32_t i = 0; i < n; i++) {
+        size_t px = (size_t)(y0 + i / w) * cam->width + x0 + i % w;
+        for (int k = 0; k < 3; k++) fb->direct[3 * px + k] = direct[i][k] * inv;
+        if (!fb->indirect) continue;
+        /* The filter's guides: the mean over the samples that hit (position and normal of a
+         * silhouette pixel blend its surfaces, as its colour does). */
+        float hinv = hit_count[i] > 0.0f ? 1.0f / hit_count[i] : 0.0f;
+        for (int k = 0; k < 3; k++) {
+            fb->indirect[3 * px + k] = indirect[i][k] * inv;
+            fb->normal[3 * px + k] = normal[i][k] * hinv;
+            fb->position[3 * px + k] = position[i][k] * hinv;
+        }
+        fb->coverage[px] = hit_count[i] * inv;
+    }
+    return cast;
+}
+
+static prt_status check_arguments(const prt_accel *a, const prt_mesh *m, const prt_image *img,
+                                  uint32_t w, uint32_t h) {
+    if (!a || !img) return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: NULL accel or image");
+    if (w > MAX_SIDE || h > MAX_SIDE)
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: %ux%u image exceeds %u pixels a side", w,
+                         h, MAX_SIDE);
+    if (m) {
+        prt_stats st;
+        prt_accel_stats(a, &st);
+        if (!m->vertices || !m->triangles || m->triangle_count != st.triangles)
+            return prt__fail(
+                PRT_ERROR_ARGUMENT,
+                "prt_render: the mesh has %zu triangles, the accel was built from %zu: "
+                "not its mesh",
+                m->triangle_count, st.triangles);
+    }
+    return PRT_OK;
+}
+
+/* Give img a w x h pixel buffer, keeping the old one when it has that size already. */
+static prt_status size_image(prt_image *img, uint32_t w, uint32_t h) {
+    if (img->rgb && img->width == w && img->height == h) return PRT_OK;
+    prt_image_free(img);
+    img->rgb = prt__alloc((size_t)w * h * 3);
+    if (!img->rgb)
+        return prt__fail(PRT_ERROR_NOMEM, "prt_render: no memory for a %ux%u image", w, h);
+    img->width = w, img->height = h;
+    return PRT_OK;
+}
+
+prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c,
+                      const prt_render_options *options, prt_image *img) {
+    double t0 = prt__now();
+    prt_render_options o = {0};
+    if (options) o = *options;
+    uint32_t w = o.width, h = o.height;
+    if (!w || !h) w = 640, h = 480;
+    prt_status st = check_arguments(a, m, img, w, h);
+    if (st) {
+        if (img) prt_image_free(img);
+        return st;
+    }
+    if ((unsigned)o.shade >= PRT_SHADE_COUNT) {
+        prt_image_free(img);
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: shading mode %d does not exist",
+                         (int)o.shade);
+    }
+
+    float lo[3], hi[3];
+    prt_accel_bounds(a, lo, hi);
+    prt_camera cam_default;
+    if (!c) prt_camera_default(lo, hi, &cam_default), c = &cam_default;
+    render_camera cam;
+    if ((st = render_camera_setup(c, w, h, &cam))) {
+        prt_image_free(img);
+        return st;
+    }
+
+    render_scene scene = {a, m, o.shade, 0, 0, 0, {0, 0, 0}, 0};
+    float diag = prt_v3_len(prt_v3_sub(prt_v3_load(hi), prt_v3_load(lo)));
+    if (!(diag > 0.0f) || !isfinite(diag)) diag = 1.0f;
+    scene.diag = diag;
+    /* 1e-4 of the diagonal: far above the rounding of a hit point (~1e-7 relative), far below
+     * any feature worth shading; the same offset as the benchmark's secondary rays. */
+    scene.offset = 1e-4f * diag;
+    scene.fd_step = 1e-4f * diag;
+    if (o.use_light)
+        scene.light = prt_v3_load(o.light);
+    else {
+        /* As bench_light_default: above, in front, to the left, 2.5 bounding radii out. */
+        prt_vec3 dir = prt_v3_norm(prt_v3(-0.5f, 1.0f, 0.6f));
+        prt_vec3 mid = prt_v3_scale(prt_v3_add(prt_v3_load(lo), prt_v3_load(hi)), 0.5f);
+        scene.light = prt_v3_add(mid, prt_v3_scale(dir, 1.25f * diag));
+    }
+    scene.ao_radius = o.ao_radius > 0.0f ? o.ao_radius : 0.15f * diag;
+    uint32_t spp = o.spp ? o.spp : (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI ? 16 : 1);
+
+    render_framebuffer fb;
+    if ((st = render_framebuffer_init(&fb, w, h, o.shade == PRT_SHADE_GI)) ||
+        (st = size_image(img, w, h))) {
+        render_framebuffer_free(&fb);
+        prt_image_free(img);
+        return st;
+    }
+
+    int threads = prt__threads(o.threads);
+    tile_job job = {&scene, &cam, &fb, spp, o.seed};
+    uint32_t tiles_x = (w + TILE - 1) / TILE, tiles_y = (h + TILE - 1) / TILE;
+    long tiles = (long)tiles_x * tiles_y, done = 0;
+    uint64_t rays = 0;
+#pragma omp parallel num_threads(threads)
+    {
+        /* Dynamic scheduling balances empty sky against busy tiles; the pixels do not care
+         * who renders them (per-pixel random streams), so the image does not change. */
+#pragma omp for schedule(dynamic, 1)
+        for (long t = 0; t < tiles; t++) {
+            uint64_t n = render_tile(&job, (uint32_t)(t % tiles_x), (uint32_t)(t / tiles_x));
+            long d;
+#pragma omp atomic update
+            rays += n;
+#pragma omp atomic capture
+            d = ++done;
+            /* Thread 0 is the caller: the callback never runs on a worker. */
+            if (o.progress && omp_get_thread_num() == 0)
+                o.progress(o.progress_user, (float)d / (float)tiles);
+        }
+    }
+    if (o.shade == PRT_SHADE_GI && o.denoise && (st = render_denoise(&fb, &cam, threads))) {
+        render_framebuffer_free(&fb);
+        prt_image_free(img);
+        return st;
+    }
+    render_framebuffer_resolve(&fb, o.shade, threads, img);
+    render_framebuffer_free(&fb);
+    if (o.progress) o.progress(o.progress_user, 1.0f);
+    img->rays = rays;
+    img->seconds = prt__now() - t0;
+    return PRT_OK;
+}

@@ -1,0 +1,135 @@
+/* Internals of the renderer (src/render/): the camera basis, the scene a tile shades,
+ * hit surfaces, per-sample shading, the float framebuffer and the a-trous filter.
+ * prt_render (render.c) ties them together; docs/render.md explains the choices. */
+#ifndef PRT_RENDER_RENDER_H
+#define PRT_RENDER_RENDER_H
+
+#include "core/common.h"
+#include "core/rng.h"
+#include "core/vec.h"
+
+/* ---- camera.c ------------------------------------------------------------------------- */
+
+/* A prt_camera prepared for one image size: an orthonormal basis and the image plane's
+ * half extents at distance 1. */
+typedef struct render_camera {
+    prt_vec3 eye, fwd, right, up;
+    float half_w, half_h; /* tan(fov_y / 2) x aspect, tan(fov_y / 2) */
+    uint32_t width, height;
+} render_camera;
+
+/* PRT_ERROR_ARGUMENT (with a message) for a non-finite camera, eye == target, up parallel
+ * to the view direction, or fov outside (0, 180). */
+prt_status render_camera_setup(const prt_camera *c, uint32_t width, uint32_t height,
+                               render_camera *out);
+
+/* The ray through image point (px, py) in pixels from the top-left corner (pixel (x, y)'s
+ * centre is (x + 0.5, y + 0.5)); dir normalised, tnear 0, tfar +inf. */
+void render_camera_ray(const render_camera *c, float px, float py, prt_ray *r);
+
+/* World size of one pixel at distance d from the eye (for the filter's position weights). */
+float render_camera_pixel_size(const render_camera *c, float d);
+
+/* ---- sampling (inline: called per sample) --------------------------------------------- */
+
+#define RENDER_PI 3.14159265358979323846f
+
+/* Random stream of pixel (x, y): depends on the seed and the pixel only, never on the
+ * thread or tile order, which is what makes images thread-count independent. */
+static inline prt_rng render_pixel_rng(uint64_t seed, uint32_t x, uint32_t y) {
+    uint64_t k = seed ^ (((uint64_t)y << 32 | x) * 0xD1B54A32D192ED03ull);
+    uint64_t s = prt_splitmix64(&k);
+    return prt_rng_seed(s, ((uint64_t)y << 32) | x);
+}
+
+/* Orthonormal basis around unit n (Duff et al. 2017, branchless). */
+static inline void render_onb(prt_vec3 n, prt_vec3 *t, prt_vec3 *b) {
+    float sign = copysignf(1.0f, n.z);
+    float a = -1.0f / (sign + n.z);
+    float c = n.x * n.y * a;
+    *t = prt_v3(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
+    *b = prt_v3(c, sign + n.y * n.y * a, -n.y);
+}
+
+/* Cosine-weighted direction about unit n (Malley's method: a uniform disk point lifted). */
+static inline prt_vec3 render_cosine_dir(prt_vec3 n, prt_rng *g) {
+    float r = sqrtf(prt_rng_float(g)), phi = 2.0f * RENDER_PI * prt_rng_float(g);
+    float x = r * cosf(phi), y = r * sinf(phi), z = sqrtf(prt_maxf(0.0f, 1.0f - x * x - y * y));
+    prt_vec3 t, b;
+    render_onb(n, &t, &b);
+    return prt_v3_add(prt_v3_add(prt_v3_scale(t, x), prt_v3_scale(b, y)), prt_v3_scale(n, z));
+}
+
+/* ---- surface.c ------------------------------------------------------------------------ */
+
+/* What a tile needs to shade: the accel, the optional mesh and the lighting set-up. */
+typedef struct render_scene {
+    const prt_accel *accel;
+    const prt_mesh *mesh; /* NULL: normals from finite differences */
+    prt_shade shade;
+    float diag;      /* bounds diagonal */
+    float offset;    /* secondary ray origins move this far along the normal */
+    float fd_step;   /* finite-difference offset between parallel rays (no mesh) */
+    prt_vec3 light;  /* point light (shadows, gi) */
+    float ao_radius; /* occlusion ray length (ao) */
+} render_scene;
+
+/* A hit point and the unit geometric normal turned toward the ray's origin side. */
+typedef struct render_surface {
+    prt_vec3 p, n;
+} render_surface;
+
+/* Surface of hit h of ray r (r as cast, tfar may have shrunk). With a mesh: the barycentric
+ * point and the triangle's normal. Without: org + t dir and a normal from parallel rays a
+ * small step beside r; *rays counts those extra rays. False for a miss (or a degenerate
+ * surface estimate), in which case the hit is shaded as background. */
+bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h,
+                       render_surface *out, uint64_t *rays);
+
+/* ---- shade.c -------------------------------------------------------------------------- */
+
+/* Linear radiance of one sample: `direct` is final; `indirect` (gi only) is the light
+ * arriving by the bounce, multiplied by the albedo when the pixel is composed (after the
+ * optional filter, which therefore sees no albedo). */
+typedef struct render_sample {
+    prt_vec3 direct, indirect;
+} render_sample;
+
+/* The grey albedo of every surface. */
+#define RENDER_ALBEDO 0.72f
+
+/* Shade camera ray r with hit h: fills *out, and *surf when the ray hit (return true). */
+bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt_rng *g,
+                  render_sample *out, render_surface *surf, uint64_t *rays);
+
+/* ---- framebuffer.c -------------------------------------------------------------------- */
+
+/* Per-pixel float averages of the samples. indirect, normal, position and coverage exist
+ * only for gi (NULL otherwise). */
+typedef struct render_framebuffer {
+    uint32_t width, height;
+    float *direct;   /* 3 per pixel */
+    float *indirect; /* 3 per pixel */
+    float *normal;   /* 3 per pixel: mean normal of the samples that hit */
+    float *position; /* 3 per pixel: mean hit point */
+    float *coverage; /* fraction of samples that hit */
+} render_framebuffer;
+
+prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height,
+                                   bool guides);
+void render_framebuffer_free(render_framebuffer *fb);
+
+/* Compose direct + albedo x indirect, encode (sRGB, except normal and ao, which show a
+ * normal's components and a visibility fraction as they are) and quantise into img
+ * (already sized). */
+void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
+                                prt_image *img);
+
+/* ---- denoise.c ------------------------------------------------------------------------ */
+
+/* Edge-avoiding a-trous filter (Dammertz et al. 2010) of fb->indirect, guided by
+ * fb->normal, fb->position and fb->coverage. Deterministic: each output pixel is a fixed
+ * weighted sum of the previous pass. PRT_ERROR_NOMEM when the scratch buffer fails. */
+prt_status render_denoise(render_framebuffer *fb, const render_camera *cam, int threads);
+
+#endif

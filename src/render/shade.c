@@ -1,0 +1,134 @@
+/* The shading modes (docs/render.md): one camera sample's radiance from its hit, with the
+ * secondary rays each mode needs (point-light shadows, occlusion, one diffuse bounce). */
+#include "render/render.h"
+
+#include <math.h>
+#include <stdio.h>
+
+static const char *const g_names[PRT_SHADE_COUNT] = {"normal", "diffuse", "shadows", "ao", "gi"};
+
+const char *prt_shade_name(prt_shade s) {
+    return (unsigned)s < PRT_SHADE_COUNT ? g_names[s] : "?";
+}
+
+prt_status prt_shade_parse(const char *name, prt_shade *out) {
+    for (int i = 0; name && i < PRT_SHADE_COUNT; i++)
+        if (!strcmp(name, g_names[i])) {
+            *out = (prt_shade)i;
+            return PRT_OK;
+        }
+    return prt__fail(PRT_ERROR_ARGUMENT,
+                     "unknown shading mode '%s' (normal, diffuse, shadows, ao, gi)",
+                     name ? name : "(null)");
+}
+
+/* Light colour (slightly warm) and the strength of the sky seen by gi bounces: together
+ * an upward-facing lit surface stays below 1 before clipping. */
+static const prt_vec3 g_light = {0.8f, 0.76f, 0.7f};
+#define SKY_STRENGTH 0.45f
+/* Light reaching faces turned away from the point light in `shadows` mode, which has no
+ * bounce to fill them in. */
+#define AMBIENT 0.12f
+
+/* Radiance of the sky that gi bounce rays find when they leave the scene (y up): blue
+ * overhead, pale at the horizon, dull ground below. */
+static prt_vec3 sky(prt_vec3 d) {
+    prt_vec3 zenith = {0.42f, 0.58f, 0.9f}, horizon = {0.86f, 0.89f, 0.93f},
+             ground = {0.32f, 0.3f, 0.28f};
+    float y = d.y / prt_maxf(prt_v3_len(d), 1e-30f);
+    prt_vec3 a = horizon, b = y >= 0.0f ? zenith : ground;
+    /* Below the horizon the ground colour arrives quickly; the sky deepens slowly upward. */
+    float t = y >= 0.0f ? sqrtf(y) : prt_minf(1.0f, -4.0f * y);
+    return prt_v3_scale(prt_v3_add(prt_v3_scale(a, 1.0f - t), prt_v3_scale(b, t)), SKY_STRENGTH);
+}
+
+/* What a camera ray that misses shows: a dark backdrop, lighter upward, against which the
+ * grey surfaces of every mode stand out (the gi sky would wash out a light model). */
+static prt_vec3 backdrop(prt_shade shade, prt_vec3 d) {
+    if (shade == PRT_SHADE_NORMAL) return prt_v3(0.08f, 0.08f, 0.08f);
+    float y = d.y / prt_maxf(prt_v3_len(d), 1e-30f);
+    float t = 0.5f + 0.5f * y;
+    return prt_v3(0.01f + 0.05f * t, 0.012f + 0.06f * t, 0.016f + 0.08f * t);
+}
+
+static prt_ray ray_from(prt_vec3 o, prt_vec3 d, float tfar) {
+    prt_ray r = {{o.x, o.y, o.z}, 0.0f, {d.x, d.y, d.z}, tfar};
+    return r;
+}
+
+/* Origin of a secondary ray: off the surface on the side the normal faces, so the ray
+ * cannot hit the triangle it leaves through rounding. */
+static prt_vec3 lift(const render_scene *s, const render_surface *f) {
+    return prt_v3_add(f->p, prt_v3_scale(f->n, s->offset));
+}
+
+/* cos(normal, light) when the point light sees the surface, else 0 (one any-hit ray). */
+static float light_visible_cos(const render_scene *s, const render_surface *f, uint64_t *rays) {
+    prt_vec3 o = lift(s, f);
+    prt_vec3 l = prt_v3_sub(s->light, o);
+    float dist = prt_v3_len(l);
+    if (!(dist > 0.0f)) return 0.0f;
+    l = prt_v3_scale(l, 1.0f / dist);
+    float c = prt_v3_dot(f->n, l);
+    if (c <= 0.0f) return 0.0f;
+    prt_ray sr = ray_from(o, l, dist);
+    (*rays)++;
+    return prt_occluded1(s->accel, &sr) ? 0.0f : c;
+}
+
+bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt_rng *g,
+                  render_sample *out, render_surface *surf, uint64_t *rays) {
+    prt_vec3 d = prt_v3_load(r->dir);
+    out->indirect = prt_v3(0.0f, 0.0f, 0.0f);
+    if (!render_surface_at(s, r, h, surf, rays)) {
+        out->direct = backdrop(s->shade, d);
+        return false;
+    }
+    const render_surface *f = surf;
+    switch (s->shade) {
+    case PRT_SHADE_NORMAL:
+        out->direct = prt_v3(0.5f + 0.5f * f->n.x, 0.5f + 0.5f * f->n.y, 0.5f + 0.5f * f->n.z);
+        break;
+    case PRT_SHADE_DIFFUSE: {
+        /* Light at the eye: the normal faces the ray, so cos is -n.d (d normalised). */
+        float c = -prt_v3_dot(f->n, d) / prt_v3_len(d);
+        float v = RENDER_ALBEDO * (0.1f + 0.9f * prt_maxf(0.0f, c));
+        out->direct = prt_v3(v, v, v);
+        break;
+    }
+    case PRT_SHADE_SHADOWS: {
+        float v = RENDER_ALBEDO * (AMBIENT + (1.0f - AMBIENT) * light_visible_cos(s, f, rays));
+        out->direct = prt_v3(v, v, v);
+        break;
+    }
+    case PRT_SHADE_AO: {
+        prt_ray ar = ray_from(lift(s, f), render_cosine_dir(f->n, g), s->ao_radius);
+        (*rays)++;
+        /* Cosine-weighted directions: the fraction of open rays estimates the cosine-weighted
+         * visibility integral directly, with no weights to apply. */
+        float v = prt_occluded1(s->accel, &ar) ? 0.0f : 1.0f;
+        out->direct = prt_v3(v, v, v);
+        break;
+    }
+    case PRT_SHADE_GI: {
+        out->direct = prt_v3_scale(g_light, RENDER_ALBEDO * light_visible_cos(s, f, rays));
+        /* One bounce: a cosine-weighted direction, so the arriving radiance needs no weight.
+         * What it finds is lit directly (light and shadow ray) but not bounced again; a miss
+         * brings the sky. */
+        prt_ray br = ray_from(lift(s, f), render_cosine_dir(f->n, g), INFINITY);
+        prt_hit bh;
+        prt_intersect1(s->accel, &br, &bh);
+        (*rays)++;
+        render_surface y;
+        if (render_surface_at(s, &br, &bh, &y, rays))
+            out->indirect = prt_v3_scale(g_light, RENDER_ALBEDO * light_visible_cos(s, &y, rays));
+        else
+            out->indirect = sky(prt_v3_load(br.dir));
+        break;
+    }
+    default:
+        out->direct = prt_v3(1.0f, 0.0f, 1.0f);
+        break;
+    }
+    return true;
+}

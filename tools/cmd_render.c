@@ -1,0 +1,326 @@
+/* packrt render FILE -r SPEC -o img.png: render a mesh or .prt file with one of the shading
+ * modes (prt_render), or --compare two representations pixel by pixel. */
+#include "cli.h"
+
+#include <ctype.h>
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define DEFAULT_SPEC "quad:float3-soa4"
+
+static int usage(void) {
+    printf(
+        "usage: packrt render MESH|FILE.prt [-r SPEC] -o img.png [options]\n"
+        "       packrt render MESH --compare SPEC1,SPEC2 -o img.png [options]\n"
+        "\n"
+        "Render with one of the shading modes (docs/render.md). The same command gives the same\n"
+        "image bit for bit, whatever --threads.\n"
+        "\n"
+        "  -r SPEC          representation to build MESH with (default " DEFAULT_SPEC ")\n"
+        "  -o FILE          output image: .png (libpng) or .ppm\n"
+        "  --mesh MESH      the mesh a FILE.prt was built from: exact normals; without it they\n"
+        "                   are estimated from neighbouring rays (slower, softer at creases)\n"
+        "  --shade MODE     normal | diffuse | shadows | ao | gi (default diffuse)\n"
+        "  --size WxH       image size (default 1024x768)\n"
+        "  --spp N          samples per pixel (default 1; ao and gi 16)\n"
+        "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov in degrees (default 40);\n"
+        "                   default: the framing of the bounds that packrt bench uses\n"
+        "  --up x,y,z       camera up (default 0,1,0)\n"
+        "  --light x,y,z    point light of shadows and gi (default: above, front, left)\n"
+        "  --ao-radius R    occlusion ray length (default 0.15 x bounds diagonal)\n"
+        "  --denoise        gi: a-trous filter on the indirect light\n"
+        "  --seed S         random seed (default 1)\n"
+        "  --threads N      threads (default all cores)\n"
+        "  --repeat N       render N times and report the median time (for measurements)\n"
+        "  --compare A,B    build MESH as A and as B, write FILE-A.png, FILE-B.png and "
+        "FILE-diff.png\n"
+        "                   and print the largest pixel difference (and PSNR when they differ);\n"
+        "                   lossless representations give identical images\n");
+    return 0;
+}
+
+/* Parse n floats separated by commas; returns how many were read (0 on junk). */
+static int parse_floats(const char *s, float *out, int max) {
+    int n = 0;
+    while (n < max) {
+        char *e;
+        double v = strtod(s, &e);
+        if (e == s || !isfinite(v)) return 0;
+        out[n++] = (float)v;
+        if (*e == 0) return n;
+        if (*e != ',') return 0;
+        s = e + 1;
+    }
+    return 0;
+}
+
+static bool parse_size(const char *s, uint32_t *w, uint32_t *h) {
+    char *e;
+    unsigned long a = strtoul(s, &e, 10);
+    if (e == s || (*e != 'x' && *e != 'X')) return false;
+    const char *t = e + 1;
+    unsigned long b = strtoul(t, &e, 10);
+    if (e == t || *e || !a || !b || a > 32768 || b > 32768) return false;
+    *w = (uint32_t)a, *h = (uint32_t)b;
+    return true;
+}
+
+/* Split "A,B" where A and B may carry their own ",key=value" options: a comma starts a new
+ * spec only when the text after it is not a key=value pair. */
+static bool split_specs(const char *s, char *a, char *b, size_t size) {
+    for (const char *c = strchr(s, ','); c; c = strchr(c + 1, ',')) {
+        size_t word = strcspn(c + 1, ",");
+        if (memchr(c + 1, '=', word)) continue;
+        size_t la = (size_t)(c - s);
+        if (!la || la >= size || strlen(c + 1) >= size || !c[1]) return false;
+        memcpy(a, s, la);
+        a[la] = 0;
+        strcpy(b, c + 1);
+        return true;
+    }
+    return false;
+}
+
+/* out = stem(path) + "-" + tag (non-file-name characters as '_') + extension(path). */
+static void derived_name(const char *path, const char *tag, char *out, size_t size) {
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    if (!dot || (slash && dot < slash)) dot = path + strlen(path);
+    char clean[160];
+    size_t n = 0;
+    for (const char *t = tag; *t && n + 1 < sizeof clean; t++)
+        clean[n++] = (isalnum((unsigned char)*t) || *t == '-' || *t == '.') ? *t : '_';
+    clean[n] = 0;
+    snprintf(out, size, "%.*s-%s%s", (int)(dot - path), path, clean, dot);
+}
+
+static bool ends_with(const char *s, const char *suffix) {
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && !strcasecmp(s + n - m, suffix);
+}
+
+static int save(const prt_image *img, const char *path) {
+    prt_status s =
+        ends_with(path, ".ppm") ? prt_image_save_ppm(img, path) : prt_image_save_png(img, path);
+    return s ? cli_fail("render", path, s) : 0;
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Render `repeat` times (the image is the same each time) and report the median. */
+static int render_timed(const prt_accel *a, const prt_mesh *m, const prt_camera *cam,
+                        prt_render_options *o, int repeat, prt_image *img, double *median_s) {
+    double t[64];
+    repeat = repeat < 1 ? 1 : repeat > 64 ? 64 : repeat;
+    for (int i = 0; i < repeat; i++) {
+        cli_progress bar;
+        cli_progress_begin(&bar, "rendering");
+        o->progress = cli_progress_callback, o->progress_user = &bar;
+        prt_status s = prt_render(a, m, cam, o, img);
+        cli_progress_end(&bar);
+        if (s) return cli_fail("render", "prt_render", s);
+        t[i] = img->seconds;
+    }
+    qsort(t, (size_t)repeat, sizeof t[0], cmp_double);
+    *median_s = repeat % 2 ? t[repeat / 2] : 0.5 * (t[repeat / 2 - 1] + t[repeat / 2]);
+    return 0;
+}
+
+static void report(const char *spec, const prt_render_options *o, const prt_image *img, double s,
+                   const char *path, int threads) {
+    printf("%-24s %ux%u %s spp %u, %d thread%s: %.3f s, %.2f Mrays/s (%.1f rays/pixel) -> %s\n",
+           spec, img->width, img->height, prt_shade_name(o->shade), o->spp, threads,
+           threads == 1 ? "" : "s", s, (double)img->rays / s * 1e-6,
+           (double)img->rays / ((double)img->width * img->height), path);
+}
+
+static int compare(const char *path, const char *mesh_path, const char *specs,
+                   const prt_camera *cam, prt_render_options *o, int repeat, const char *out,
+                   int threads) {
+    char spec[2][160];
+    if (!split_specs(specs, spec[0], spec[1], sizeof spec[0]))
+        return cli_usage("render", "--compare needs two specs: SPEC1,SPEC2 (got '%s')", specs);
+    const char *src = mesh_path ? mesh_path : path;
+    if (cli_is_prt_file(src))
+        return cli_usage("render",
+                         "--compare builds both representations: give a mesh, or --mesh MESH");
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(src, &m);
+    if (s) return cli_fail("render", src, s);
+    prt_image img[2] = {{0}, {0}};
+    int rc = 0;
+    for (int k = 0; k < 2 && !rc; k++) {
+        prt_accel *a;
+        cli_progress bar;
+        cli_progress_begin(&bar, "building");
+        prt_build_options bo = {0, cli_progress_callback, &bar};
+        s = prt_build(m, spec[k], &bo, &a);
+        cli_progress_end(&bar);
+        if (s) {
+            rc = cli_fail("render", spec[k], s);
+            break;
+        }
+        double t;
+        char name[1024];
+        derived_name(out, spec[k], name, sizeof name);
+        rc = render_timed(a, m, cam, o, repeat, &img[k], &t);
+        if (!rc) rc = save(&img[k], name);
+        if (!rc) report(spec[k], o, &img[k], t, name, threads);
+        prt_accel_free(a);
+    }
+    if (!rc) {
+        int largest;
+        size_t differing;
+        double psnr;
+        prt_image diff = {0};
+        char name[1024];
+        derived_name(out, "diff", name, sizeof name);
+        s = prt_image_compare(&img[0], &img[1], &largest, &differing, &psnr, &diff);
+        if (s)
+            rc = cli_fail("render", "compare", s);
+        else
+            rc = save(&diff, name);
+        if (!rc) {
+            printf("%-24s -> %s\n", "difference", name);
+            printf("largest pixel difference: %d of 255, %zu of %zu pixels differ", largest,
+                   differing, (size_t)img[0].width * img[0].height);
+            if (largest)
+                printf(", PSNR %.2f dB\n", psnr);
+            else
+                printf(": identical\n");
+        }
+        prt_image_free(&diff);
+    }
+    prt_image_free(&img[0]);
+    prt_image_free(&img[1]);
+    prt_mesh_free(m);
+    return rc;
+}
+
+int cmd_render(int argc, char **argv) {
+    const char *path = NULL, *spec = NULL, *out = NULL, *mesh_path = NULL, *compare_specs = NULL;
+    prt_render_options o = {0};
+    o.width = 1024, o.height = 768, o.shade = PRT_SHADE_DIFFUSE, o.seed = 1;
+    float cam_v[7], up[3] = {0, 1, 0};
+    int cam_n = 0, repeat = 1;
+    bool have_up = false;
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) return usage();
+        if (!strcmp(arg, "--denoise")) {
+            o.denoise = true;
+            continue;
+        }
+        if (arg[0] == '-' && !val) return cli_usage("render", "%s needs a value", arg);
+        if (!strcmp(arg, "-r"))
+            spec = val;
+        else if (!strcmp(arg, "-o"))
+            out = val;
+        else if (!strcmp(arg, "--mesh"))
+            mesh_path = val;
+        else if (!strcmp(arg, "--compare"))
+            compare_specs = val;
+        else if (!strcmp(arg, "--shade")) {
+            if (prt_shade_parse(val, &o.shade)) return cli_usage("render", "%s", prt_last_error());
+        } else if (!strcmp(arg, "--size")) {
+            if (!parse_size(val, &o.width, &o.height))
+                return cli_usage("render", "--size wants WxH, e.g. 1024x768 (got '%s')", val);
+        } else if (!strcmp(arg, "--spp")) {
+            size_t n;
+            if (!cli_parse_count(val, &n) || !n || n > 65536)
+                return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
+            o.spp = (uint32_t)n;
+        } else if (!strcmp(arg, "--camera")) {
+            cam_n = parse_floats(val, cam_v, 7);
+            if (cam_n != 6 && cam_n != 7)
+                return cli_usage("render", "--camera wants ex,ey,ez,tx,ty,tz[,fov] (got '%s')",
+                                 val);
+        } else if (!strcmp(arg, "--up")) {
+            if (parse_floats(val, up, 3) != 3)
+                return cli_usage("render", "--up wants x,y,z (got '%s')", val);
+            have_up = true;
+        } else if (!strcmp(arg, "--light")) {
+            if (parse_floats(val, o.light, 3) != 3)
+                return cli_usage("render", "--light wants x,y,z (got '%s')", val);
+            o.use_light = true;
+        } else if (!strcmp(arg, "--ao-radius")) {
+            if (parse_floats(val, &o.ao_radius, 1) != 1 || !(o.ao_radius > 0))
+                return cli_usage("render", "--ao-radius wants a positive length (got '%s')", val);
+        } else if (!strcmp(arg, "--seed")) {
+            char *e;
+            o.seed = strtoull(val, &e, 10);
+            if (e == val || *e)
+                return cli_usage("render", "--seed wants an unsigned integer (got '%s')", val);
+        } else if (!strcmp(arg, "--threads")) {
+            o.threads = atoi(val);
+            if (o.threads < 0)
+                return cli_usage("render", "--threads wants 0 (all) or more (got '%s')", val);
+        } else if (!strcmp(arg, "--repeat")) {
+            repeat = atoi(val);
+            if (repeat < 1 || repeat > 64)
+                return cli_usage("render", "--repeat wants 1..64 (got '%s')", val);
+        } else if (arg[0] == '-')
+            return cli_usage("render", "unknown option '%s'", arg);
+        else if (!path) {
+            path = arg;
+            continue;
+        } else
+            return cli_usage("render", "more than one input given ('%s')", arg);
+        i++;
+    }
+    if (!path || !out) return cli_usage("render", "needs FILE and -o img.png");
+    if (!ends_with(out, ".ppm") && !prt_image_png_supported())
+        return cli_usage("render", "this build has no libpng: write a .ppm (-o img.ppm)");
+    if (!o.spp) o.spp = (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI) ? 16 : 1;
+    int threads = o.threads;
+    if (!threads) {
+        /* What prt_render will use, for the report line. */
+        threads = omp_get_max_threads();
+    }
+
+    prt_camera cam, *camp = NULL;
+    if (cam_n) {
+        memcpy(cam.eye, cam_v, sizeof cam.eye);
+        memcpy(cam.target, cam_v + 3, sizeof cam.target);
+        memcpy(cam.up, up, sizeof up);
+        cam.fov_y_deg = cam_n == 7 ? cam_v[6] : 40.0f;
+        camp = &cam;
+    } else if (have_up)
+        return cli_usage("render", "--up goes with --camera");
+
+    if (compare_specs)
+        return compare(path, mesh_path, compare_specs, camp, &o, repeat, out, threads);
+
+    prt_mesh *m = NULL;
+    prt_accel *a;
+    int rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a);
+    if (rc) return rc;
+    if (mesh_path && !m) {
+        prt_status s = prt_mesh_load(mesh_path, &m);
+        if (s) {
+            prt_accel_free(a);
+            return cli_fail("render", mesh_path, s);
+        }
+    } else if (mesh_path) {
+        fprintf(stderr, "packrt render: --mesh is for .prt input; %s is a mesh already\n", path);
+    } else if (!m) {
+        fprintf(stderr,
+                "packrt render: note: %s has no mesh: normals are estimated from neighbouring "
+                "rays (give --mesh MESH for exact ones)\n",
+                path);
+    }
+    prt_image img = {0};
+    double t;
+    rc = render_timed(a, m, camp, &o, repeat, &img, &t);
+    if (!rc) rc = save(&img, out);
+    if (!rc) report(prt_accel_spec(a), &o, &img, t, out, threads);
+    prt_image_free(&img);
+    prt_accel_free(a);
+    prt_mesh_free(m);
+    return rc;
+}
