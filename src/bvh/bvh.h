@@ -16,8 +16,8 @@ typedef struct bvh_blob {
     uint32_t depth;
 } bvh_blob;
 
-typedef void (*bvh_intersect_fn)(const uint8_t *blob, prt_ray *r, prt_hit *h);
-typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const prt_ray *r);
+typedef void (*bvh_intersect_fn)(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
+typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
 
 typedef struct bvh_layout {
     const char *name;
@@ -25,8 +25,9 @@ typedef struct bvh_layout {
     int default_leaf[BVH_CODEC_COUNT]; /* leaf size when the spec gives none */
     /* Encode t with codec c over mesh m into out (out->data from prt__alloc). */
     prt_status (*encode)(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out);
-    /* Check a loaded blob so traversal can never leave it or loop: PRT_ERROR_CORRUPT. */
-    prt_status (*validate)(const bvh_blob *b, const bvh_codec *c);
+    /* Check a loaded blob so traversal can never leave it or loop, and every leaf with the
+     * codec's leaf_valid: PRT_ERROR_CORRUPT. */
+    prt_status (*validate)(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh);
     struct {
         bvh_intersect_fn intersect1;
         bvh_occluded_fn occluded1;

@@ -15,6 +15,7 @@ typedef struct bvh_accel {
     const bvh_layout *layout;
     int codec;
     bvh_blob blob;
+    bvh_shared shared; /* the codec's tree-wide data (vertex buffer), or empty */
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
@@ -66,18 +67,18 @@ static bool bvh_name_at(size_t i, const char **name, const char **desc) {
 
 static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     const bvh_accel *b = (const bvh_accel *)a;
-    b->intersect1(b->blob.data, r, h);
+    b->intersect1(b->blob.data, &b->shared, r, h);
 }
 
 static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
     const bvh_accel *b = (const bvh_accel *)a;
-    return b->occluded1(b->blob.data, r);
+    return b->occluded1(b->blob.data, &b->shared, r);
 }
 
 static void bvh_stats(const prt_accel *a, prt_stats *s) {
     const bvh_accel *b = (const bvh_accel *)a;
     s->bytes_tree = b->blob.bytes_tree;
-    s->bytes_geometry = b->blob.bytes_geometry;
+    s->bytes_geometry = b->blob.bytes_geometry + b->shared.size;
     s->bytes_other = sizeof(bvh_accel);
     s->nodes = b->blob.nodes;
     s->leaves = b->blob.leaves;
@@ -86,7 +87,10 @@ static void bvh_stats(const prt_accel *a, prt_stats *s) {
 
 static void bvh_destroy(prt_accel *a) {
     bvh_accel *b = (bvh_accel *)a;
-    if (b->owns_blob) prt__free(b->blob.data);
+    if (b->owns_blob) {
+        prt__free(b->blob.data);
+        prt__free((void *)b->shared.data);
+    }
     prt__free(b);
 }
 
@@ -149,14 +153,19 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         bvh_tree_free(&tree);
         return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     }
-    s = b->layout->encode(&tree, c, m, &b->blob);
+    b->owns_blob = true;
+    if (c->shared_build) {
+        uint8_t *data = NULL;
+        s = c->shared_build(m, &data, &b->shared.size);
+        b->shared.data = data;
+    }
+    if (!s) s = b->layout->encode(&tree, c, m, &b->blob);
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
     bvh_tree_free(&tree);
     if (s) {
-        prt__free(b);
+        bvh_destroy(&b->base);
         return s;
     }
-    b->owns_blob = true;
     b->base.ops = &prt__bvh_ops;
     b->base.triangles_built = n;
     *out = &b->base;
@@ -168,7 +177,9 @@ static prt_status bvh_save(const prt_accel *a, prt_writer *w) {
     bvh_meta meta = {b->blob.size, b->blob.bytes_tree, b->blob.bytes_geometry, b->blob.nodes, b->blob.leaves,
                      b->blob.depth, 0, 0, {0}};
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
-    return s ? s : prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), b->blob.data, b->blob.size);
+    if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), b->blob.data, b->blob.size);
+    if (!s && b->shared.size) s = prt__writer_section(w, PRT_FOURCC('S', 'H', 'R', 'D'), b->shared.data, b->shared.size);
+    return s;
 }
 
 static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
@@ -184,10 +195,17 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (meta.blob_size != size || meta.bytes_tree > size || meta.bytes_geometry != size - meta.bytes_tree ||
         meta.depth > BVH_MAX_DEPTH || meta.depth == 0)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section disagrees with its BLOB");
+    bvh_shared shared = {NULL, 0};
+    if (bvh_codecs[codec].shared_build) {
+        const void *sd;
+        if ((s = prt__reader_section(r, PRT_FOURCC('S', 'H', 'R', 'D'), 1, &sd, &shared.size))) return s;
+        shared.data = sd;
+    }
     bvh_accel *b = bvh_new(layout, codec);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
-    if ((s = b->layout->validate(&b->blob, &bvh_codecs[codec]))) {
+    b->shared = shared;
+    if ((s = b->layout->validate(&b->blob, &bvh_codecs[codec], &b->shared))) {
         prt__free(b);
         return s;
     }

@@ -5,7 +5,10 @@
  * need, where an indirect call costs nothing.
  *
  * Adding a codec: codecs/<name>.h, one line in BVH_CODECS below, one include in
- * codecs/codecs.h and two lines in layouts/instantiate.inc. */
+ * codecs/codecs.h and two lines in layouts/instantiate.inc. A codec header defines
+ * <name>_block, <name>_align, <name>_leaf_bytes, <name>_encode, <name>_ray (per-ray state),
+ * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded, and
+ * <name>_shared_build / <name>_leaf_valid as NULL-able macros or functions. */
 #ifndef PRT_BVH_CODECS_CODEC_H
 #define PRT_BVH_CODECS_CODEC_H
 
@@ -15,7 +18,8 @@
 #define BVH_CODECS(X)                                                                                 \
     X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle")       \
     X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test") \
-    X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test")
+    X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test") \
+    X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,
@@ -23,6 +27,13 @@ typedef enum bvh_codec_id {
 #undef X
     BVH_CODEC_COUNT
 } bvh_codec_id;
+
+/* Data a codec keeps for the whole tree (Indexed codecs: the vertex buffer), saved as its
+ * own section and handed to every ray's kernels. size 0: none. */
+typedef struct bvh_shared {
+    const uint8_t *data;
+    size_t size;
+} bvh_shared;
 
 typedef struct bvh_codec {
     const char *name;
@@ -32,6 +43,11 @@ typedef struct bvh_codec {
     size_t (*leaf_bytes)(uint32_t count);
     /* Write count triangles (ids into m) to dst, which has leaf_bytes(count) bytes. */
     void (*encode)(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, uint32_t count);
+    /* Build the shared data (prt__alloc'ed) for mesh m; NULL when the codec has none. */
+    prt_status (*shared_build)(const prt_mesh *m, uint8_t **data, size_t *size);
+    /* Loading: true when a leaf only references what exists (e.g. vertex indices inside
+     * the shared buffer). NULL when a leaf cannot reference anything outside itself. */
+    bool (*leaf_valid)(const uint8_t *leaf, uint32_t count, const bvh_shared *shared);
 } bvh_codec;
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];

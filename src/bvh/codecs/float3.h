@@ -4,6 +4,7 @@
 #ifndef PRT_BVH_CODECS_FLOAT3_H
 #define PRT_BVH_CODECS_FLOAT3_H
 
+#include "bvh/codecs/codec.h"
 #include "geom/triangle.h"
 
 #define FLOAT3_TRI_BYTES 40
@@ -23,7 +24,9 @@ static inline void float3_encode(uint8_t *dst, const prt_mesh *m, const uint32_t
     }
 }
 
-static inline void float3_ray_init(float3_ray *c, const prt__rayx *r) { (void)c, (void)r; }
+static inline void float3_ray_init(float3_ray *c, const prt__rayx *r, const bvh_shared *sh) { (void)c, (void)r, (void)sh; }
+#define float3_shared_build NULL
+#define float3_leaf_valid NULL
 
 PRT_INLINE void float3_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const float3_ray *c,
                                  prt__hitx *h) {

@@ -3,6 +3,7 @@
 #ifndef PRT_BVH_CODECS_FLOAT3_SOA4_H
 #define PRT_BVH_CODECS_FLOAT3_SOA4_H
 
+#include "bvh/codecs/codec.h"
 #include "geom/triangle.h"
 
 #include <math.h>
@@ -10,5 +11,7 @@
 #define SOA_W 4
 #include "bvh/codecs/float3_soa.inc"
 #undef SOA_W
+#define float3_soa4_shared_build NULL
+#define float3_soa4_leaf_valid NULL
 
 #endif

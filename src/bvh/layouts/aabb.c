@@ -81,7 +81,8 @@ static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_m
 /* Walks the tree checking that it tiles the blob exactly: every second child starts where
  * the first child's subtree ends, so the walk is linear and traversal can never leave the
  * blob or loop. Returns the end offset, or 0 on corruption. */
-static size_t check_node(const bvh_blob *b, const bvh_codec *c, size_t o, uint32_t depth, uint64_t *nodes) {
+static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, size_t o, uint32_t depth,
+                         uint64_t *nodes) {
     if (depth > BVH_MAX_DEPTH || o > b->size || b->size - o < AABB_NODE_BYTES) return 0;
     ++*nodes;
     uint32_t props = aabb_props(b->data + o);
@@ -90,16 +91,17 @@ static size_t check_node(const bvh_blob *b, const bvh_codec *c, size_t o, uint32
         if (n == 0 || n > BVH_MAX_LEAF) return 0;
         size_t bytes = c->leaf_bytes(n);
         if (b->size - o - AABB_NODE_BYTES < bytes) return 0;
+        if (c->leaf_valid && !c->leaf_valid(b->data + o + AABB_NODE_BYTES, n, sh)) return 0;
         return o + AABB_NODE_BYTES + bytes;
     }
-    size_t right = check_node(b, c, o + AABB_NODE_BYTES, depth + 1, nodes);
+    size_t right = check_node(b, c, sh, o + AABB_NODE_BYTES, depth + 1, nodes);
     if (!right || right != o + 4 * (size_t)props) return 0;
-    return check_node(b, c, right, depth + 1, nodes);
+    return check_node(b, c, sh, right, depth + 1, nodes);
 }
 
-static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c) {
+static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {
     uint64_t nodes = 0;
-    if (check_node(b, c, 0, 1, &nodes) != b->size || nodes != b->nodes)
+    if (check_node(b, c, sh, 0, 1, &nodes) != b->size || nodes != b->nodes)
         return prt__fail(PRT_ERROR_CORRUPT, "aabb tree structure is inconsistent with its size");
     return PRT_OK;
 }
@@ -107,7 +109,7 @@ static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c) {
 const bvh_layout bvh_layout_aabb = {
     "aabb",
     "AABBTree (Rouwe 5.1): 28-byte binary nodes, depth first, triangles after their leaf",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8},
+    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32_soa4] = 8},
     aabb_encode,
     aabb_validate,
     {

@@ -129,7 +129,7 @@ static prt_status quad_encode(const bvh_tree *t, const bvh_codec *c, const prt_m
 /* Every node referenced exactly once by an earlier node, every leaf inside the geometry
  * range, depth bounded: traversal can then neither leave the blob, loop, nor overflow
  * its stack. */
-static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c) {
+static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {
     size_t count = b->bytes_tree / sizeof(quad_node);
     if (count == 0 || b->bytes_tree % sizeof(quad_node) || b->bytes_tree > b->size || count != b->nodes)
         return prt__fail(PRT_ERROR_CORRUPT, "quad tree: node range inconsistent with its size");
@@ -142,10 +142,19 @@ static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c) {
         const quad_node *n = (const quad_node *)(b->data + q * sizeof(quad_node));
         for (int i = 0; i < 4 && !s; i++) {
             uint64_t ref = n->child[i];
+            /* No NaN anywhere: SIMD min/max pass NaNs on, which could make an empty slot's
+             * box hit and send a ray to "node 0" again, forever (found by fuzz_prt). */
+            bool nan = false;
+            for (int k = 0; k < 6; k++) nan |= isnan(n->box[4 * k + i]);
+            if (nan) {
+                s = prt__fail(PRT_ERROR_CORRUPT, "quad tree: node %zu has a NaN box", q);
+                continue;
+            }
             if (ref == 0) {
-                /* An empty slot must have the empty box, or a ray would enter "node 0". */
-                if (n->box[i] != INFINITY || n->box[4 + i] != -INFINITY)
-                    s = prt__fail(PRT_ERROR_CORRUPT, "quad tree: node %zu has an empty slot with a box", q);
+                /* An empty slot must have the empty box on every axis. */
+                for (int k = 0; k < 3; k++)
+                    if (n->box[8 * k + i] != INFINITY || n->box[8 * k + 4 + i] != -INFINITY)
+                        s = prt__fail(PRT_ERROR_CORRUPT, "quad tree: node %zu has an empty slot with a box", q);
                 continue;
             }
             uint64_t off = ref & QUAD_OFFSET_MASK;
@@ -154,6 +163,8 @@ static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c) {
                 if (k == 0 || k > BVH_MAX_LEAF || off < b->bytes_tree || off % c->align || off > b->size ||
                     b->size - off < c->leaf_bytes(k))
                     s = prt__fail(PRT_ERROR_CORRUPT, "quad tree: node %zu has a bad leaf reference", q);
+                else if (c->leaf_valid && !c->leaf_valid(b->data + off, k, sh))
+                    s = prt__fail(PRT_ERROR_CORRUPT, "quad tree: node %zu has a leaf referencing outside the file", q);
                 continue;
             }
             size_t child = off / sizeof(quad_node);
@@ -170,7 +181,7 @@ static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c) {
 const bvh_layout bvh_layout_quad = {
     "quad",
     "QuadTree (Rouwe 5.6): 4-wide 128-byte nodes, SIMD box test, nearest child first",
-    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8},
+    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32_soa4] = 8},
     quad_encode,
     quad_validate,
     {
