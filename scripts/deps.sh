@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Installs the Debian packages packrt needs (see README "Dependencies"). Skips apt
 # entirely when everything is already there; otherwise runs apt-get update first.
-# Usage: scripts/deps.sh [--test]   (--test adds clang for the libFuzzer targets)
+# Usage: scripts/deps.sh [--test]   (--test adds clang for the libFuzzer targets and Xvfb
+# for the headless viewer test)
 set -euo pipefail
-pkgs=(cmake make gcc pkg-config zlib1g-dev libembree-dev libpng-dev)
-if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev); fi
+pkgs=(cmake make gcc pkg-config zlib1g-dev libembree-dev libpng-dev libsdl2-dev)
+if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev xvfb xauth); fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

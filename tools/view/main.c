@@ -1,0 +1,393 @@
+/* packrt-view FILE [-r SPEC]: the interactive viewer. Opens a mesh or .prt file, flies a
+ * camera through it with prt_render, lowers the resolution while moving and refines when
+ * still; --frames N --screenshot F.png runs headless (e.g. under Xvfb) for tests. */
+#include "cli.h"
+#include "view.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define DEFAULT_SPEC "quad:float3-soa4"
+/* While moving, the resolution scale follows the frame time toward this target. */
+#define TARGET_FRAME_S (1.0 / 20.0)
+#define MIN_SCALE 0.1f
+
+typedef struct viewer {
+    prt_mesh *mesh; /* NULL for a .prt file given alone: no representation switching */
+    prt_accel *accel;
+    size_t repr; /* index into prt_repr_count() of the current representation, if known */
+    prt_stats stats;
+    float diag;
+    view_fly fly;
+    prt_shade shade;
+    uint32_t spp_still; /* samples of the refined frame in ao and gi */
+    int threads;
+    float scale; /* resolution scale while moving */
+    int refine;  /* 0: moving (scaled, 1 spp), 1: full size 1 spp, 2: full size full spp */
+    bool dirty;  /* the view changed since the last frame */
+    prt_image img;
+    double frame_s, fps, mrays;
+    int shots;
+    char status[160]; /* a transient message (screenshots, errors) */
+} viewer;
+
+static int usage(void) {
+    printf("usage: packrt-view MESH|FILE.prt [-r SPEC] [--mesh MESH] [--size WxH] [--shade MODE]\n"
+           "                   [--spp N] [--threads N] [--frames N] [--screenshot F.png]\n"
+           "\n"
+           "Fly through a mesh rendered by prt_render (docs/render.md).\n"
+           "  W A S D      move          Q E / PgDn PgUp   down, up      Shift  4x faster\n"
+           "  mouse drag   look around   wheel             speed\n"
+           "  1..5         shading: normal, diffuse, shadows, ao, gi\n"
+           "  Tab          next representation (rebuilds the mesh; not for a .prt without --mesh)\n"
+           "  F12 or P     screenshot to packrt-view-N.png (the rendered frame; with Shift: the\n"
+           "               window, HUD included)\n"
+           "  H            hide or show the help   Esc  quit\n"
+           "  --frames N   render N frames and exit; runs headless under Xvfb. With\n"
+           "               --screenshot F.png the last rendered frame is saved, with\n"
+           "               --screenshot-window F.png the window (HUD included)\n");
+    return 0;
+}
+
+static bool parse_size(const char *s, int *w, int *h) {
+    return sscanf(s, "%dx%d", w, h) == 2 && *w >= 16 && *h >= 16 && *w <= 8192 && *h <= 8192;
+}
+
+/* Index of the registered representation the accel's canonical spec starts with. */
+static size_t repr_index_of(const prt_accel *a) {
+    const char *spec = prt_accel_spec(a);
+    for (size_t i = 0; i < prt_repr_count(); i++) {
+        const char *n = prt_repr_name(i);
+        size_t len = strlen(n);
+        if (!strncmp(spec, n, len) && (spec[len] == 0 || spec[len] == ',')) return i;
+    }
+    return 0;
+}
+
+static bool save_screenshot(viewer *v, const char *path) {
+    size_t n = strlen(path);
+    bool ppm = n > 4 && !strcasecmp(path + n - 4, ".ppm");
+    prt_status s = ppm ? prt_image_save_ppm(&v->img, path) : prt_image_save_png(&v->img, path);
+    if (s)
+        snprintf(v->status, sizeof v->status, "screenshot failed: %s", prt_last_error());
+    else
+        snprintf(v->status, sizeof v->status, "saved %s (%ux%u)", path, v->img.width,
+                 v->img.height);
+    fprintf(stderr, "packrt-view: %s\n", v->status);
+    return s == PRT_OK;
+}
+
+/* What the window shows, HUD included: read back before SDL_RenderPresent. */
+static bool save_window(viewer *v, SDL_Renderer *r, const char *path) {
+    int w, h;
+    SDL_GetRendererOutputSize(r, &w, &h);
+    /* Owned here (malloc/free), not by packrt: only prt_image_save_* read it. */
+    prt_image shot = {(uint32_t)w, (uint32_t)h, malloc((size_t)w * h * 3), 0, 0};
+    bool ok =
+        shot.rgb && SDL_RenderReadPixels(r, NULL, SDL_PIXELFORMAT_RGB24, shot.rgb, 3 * w) == 0;
+    if (ok) {
+        prt_image keep = v->img;
+        v->img = shot;
+        ok = save_screenshot(v, path);
+        v->img = keep;
+    } else
+        snprintf(v->status, sizeof v->status, "window capture failed: %s", SDL_GetError());
+    free(shot.rgb);
+    return ok;
+}
+
+static void draw_hud(SDL_Renderer *r, const viewer *v, bool help) {
+    char l[4][160];
+    const char *lines[4] = {l[0], l[1], l[2], l[3]};
+    snprintf(l[0], sizeof l[0], "%s  [%s]%s", prt_accel_spec(v->accel), prt_shade_name(v->shade),
+             v->mesh ? "" : "  (.prt alone: normals estimated)");
+    /* fps counts frames drawn (none while a refined view stands still); the frame time is
+     * what the last frame cost. */
+    snprintf(l[1], sizeof l[1], "%5.1f fps  frame %.0f ms  %6.2f Mrays/s  %ux%u (scale %.2f)  %s",
+             v->fps, v->frame_s * 1e3, v->mrays, v->img.width, v->img.height,
+             v->refine ? 1.0 : v->scale,
+             v->refine == 2   ? "refined"
+             : v->refine == 1 ? "refining"
+                              : "moving");
+    size_t ws;
+    prt_memory_usage(&ws, NULL);
+    double tris = (double)(v->stats.triangles ? v->stats.triangles : 1);
+    snprintf(l[2], sizeof l[2],
+             "%.1f B/tri (tree %.1f, geometry %.1f)  %zu tris  packrt memory %.1f MB",
+             (double)(v->stats.bytes_tree + v->stats.bytes_geometry + v->stats.bytes_other) / tris,
+             (double)v->stats.bytes_tree / tris, (double)v->stats.bytes_geometry / tris,
+             v->stats.triangles, (double)ws / 1048576.0);
+    snprintf(l[3], sizeof l[3], "%s", v->status);
+    view_hud_draw(r, lines, v->status[0] ? 4 : 3, false);
+    if (help) {
+        const char *keys[] = {
+            "WASD QE move  mouse drag look  wheel speed  shift fast",
+            "1-5 shading  Tab representation  F12/P screenshot  H help  Esc quit"};
+        view_hud_draw(r, keys, 2, true);
+    }
+}
+
+/* Rebuild the mesh as the next registered representation (blocking; the HUD says so). */
+static void next_representation(viewer *v, SDL_Renderer *r) {
+    if (!v->mesh) {
+        snprintf(v->status, sizeof v->status,
+                 "a .prt file holds one representation: give --mesh to switch");
+        return;
+    }
+    size_t next = (v->repr + 1) % prt_repr_count();
+    snprintf(v->status, sizeof v->status, "building %s ...", prt_repr_name(next));
+    draw_hud(r, v, false);
+    SDL_RenderPresent(r);
+    prt_accel *a;
+    prt_status s = prt_build(v->mesh, prt_repr_name(next), NULL, &a);
+    if (s) {
+        snprintf(v->status, sizeof v->status, "%s: %s", prt_repr_name(next), prt_last_error());
+        return;
+    }
+    prt_accel_free(v->accel);
+    v->accel = a;
+    v->repr = next;
+    prt_accel_stats(a, &v->stats);
+    snprintf(v->status, sizeof v->status, "built %s in %.2f s", prt_repr_name(next),
+             v->stats.build_seconds);
+    v->dirty = true;
+}
+
+/* Render one frame at the current refinement level into v->img. */
+static int render_frame(viewer *v, int win_w, int win_h) {
+    float scale = v->refine ? 1.0f : v->scale;
+    prt_render_options o = {0};
+    o.width = (uint32_t)fmaxf(16.0f, roundf((float)win_w * scale));
+    o.height = (uint32_t)fmaxf(16.0f, roundf((float)win_h * scale));
+    o.shade = v->shade;
+    o.spp =
+        v->refine == 2 && (v->shade == PRT_SHADE_AO || v->shade == PRT_SHADE_GI) ? v->spp_still : 1;
+    o.denoise = true;
+    o.threads = v->threads;
+    o.seed = 1;
+    prt_camera cam;
+    view_fly_camera(&v->fly, &cam);
+    prt_status s = prt_render(v->accel, v->mesh, &cam, &o, &v->img);
+    if (s) return cli_fail("view", "render", s);
+    v->frame_s = v->img.seconds;
+    v->mrays = (double)v->img.rays / fmax(v->img.seconds, 1e-9) * 1e-6;
+    if (!v->refine) {
+        /* Area scales with scale^2: one square-root step toward the target frame time,
+         * bounded so one slow frame cannot collapse the resolution. */
+        float k = sqrtf((float)(TARGET_FRAME_S / fmax(v->frame_s, 1e-4)));
+        v->scale = fminf(1.0f, fmaxf(MIN_SCALE, v->scale * fminf(1.5f, fmaxf(0.5f, k))));
+    }
+    return 0;
+}
+
+static int run(viewer *v, int win_w, int win_h, long frames, const char *screenshot,
+               const char *window_shot) {
+    /* Offscreen runs need no vsync or acceleration; software rendering works on Xvfb. */
+    SDL_SetHint(SDL_HINT_RENDER_SCALE_QUALITY, "1");
+    if (SDL_Init(SDL_INIT_VIDEO) != 0) {
+        fprintf(stderr, "packrt-view: cannot open a display: %s\n", SDL_GetError());
+        return 1;
+    }
+    SDL_Window *win = SDL_CreateWindow("packrt-view", SDL_WINDOWPOS_CENTERED,
+                                       SDL_WINDOWPOS_CENTERED, win_w, win_h, SDL_WINDOW_RESIZABLE);
+    SDL_Renderer *r = win ? SDL_CreateRenderer(win, -1, 0) : NULL;
+    if (!r) {
+        fprintf(stderr, "packrt-view: cannot create a window: %s\n", SDL_GetError());
+        if (win) SDL_DestroyWindow(win);
+        SDL_Quit();
+        return 1;
+    }
+    SDL_Texture *tex = NULL;
+    uint32_t tex_w = 0, tex_h = 0;
+    bool running = true, help = true, dragging = false;
+    char *want_window_shot = NULL; /* Shift+F12: captured after this frame's HUD is drawn */
+    long drawn = 0;
+    int rc = 0;
+    uint64_t last = SDL_GetPerformanceCounter();
+    double freq = (double)SDL_GetPerformanceFrequency(), fps_time = 0;
+    int fps_frames = 0;
+    v->dirty = true;
+    while (running) {
+        uint64_t now = SDL_GetPerformanceCounter();
+        float dt = (float)((double)(now - last) / freq);
+        last = now;
+        bool moved = false;
+        SDL_Event e;
+        while (SDL_PollEvent(&e)) {
+            if (e.type == SDL_QUIT)
+                running = false;
+            else if (e.type == SDL_KEYDOWN) {
+                SDL_Keycode k = e.key.keysym.sym;
+                if (k == SDLK_ESCAPE)
+                    running = false;
+                else if (k >= SDLK_1 && k <= SDLK_5)
+                    v->shade = (prt_shade)(k - SDLK_1), v->dirty = true;
+                else if (k == SDLK_TAB)
+                    next_representation(v, r);
+                else if (k == SDLK_F12 || k == SDLK_p) {
+                    char name[64];
+                    snprintf(name, sizeof name, "packrt-view-%d.png", ++v->shots);
+                    if (e.key.keysym.mod & KMOD_SHIFT)
+                        want_window_shot = strdup(name);
+                    else
+                        save_screenshot(v, name);
+                } else if (k == SDLK_h)
+                    help = !help;
+            } else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) {
+                dragging = true;
+                SDL_SetRelativeMouseMode(SDL_TRUE);
+            } else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) {
+                dragging = false;
+                SDL_SetRelativeMouseMode(SDL_FALSE);
+            } else if (e.type == SDL_MOUSEMOTION && dragging) {
+                view_fly_look(&v->fly, (float)e.motion.xrel, (float)e.motion.yrel);
+                moved = true;
+            } else if (e.type == SDL_MOUSEWHEEL) {
+                v->fly.speed *= powf(1.25f, (float)e.wheel.y);
+            } else if (e.type == SDL_WINDOWEVENT)
+                v->dirty = true;
+        }
+        const Uint8 *key = SDL_GetKeyboardState(NULL);
+        float fwd = (float)(key[SDL_SCANCODE_W] - key[SDL_SCANCODE_S]);
+        float side = (float)(key[SDL_SCANCODE_D] - key[SDL_SCANCODE_A]);
+        float up = (float)(key[SDL_SCANCODE_E] + key[SDL_SCANCODE_PAGEUP] - key[SDL_SCANCODE_Q] -
+                           key[SDL_SCANCODE_PAGEDOWN]);
+        if (fwd != 0 || side != 0 || up != 0) {
+            float boost = key[SDL_SCANCODE_LSHIFT] || key[SDL_SCANCODE_RSHIFT] ? 4.0f : 1.0f;
+            /* A frame time is at most a tenth of a second here: a slow refined frame must not
+             * turn the next key press into a leap. */
+            view_fly_move(&v->fly, fwd * boost, side * boost, up * boost, fminf(dt, 0.1f));
+            moved = true;
+        }
+        if (moved)
+            v->refine = 0, v->dirty = true;
+        else if (!v->dirty && v->refine < 2)
+            v->refine++, v->dirty = true;
+
+        int win_w2, win_h2;
+        SDL_GetRendererOutputSize(r, &win_w2, &win_h2);
+        if (v->dirty || frames > 0) {
+            if ((rc = render_frame(v, win_w2, win_h2))) break;
+            v->dirty = false;
+            if (!tex || tex_w != v->img.width || tex_h != v->img.height) {
+                if (tex) SDL_DestroyTexture(tex);
+                tex = SDL_CreateTexture(r, SDL_PIXELFORMAT_RGB24, SDL_TEXTUREACCESS_STREAMING,
+                                        (int)v->img.width, (int)v->img.height);
+                tex_w = v->img.width, tex_h = v->img.height;
+            }
+            if (!tex) {
+                fprintf(stderr, "packrt-view: cannot create a texture: %s\n", SDL_GetError());
+                rc = 1;
+                break;
+            }
+            SDL_UpdateTexture(tex, NULL, v->img.rgb, (int)(3 * v->img.width));
+            fps_frames++;
+        } else
+            SDL_Delay(10); /* nothing changed: leave the cores to other work */
+        fps_time += dt;
+        if (fps_time >= 0.5) {
+            v->fps = fps_frames / fps_time;
+            fps_time = 0, fps_frames = 0;
+        }
+        SDL_SetRenderDrawColor(r, 0, 0, 0, 255);
+        SDL_RenderClear(r);
+        if (tex) SDL_RenderCopy(r, tex, NULL, NULL);
+        draw_hud(r, v, help);
+        bool last_frame = frames > 0 && ++drawn >= frames;
+        if (want_window_shot) {
+            save_window(v, r, want_window_shot);
+            free(want_window_shot);
+            want_window_shot = NULL;
+        }
+        if (last_frame && window_shot && !save_window(v, r, window_shot)) rc = 1;
+        SDL_RenderPresent(r);
+        if (last_frame) {
+            if (screenshot && !save_screenshot(v, screenshot)) rc = 1;
+            running = false;
+        }
+    }
+    if (tex) SDL_DestroyTexture(tex);
+    SDL_DestroyRenderer(r);
+    SDL_DestroyWindow(win);
+    SDL_Quit();
+    return rc;
+}
+
+int main(int argc, char **argv) {
+    const char *path = NULL, *spec = NULL, *mesh_path = NULL, *screenshot = NULL,
+               *window_shot = NULL;
+    int win_w = 960, win_h = 540;
+    long frames = 0;
+    viewer v;
+    memset(&v, 0, sizeof v);
+    v.shade = PRT_SHADE_SHADOWS;
+    v.spp_still = 8;
+    v.scale = 0.5f;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage();
+        if (a[0] != '-') {
+            if (path) return cli_usage("view", "more than one input given ('%s')", a);
+            path = a;
+            continue;
+        }
+        if (!val) return cli_usage("view", "%s needs a value", a);
+        i++;
+        if (!strcmp(a, "-r"))
+            spec = val;
+        else if (!strcmp(a, "--mesh"))
+            mesh_path = val;
+        else if (!strcmp(a, "--screenshot"))
+            screenshot = val;
+        else if (!strcmp(a, "--screenshot-window"))
+            window_shot = val;
+        else if (!strcmp(a, "--frames")) {
+            frames = strtol(val, NULL, 10);
+            if (frames < 1) return cli_usage("view", "--frames wants 1 or more (got '%s')", val);
+        } else if (!strcmp(a, "--size")) {
+            if (!parse_size(val, &win_w, &win_h))
+                return cli_usage("view", "--size wants WxH (got '%s')", val);
+        } else if (!strcmp(a, "--shade")) {
+            if (prt_shade_parse(val, &v.shade)) return cli_usage("view", "%s", prt_last_error());
+        } else if (!strcmp(a, "--spp")) {
+            v.spp_still = (uint32_t)strtoul(val, NULL, 10);
+            if (v.spp_still < 1 || v.spp_still > 4096)
+                return cli_usage("view", "--spp wants 1..4096");
+        } else if (!strcmp(a, "--threads"))
+            v.threads = atoi(val);
+        else
+            return cli_usage("view", "unknown option '%s'", a);
+    }
+    if (!path) return cli_usage("view", "needs MESH or FILE.prt");
+    if ((screenshot || window_shot) && !frames)
+        return cli_usage("view", "--screenshot goes with --frames N (interactively: F12)");
+
+    int rc = cli_open_accel("view", path, spec, DEFAULT_SPEC, &v.mesh, &v.accel);
+    if (rc) return rc;
+    if (mesh_path && !v.mesh) {
+        prt_status s = prt_mesh_load(mesh_path, &v.mesh);
+        if (s) {
+            prt_accel_free(v.accel);
+            return cli_fail("view", mesh_path, s);
+        }
+    }
+    v.repr = repr_index_of(v.accel);
+    prt_accel_stats(v.accel, &v.stats);
+    float lo[3], hi[3];
+    prt_accel_bounds(v.accel, lo, hi);
+    v.diag = sqrtf((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                   (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    prt_camera cam;
+    prt_camera_default(lo, hi, &cam);
+    view_fly_from_camera(&v.fly, &cam, v.diag);
+    if (!v.threads) v.threads = omp_get_max_threads();
+
+    rc = run(&v, win_w, win_h, frames, screenshot, window_shot);
+    prt_image_free(&v.img);
+    prt_accel_free(v.accel);
+    prt_mesh_free(v.mesh);
+    return rc;
+}
