@@ -109,6 +109,22 @@ static prt_status feed_zlib(mesh_source *s) {
     return st;
 }
 
+/* The inflated size a gzip file states in its last 4 bytes (ISIZE, modulo 2^32, of the
+ * last member only): a hint for reserving arrays, never trusted for checks, and capped
+ * by the bomb guard so a forged trailer cannot make us reserve much. */
+static uint64_t gzip_size_hint(mesh_source *s, const uint8_t *first, size_t n, uint64_t total) {
+    struct mesh_source_impl *im = s->impl;
+    uint8_t b[4];
+    if (total == UINT64_MAX || total < 18) return 0;
+    if (im->fd < 0)
+        memcpy(b, first + n - 4, 4);
+    else if (pread(im->fd, b, 4, (off_t)(total - 4)) != 4)
+        return 0;
+    uint64_t isize =
+        (uint64_t)b[0] | (uint64_t)b[1] << 8 | (uint64_t)b[2] << 16 | (uint64_t)b[3] << 24;
+    return PRT_MIN(isize, PRT_MAX(GZIP_MIN_LIMIT, total * GZIP_MAX_RATIO));
+}
+
 /* Start reading: `first` holds the stream's first bytes (the whole memory input, or
  * the first window read from a file) so gzip can be recognised by its magic. */
 static prt_status start(mesh_source *s, const uint8_t *first, size_t n, uint64_t total) {
@@ -139,6 +155,7 @@ static prt_status start(mesh_source *s, const uint8_t *first, size_t n, uint64_t
         s->cur = s->end = im->buf;
         s->end_offset = 0;
         s->total = UINT64_MAX;
+        s->hint = gzip_size_hint(s, first, n, total);
         s->eof = false;
         return PRT_OK;
     }
@@ -194,6 +211,26 @@ prt_status mesh_source_open_file(mesh_source *s, const char *path) {
     size_t got;
     if ((st = read_some(s, im->buf, im->cap, &got)) != PRT_OK) return st;
     return start(s, im->buf, got, total);
+}
+
+bool mesh_source_can_rewind(const mesh_source *s) {
+    return !s->impl->gzip && s->total != UINT64_MAX;
+}
+
+prt_status mesh_source_rewind(mesh_source *s) {
+    struct mesh_source_impl *im = s->impl;
+    s->line = 0;
+    s->unterminated = false;
+    if (im->fd < 0) return start(s, im->mem, im->mem_size, im->mem_size);
+    char eb[128];
+    if (lseek(im->fd, 0, SEEK_SET) != 0)
+        return prt__fail(PRT_ERROR_IO, "%s: cannot seek back to the start: %s", s->name,
+                         errno_text(errno, eb, sizeof eb));
+    im->raw_eof = false;
+    size_t got;
+    prt_status st = read_some(s, im->buf, im->cap, &got);
+    if (st != PRT_OK) return st;
+    return start(s, im->buf, got, s->total);
 }
 
 void mesh_source_close(mesh_source *s) {

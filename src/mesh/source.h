@@ -16,7 +16,8 @@ typedef struct mesh_source {
     const uint8_t *cur;  /* next unread byte */
     const uint8_t *end;  /* end of the bytes available now */
     uint64_t end_offset; /* stream offset of `end` (so offset(p) = end_offset - (end - p)) */
-    uint64_t total;      /* stream size when known up front, UINT64_MAX for gzip */
+    uint64_t total;      /* stream size when known up front; UINT64_MAX for gzip, pipes */
+    uint64_t hint;       /* gzip: likely size (trailer, bounded by the bomb guard), else 0 */
     bool eof;            /* nothing beyond `end` */
     size_t line;         /* line number of the last line returned by mesh_source_line */
     bool unterminated;   /* that line ended at the end of the stream, without a newline */
@@ -44,6 +45,11 @@ PRT_INLINE size_t mesh_source_avail(const mesh_source *s) {
 PRT_INLINE uint64_t mesh_source_offset(const mesh_source *s, const uint8_t *p) {
     return s->end_offset - (uint64_t)(s->end - p);
 }
+
+/* Whether the stream can be read a second time (plain memory or regular files, not gzip
+ * or pipes), and going back to its start for that second pass. */
+bool mesh_source_can_rewind(const mesh_source *s);
+prt_status mesh_source_rewind(mesh_source *s);
 
 /* Consume n bytes, pulling as many windows as it takes. Fails when the stream ends first. */
 prt_status mesh_source_skip(mesh_source *s, uint64_t n, bool *short_read);
