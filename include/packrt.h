@@ -105,6 +105,10 @@ prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name,
 /* Write a binary little-endian PLY (float xyz, uchar/int triangle lists). */
 prt_status prt_mesh_save_ply(const prt_mesh *m, const char *path);
 
+/* Largest coordinate magnitude prt_build accepts (PRT_ERROR_LIMIT beyond): past it, sums
+ * of coordinates (centroids, extents, ray distances) overflow single precision. */
+#define PRT_MAX_COORDINATE 1e30f
+
 /* Check a mesh: at least one triangle, every vertex finite, every index < vertex_count.
  * Returns PRT_ERROR_MESH with the first offending element in prt_last_error(). */
 prt_status prt_mesh_validate(const prt_mesh *m);
@@ -136,7 +140,8 @@ typedef struct prt_ray {
 } prt_ray;
 
 /* A hit: point = (1-u-v)*v0 + u*v1 + v*v2 of triangle `prim` (its index in the mesh).
- * On a miss, prim = PRT_INVALID and t = +inf. geom is reserved (0). */
+ * When several triangles are hit at exactly the same t, the smallest index wins, in every
+ * representation. On a miss, prim = PRT_INVALID and t = +inf. geom is reserved (0). */
 typedef struct prt_hit {
     float t, u, v;
     uint32_t prim;
@@ -186,7 +191,9 @@ typedef struct prt_stats {
 /* Build an acceleration structure for mesh m (which is validated first) according to
  * spec: "structure[:codec][,key=value]...", e.g. "aabb:float3", "quad:float3-soa4,leaf=8".
  * Keys for BVH representations: split=sah|mean|longest|morton|fixed, leaf=1..16,
- * order=df|df-last|bf|bf-last (node order, Rouwé §4.3). options may be NULL.
+ * order=df (node order, Rouwé §4.3; the other orders are not built yet). options may be NULL.
+ * The build resets the peak of prt_memory_usage() to measure its own peak (reported in
+ * prt_stats.build_peak_bytes; concurrent builds see each other's allocations).
  * The accel does not keep a pointer to m. Free it with prt_accel_free(). */
 prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_options *options,
                      prt_accel **out);
@@ -226,7 +233,8 @@ prt_status prt_accel_save(const prt_accel *a, const char *path);
 
 /* Load a .prt file. The file is mapped and used in place where the layout allows; every
  * size, offset and checksum is checked: a corrupt, truncated or foreign file is
- * PRT_ERROR_CORRUPT (or PRT_ERROR_FORMAT), never a crash. */
+ * PRT_ERROR_CORRUPT, another .prt version or byte order or a representation this build does
+ * not know is PRT_ERROR_UNSUPPORTED, an unreadable file PRT_ERROR_IO; never a crash. */
 prt_status prt_accel_load(const char *path, prt_accel **out);
 
 /* Same, from memory that the caller keeps alive and unchanged until prt_accel_free. */
@@ -340,8 +348,8 @@ typedef struct prt_image {
  * m is the mesh a was built from, or NULL. Shading needs the geometric normal of each hit:
  * with m it is taken from triangle hit.prim of m (m->triangle_count must equal the accel's
  * triangle count, else PRT_ERROR_ARGUMENT); without m (a .prt file loaded alone) it is
- * estimated from two extra rays parallel to the hit ray, a small offset apart, which costs
- * rays and blurs normals at creases and silhouettes (docs/render.md).
+ * estimated from two to four extra rays parallel to the hit ray, a small step beside it,
+ * which costs rays and softens normals at creases and silhouettes (docs/render.md).
  *
  * The image is a pure function of (a's hits, m, c, options other than threads and
  * progress): the same call gives the same bytes on any number of threads.
