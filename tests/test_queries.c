@@ -239,6 +239,91 @@ TEST(test_bad_specs_are_rejected_with_a_reason) {
     prt_mesh_free(m);
 }
 
+/* The closed cube [-1, 1]^3, 12 triangles, outward winding. */
+static prt_mesh *unit_cube(void) {
+    static const float v[24] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
+    static const uint32_t t[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                   3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+    prt_mesh *m;
+    if (prt_mesh_create(8, 12, &m)) return NULL;
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    return m;
+}
+
+TEST(test_axis_aligned_ray_in_a_face_plane_hits) {
+    /* Origin and path exactly in the plane y = 1 of the cube's top face, direction with a
+     * zero y component of either sign: the slab test must not cull the cube. */
+    prt_mesh *m = unit_cube();
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        for (int sign = 0; sign < 2; sign++) {
+            float y0 = sign ? -0.0f : 0.0f;
+            prt_ray r = {{-5, 1, 0.3f}, 0, {1, y0, 0}, INFINITY};
+            prt_hit h;
+            prt_intersect1(a, &r, &h);
+            CHECK_MSG(h.prim != PRT_INVALID && h.t == 4.0f, "%s, dir y %s0: prim %u t %g", prt_repr_name(k),
+                      sign ? "-" : "+", h.prim, (double)h.t);
+        }
+        prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+}
+
+TEST(test_negative_tnear_finds_hits_behind_the_origin) {
+    /* A flat quad at z = 0 behind a ray starting at z = 5 going +z, tnear = -inf. */
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(4, 2, &m));
+    float v[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+    uint32_t t[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        prt_ray r = {{0.3f, 0.2f, 5}, -INFINITY, {0, 0, 1}, INFINITY};
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        CHECK_MSG(h.prim != PRT_INVALID && h.t == -5.0f, "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
+        CHECK(prt_occluded1(a, &r));
+        prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+}
+
+TEST(test_equal_t_ties_pick_the_smallest_triangle_id) {
+    /* Five copies of one triangle (ids 0..4) and a ray through the cube's face diagonal,
+     * where two triangles meet at the same t: every representation names the smallest id. */
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(3, 5, &m));
+    float v[9] = {-1, -1, 1, 1, -1, 1, 0, 1, 1};
+    memcpy(m->vertices, v, sizeof v);
+    for (int i = 0; i < 15; i++) m->triangles[i] = (uint32_t)(i % 3);
+    prt_mesh *cube = unit_cube();
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        prt_accel *a, *c;
+        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        CHECK_OK(prt_build(cube, prt_repr_name(k), NULL, &c));
+        prt_ray r = {{0.1f, 0, 0}, 0, {0, 0, 1}, INFINITY}, rc = {{0.25f, 0.25f, -5}, 0, {0, 0, 1}, INFINITY};
+        prt_hit h, hc;
+        prt_intersect1(a, &r, &h);
+        prt_intersect1(c, &rc, &hc);
+        CHECK_MSG(h.prim == 0 && h.t == 1.0f, "%s: copies: prim %u", prt_repr_name(k), h.prim);
+        CHECK_MSG(hc.prim == 0 && hc.t == 4.0f, "%s: diagonal: prim %u t %g", prt_repr_name(k), hc.prim, (double)hc.t);
+        prt_accel_free(a), prt_accel_free(c);
+    }
+    prt_mesh_free(cube);
+    prt_mesh_free(m);
+}
+
+TEST(test_coordinates_beyond_the_limit_are_rejected) {
+    prt_mesh *m = mesh_random_soup(4, 1);
+    m->vertices[4] = 3e37f;
+    prt_accel *a = NULL;
+    CHECK(prt_build(m, "quad:float3-soa4", NULL, &a) == PRT_ERROR_LIMIT && a == NULL);
+    CHECK(strstr(prt_last_error(), "magnitude") != NULL);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_every_representation_matches_brute_force_on_random_soup);
     RUN(test_every_splitter_matches_brute_force);
@@ -249,5 +334,9 @@ int main(void) {
     RUN(test_degenerate_triangles_are_never_hit);
     RUN(test_all_degenerate_mesh_is_an_error);
     RUN(test_bad_specs_are_rejected_with_a_reason);
+    RUN(test_axis_aligned_ray_in_a_face_plane_hits);
+    RUN(test_negative_tnear_finds_hits_behind_the_origin);
+    RUN(test_equal_t_ties_pick_the_smallest_triangle_id);
+    RUN(test_coordinates_beyond_the_limit_are_rejected);
     TEST_END();
 }

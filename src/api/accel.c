@@ -12,6 +12,11 @@ prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_o
     *out = NULL;
     prt_status s = prt_mesh_validate(m);
     if (s) return s;
+    /* Beyond this, centroids, box extents and ray distances overflow to infinity. */
+    for (size_t i = 0; i < 3 * m->vertex_count; i++)
+        if (fabsf(m->vertices[i]) > PRT_MAX_COORDINATE)
+            return prt__fail(PRT_ERROR_LIMIT, "vertex %zu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
+                             i / 3, (double)m->vertices[i], (double)PRT_MAX_COORDINATE);
     prt_spec spec;
     if ((s = prt__spec_parse(spec_text, &spec))) return s;
     const prt_repr_family *f = prt__registry_find(&spec);

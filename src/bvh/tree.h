@@ -78,9 +78,9 @@ struct bvh_builder {
     const uint32_t *keys; /* per-position sort keys (Morton codes) or NULL */
     bvh_node *nodes;
     size_t node_capacity;
-    size_t node_next;     /* atomic */
-    uint32_t depth;       /* atomic max */
-    size_t placed;        /* atomic: primitives in finished leaves, for progress */
+    _Atomic size_t node_next;
+    _Atomic uint32_t depth;  /* maximum */
+    _Atomic size_t placed;   /* primitives in finished leaves, for progress */
     size_t total;
     size_t next_report;   /* read and written by the calling thread only */
 };
@@ -97,7 +97,7 @@ bool bvh_split_longest(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb
 bool bvh_split_morton(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
 
 /* Sort prims by the Morton code of their centroid; returns the codes (prt__free them). */
-uint32_t *bvh_morton_sort(bvh_prim *prims, size_t n, const prt_aabb *cbox);
+uint32_t *bvh_morton_sort(bvh_prim *prims, size_t n, const prt_aabb *cbox, int threads);
 
 /* Fixed leaf size: group, build over groups, expand (builders/fixed_leaf.c). */
 prt_status bvh_build_fixed(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *out);

@@ -46,7 +46,6 @@ void *prt__alloc(size_t size) {
 
 void *prt__calloc(size_t count, size_t size) {
     size_t n = prt__mul_size(count, size);
-    if (n == 0 && count && size) return NULL;
     void *p = prt__alloc(n);
     if (p) memset(p, 0, n ? n : 1);
     return p;

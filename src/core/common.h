@@ -25,10 +25,10 @@ void *prt__calloc(size_t count, size_t size);
 void *prt__realloc(void *p, size_t size);
 void prt__free(void *p);
 
-/* size * count with overflow check: returns 0 on overflow (callers treat as NOMEM). */
+/* size * count with overflow check: SIZE_MAX on overflow, which prt__alloc refuses. */
 PRT_INLINE size_t prt__mul_size(size_t a, size_t b) {
     size_t r;
-    return __builtin_mul_overflow(a, b, &r) ? 0 : r;
+    return __builtin_mul_overflow(a, b, &r) ? SIZE_MAX : r;
 }
 
 /* Record a failure message for prt_last_error() and return s. printf-style. */

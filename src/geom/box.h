@@ -1,6 +1,9 @@
 /* Robust ray/box slab test (Ize 2013), scalar and 4 boxes at once. Distances are
  * (b - o) * inv, not b * inv - o * inv: the latter cancels catastrophically when the
- * origin is far from the coordinate origin but near the box. */
+ * origin is far from the coordinate origin but near the box. A zero direction component
+ * gives inv = +-inf; an origin exactly on that slab's plane then gives 0 * inf = NaN,
+ * which the min/max below ignore (operand order matters: SSE returns the second operand
+ * when either is NaN), so that axis constrains nothing, as it should. */
 #ifndef PRT_GEOM_BOX_H
 #define PRT_GEOM_BOX_H
 
@@ -14,10 +17,11 @@ static inline float prt__box_hit(const prt__rayx *r, const float *lo, const floa
         float n = r->neg[k] ? hi[k] : lo[k];
         float f = r->neg[k] ? lo[k] : hi[k];
         float t0 = (n - r->org[k]) * r->inv[k];
-        float t1 = (f - r->org[k]) * r->inv[k] * PRT_BOX_FAR_SCALE;
-        tmin = t0 > tmin ? t0 : tmin;
+        float t1 = (f - r->org[k]) * r->inv[k];
+        tmin = t0 > tmin ? t0 : tmin; /* false for NaN: keeps tmin */
         tmax = t1 < tmax ? t1 : tmax;
     }
+    tmax *= tmax >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG;
     return tmin <= tmax ? tmin : INFINITY;
 }
 
@@ -43,9 +47,10 @@ static inline int prt__box4_hit(const prt__rayx4 *r, const float *b, float tfar,
     for (int k = 0; k < 3; k++) {
         vf4 n = vf4_load(b + 8 * k + 4 * r->neg[k]);
         vf4 f = vf4_load(b + 8 * k + 4 * (1 - r->neg[k]));
-        tmin = vf4_max(tmin, (n - r->org[k]) * r->inv[k]);
-        tmax = vf4_min(tmax, (f - r->org[k]) * r->inv[k] * vf4_set1(PRT_BOX_FAR_SCALE));
+        tmin = vf4_max((n - r->org[k]) * r->inv[k], tmin); /* NaN in the first operand: tmin */
+        tmax = vf4_min((f - r->org[k]) * r->inv[k], tmax);
     }
+    tmax = vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
     *tentry = tmin;
     return vi4_mask(tmin <= tmax);
 }

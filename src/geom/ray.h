@@ -10,7 +10,7 @@
 
 typedef struct prt__rayx {
     float org[3], dir[3];
-    float inv[3];      /* 1/dir with zero components replaced by a tiny value: no 0*inf NaNs */
+    float inv[3];      /* 1/dir: +-inf for a +-0 component (box.h handles the NaNs that make) */
     float tnear;
     int kx, ky, kz;    /* kz: dominant axis; kx, ky chosen to keep the winding */
     float sx, sy, sz;  /* shear constants */
@@ -27,9 +27,7 @@ static inline void prt__rayx_init(prt__rayx *x, const prt_ray *r) {
     for (int k = 0; k < 3; k++) {
         x->org[k] = r->org[k];
         x->dir[k] = r->dir[k];
-        float d = r->dir[k];
-        if (fabsf(d) < 1e-18f) d = copysignf(1e-18f, d);
-        x->inv[k] = 1.0f / d;
+        x->inv[k] = 1.0f / r->dir[k];
         x->neg[k] = x->inv[k] < 0.0f;
     }
     x->tnear = r->tnear;
@@ -58,8 +56,11 @@ static inline bool prt__ray_valid(const prt_ray *r) {
     return r->tnear <= r->tfar; /* false for NaN too */
 }
 
-/* Ize 2013: scaling the far slab distance by 1 + 2*gamma(3) makes the box test
- * conservative against the rounding of (b - o) * inv. */
+/* Ize 2013: moving the far slab distance away from the near one by 2*gamma(3) of its
+ * magnitude makes the box test conservative against the rounding of (b - o) * inv. It is
+ * applied once to the minimum (rounding is monotonic), growing positive distances and
+ * shrinking the magnitude of negative ones (tnear may be negative). */
 #define PRT_BOX_FAR_SCALE 1.00000036f
+#define PRT_BOX_FAR_SCALE_NEG 0.99999964f
 
 #endif

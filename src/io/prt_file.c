@@ -97,15 +97,14 @@ prt_status prt__file_save(const char *path, const prt_file_info *info,
     prt_writer w = {0};
     w.f = fopen(tmp, "wb");
     if (!w.f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
-    static uint8_t header[RESERVED_BYTES];
+    uint8_t h[RESERVED_BYTES];
     _Static_assert(RESERVED_BYTES % PRT_FILE_ALIGN == 0, "sections start aligned");
-    memset(header, 0, sizeof header);
-    bool ok = fwrite(header, 1, RESERVED_BYTES, w.f) == RESERVED_BYTES;
+    memset(h, 0, sizeof h); /* placeholder until the sections are known */
+    bool ok = fwrite(h, 1, RESERVED_BYTES, w.f) == RESERVED_BYTES;
     w.pos = RESERVED_BYTES;
     prt_status s = ok ? fill(ctx, &w) : PRT_ERROR_IO;
     static const uint8_t zeros[PRT_FILE_ALIGN];
     size_t pad = (size_t)((PRT_FILE_ALIGN - w.pos % PRT_FILE_ALIGN) % PRT_FILE_ALIGN);
-    uint8_t h[RESERVED_BYTES];
     if (!s) {
         make_header(h, info, &w, w.pos + pad);
         ok = fwrite(zeros, 1, pad, w.f) == pad && fseek(w.f, 0, SEEK_SET) == 0 &&

@@ -64,6 +64,7 @@ prt_status prt_rays_write(const char *path, const prt_ray *rays, size_t count) {
 
 /* Hit records on disk: t, prim, u, v (16 bytes), unlike prt_hit's in-memory order. */
 prt_status prt_hits_read(const char *path, prt_hit **hits, size_t *count) {
+    *hits = NULL;
     uint8_t *raw;
     prt_status s = read_array(path, HITS_MAGIC, HIT_RECORD, (void **)&raw, count);
     if (s) return s;

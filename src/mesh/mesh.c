@@ -12,7 +12,7 @@ prt_status prt_mesh_create(size_t vertex_count, size_t triangle_count, prt_mesh 
         return prt__fail(PRT_ERROR_LIMIT, "%zu vertices: packrt indexes vertices with 32 bits", vertex_count);
     size_t vb = prt__mul_size(vertex_count, 3 * sizeof(float));
     size_t tb = prt__mul_size(triangle_count, 3 * sizeof(uint32_t));
-    if ((vertex_count && !vb) || (triangle_count && !tb))
+    if (vb == SIZE_MAX || tb == SIZE_MAX)
         return prt__fail(PRT_ERROR_NOMEM, "mesh of %zu vertices, %zu triangles is too large", vertex_count,
                          triangle_count);
     prt_mesh *m = prt__calloc(1, sizeof *m);

@@ -74,8 +74,8 @@ static void build_node(bvh_builder *b, size_t node, bvh_prim *p, size_t n, uint3
     bvh_node *nd = &b->nodes[node];
     nd->box = box;
 
-    uint32_t d = atomic_load((_Atomic uint32_t *)&b->depth);
-    while (depth > d && !atomic_compare_exchange_weak((_Atomic uint32_t *)&b->depth, &d, depth)) {
+    uint32_t d = atomic_load(&b->depth);
+    while (depth > d && !atomic_compare_exchange_weak(&b->depth, &d, depth)) {
     }
 
     size_t mid = 0;
@@ -95,7 +95,7 @@ static void build_node(bvh_builder *b, size_t node, bvh_prim *p, size_t n, uint3
     if (!split) {
         nd->index = (uint32_t)(p - b->base);
         nd->count = (uint32_t)n;
-        size_t placed = atomic_fetch_add((_Atomic size_t *)&b->placed, n) + n;
+        size_t placed = atomic_fetch_add(&b->placed, n) + n;
         /* Only the calling thread (OpenMP thread 0 of the build team) reports. */
         if (b->params.progress && placed >= b->next_report && omp_get_thread_num() == 0) {
             b->next_report = placed + b->total / 100;
@@ -103,7 +103,7 @@ static void build_node(bvh_builder *b, size_t node, bvh_prim *p, size_t n, uint3
         }
         return;
     }
-    size_t c = atomic_fetch_add((_Atomic size_t *)&b->node_next, 2);
+    size_t c = atomic_fetch_add(&b->node_next, 2);
     nd->index = (uint32_t)c;
     nd->count = 0;
     if (n >= TASK_MIN_PRIMS) {
@@ -123,9 +123,9 @@ prt_status bvh_build_with(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *o
     b->node_capacity = 2 * n - 1;
     b->nodes = prt__alloc(prt__mul_size(b->node_capacity, sizeof(bvh_node)));
     if (!b->nodes) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu BVH nodes", b->node_capacity);
-    b->node_next = 1;
-    b->depth = 0;
-    b->placed = 0;
+    atomic_store(&b->node_next, 1);
+    atomic_store(&b->depth, 0);
+    atomic_store(&b->placed, 0);
     b->total = n;
     b->next_report = 0;
     int threads = prt__threads(b->params.threads);
@@ -133,7 +133,7 @@ prt_status bvh_build_with(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *o
 #pragma omp single
     build_node(b, 0, prims, n, 1);
 
-    out->node_count = b->node_next;
+    out->node_count = atomic_load(&b->node_next);
     out->nodes = prt__realloc(b->nodes, out->node_count * sizeof(bvh_node));
     if (!out->nodes) out->nodes = b->nodes;
     out->prim_count = n;
@@ -143,7 +143,7 @@ prt_status bvh_build_with(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *o
         return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu primitive ids", n);
     }
     for (size_t i = 0; i < n; i++) out->prims[i] = prims[i].id;
-    out->depth = b->depth;
+    out->depth = atomic_load(&b->depth);
     for (size_t i = 0; i < out->node_count; i++) out->leaf_count += out->nodes[i].count > 0;
     return PRT_OK;
 }
@@ -162,7 +162,7 @@ prt_status bvh_build(bvh_prim *prims, size_t n, const bvh_build_params *p, bvh_t
     case BVH_SPLIT_MORTON: {
         prt_aabb box, cbox;
         bounds_of(prims, n, &box, &cbox);
-        uint32_t *codes = bvh_morton_sort(prims, n, &cbox);
+        uint32_t *codes = bvh_morton_sort(prims, n, &cbox, p->threads);
         if (!codes) return prt__fail(PRT_ERROR_NOMEM, "out of memory for Morton codes");
         b.keys = codes;
         b.split = bvh_split_morton;

@@ -14,7 +14,7 @@ prt_status bvh_build_fixed(bvh_builder *b, bvh_prim *p, size_t n, bvh_tree *out)
             cbox.lo[k] = prt_minf(cbox.lo[k], c);
             cbox.hi[k] = prt_maxf(cbox.hi[k], c);
         }
-    uint32_t *codes = bvh_morton_sort(p, n, &cbox);
+    uint32_t *codes = bvh_morton_sort(p, n, &cbox, b->params.threads);
     if (!codes) return prt__fail(PRT_ERROR_NOMEM, "out of memory for Morton codes");
     prt__free(codes);
 

@@ -11,7 +11,7 @@ static uint32_t expand_bits(uint32_t v) {
     return v;
 }
 
-uint32_t *bvh_morton_sort(bvh_prim *p, size_t n, const prt_aabb *cbox) {
+uint32_t *bvh_morton_sort(bvh_prim *p, size_t n, const prt_aabb *cbox, int threads) {
     uint32_t *codes = prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
     uint32_t *codes2 = prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
     bvh_prim *tmp = prt__alloc(prt__mul_size(n, sizeof(bvh_prim)));
@@ -24,7 +24,7 @@ uint32_t *bvh_morton_sort(bvh_prim *p, size_t n, const prt_aabb *cbox) {
         float ext = cbox->hi[k] - cbox->lo[k];
         scale[k] = ext > 0 ? 1023.0f / ext : 0.0f;
     }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(prt__threads(threads))
     for (size_t i = 0; i < n; i++) {
         uint32_t q[3];
         for (int k = 0; k < 3; k++) {

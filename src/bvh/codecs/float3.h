@@ -34,10 +34,11 @@ PRT_INLINE void float3_intersect(const uint8_t *leaf, uint32_t n, const prt__ray
     for (uint32_t i = 0; i < n; i++, leaf += FLOAT3_TRI_BYTES) {
         float v[9], t, u, w;
         memcpy(v, leaf, sizeof v);
-        if (prt__tri_hit(r, v, v + 3, v + 6, h->t, &t, &u, &w)) {
-            h->t = t, h->u = u, h->v = w;
-            memcpy(&h->prim, leaf + 36, 4);
-        }
+        uint32_t id;
+        memcpy(&id, leaf + 36, 4);
+        /* At equal t the smaller triangle id wins, in every codec, whatever the visit order. */
+        if (prt__tri_hit(r, v, v + 3, v + 6, h->t, &t, &u, &w) && (t < h->t || id < h->prim))
+            h->t = t, h->u = u, h->v = w, h->prim = id;
     }
 }
 

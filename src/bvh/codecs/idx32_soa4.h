@@ -8,6 +8,7 @@
 #define PRT_BVH_CODECS_IDX32_SOA4_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
 #include <math.h>
@@ -88,10 +89,11 @@ PRT_INLINE void idx32_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt_
         vf4 t, u, v;
         int mask = prt__tri4_hit(r, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
         if (!mask) continue;
-        float best = vf4_hmin(t);
-        int lane = __builtin_ctz((unsigned)vi4_mask(t == vf4_set1(best)) & (unsigned)mask);
-        h->t = best, h->u = u[lane], h->v = v[lane];
-        memcpy(&h->prim, leaf + 48 + 4 * lane, 4);
+        uint32_t ids[4];
+        memcpy(ids, leaf + 48, sizeof ids);
+        float tt[4], uu[4], vv[4];
+        memcpy(tt, &t, sizeof tt), memcpy(uu, &u, sizeof uu), memcpy(vv, &v, sizeof vv);
+        bvh_take_nearest(h, tt, uu, vv, ids, (unsigned)mask, vf4_hmin(t));
     }
 }
 

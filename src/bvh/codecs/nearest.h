@@ -1,0 +1,21 @@
+/* The closest-hit rule every SIMD codec applies to a block of lanes. */
+#ifndef PRT_BVH_CODECS_NEAREST_H
+#define PRT_BVH_CODECS_NEAREST_H
+
+#include "geom/ray.h"
+
+/* Closest-hit update for a SIMD block: among the lanes in mask (all with t <= h->t), the
+ * nearest, and at equal t the smallest triangle id, as in the scalar codecs; ids[lane]
+ * are the lanes' triangle ids. Exact ties are rare, so the common path is one hmin. */
+static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u, const float *v,
+                                    const uint32_t *ids, unsigned mask, float best) {
+    uint32_t prim = PRT_INVALID;
+    int lane = -1;
+    for (unsigned m = mask; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        if (t[i] == best && ids[i] < prim) prim = ids[i], lane = i;
+    }
+    if (best < h->t || prim < h->prim) h->t = best, h->u = u[lane], h->v = v[lane], h->prim = prim;
+}
+
+#endif
