@@ -224,6 +224,19 @@ TEST(test_number_parser_agrees_with_strtof) {
             CHECK_MSG(0, "'%s': parsed %a (ok=%d), strtof %a", buf, (double)got, ok, (double)want);
         }
     }
+    static const char *edge[] = {"3.4028234663852886e38",
+                                 "3.4028235e38",
+                                 "1.17549435e-38",
+                                 "1e-45",
+                                 "7e-46",
+                                 "-0",
+                                 "1e-50",
+                                 "00000.5e1"};
+    for (size_t i = 0; i < sizeof edge / sizeof *edge; i++) {
+        float got = 0, want = strtof(edge[i], NULL);
+        CHECK_MSG(mesh_parse_float(&s, edge[i], strlen(edge[i]), &got) && !memcmp(&got, &want, 4),
+                  "'%s': parsed %a, strtof %a", edge[i], (double)got, (double)want);
+    }
     static const char *bad[] = {"",   "-",    ".",   "1..2", "1e", "1e+",
                                 "0x", "1.0f", "--1", "1 2",  "e5"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {

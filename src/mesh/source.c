@@ -15,10 +15,11 @@
 #include <zlib.h>
 
 /* Files are read with read() into a window rather than mmapped. Measured on a 1 GB
- * binary PLY just read back into the page cache (this VM, 2 cores): loading through a
- * mapping ran at 0.4-1.1 GB/s, its time going to page faults, against 1.6-2.2 GB/s with
- * 4 MiB reads, whose one extra copy costs ~0.1 s per GB. A file truncated by another
- * process while we read it is also just a short read, where a mapping dies of SIGBUS.
+ * binary PLY (this 2-core VM): after evicting it from the page cache, loading through a
+ * mapping took 2.2-4.6 s, its time going to page faults, against 0.5-1.8 s with 4 MiB
+ * reads; from a warm cache the reads' one extra copy costs ~0.1 s per GB (0.3 s loads).
+ * A file truncated by another process while we read it is also just a short read,
+ * where a mapping dies of SIGBUS.
  *
  * Gzip is streamed too rather than inflated into one buffer: a parser only needs a row
  * or a line at a time, so memory stays at one window (4 MiB, larger only for a single
