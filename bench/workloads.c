@@ -96,19 +96,13 @@ prt_status bench_rays_random(const float lo[3], const float hi[3], size_t count,
 /* ---- primary --------------------------------------------------------------------------- */
 
 void bench_camera_default(const float lo[3], const float hi[3], bench_camera *c) {
-    prt_vec3 l = prt_v3_load(lo), h = prt_v3_load(hi);
-    prt_vec3 mid = prt_v3_scale(prt_v3_add(l, h), 0.5f);
-    float r = 0.5f * (float)diagonal(lo, hi);
-    if (!(r > 0.0f)) r = 1.0f;
-    c->fov_y_deg = 40.0f;
-    /* Distance at which the bounding sphere just fits the vertical field of view: the mesh
-     * fills the frame whatever its size, so every mesh gets a comparable primary hit rate. */
-    float dist = r / sinf(0.5f * c->fov_y_deg * BENCH_PI / 180.0f);
-    prt_vec3 dir = prt_v3_norm(prt_v3(0.35f, 0.3f, 1.0f));
-    prt_vec3 eye = prt_v3_add(mid, prt_v3_scale(dir, dist));
-    c->eye[0] = eye.x, c->eye[1] = eye.y, c->eye[2] = eye.z;
-    c->target[0] = mid.x, c->target[1] = mid.y, c->target[2] = mid.z;
-    c->up[0] = 0.0f, c->up[1] = 1.0f, c->up[2] = 0.0f;
+    /* The library's default framing, so benchmark primary rays are the renderer's rays. */
+    prt_camera pc;
+    prt_camera_default(lo, hi, &pc);
+    memcpy(c->eye, pc.eye, sizeof c->eye);
+    memcpy(c->target, pc.target, sizeof c->target);
+    memcpy(c->up, pc.up, sizeof c->up);
+    c->fov_y_deg = pc.fov_y_deg;
 }
 
 size_t bench_rays_tile_count(const bench_rays *r) {
