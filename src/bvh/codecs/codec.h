@@ -19,6 +19,7 @@
     X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle")       \
     X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test") \
     X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test") \
+    X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle") \
     X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form")
 
 typedef enum bvh_codec_id {

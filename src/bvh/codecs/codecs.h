@@ -6,6 +6,7 @@
 #include "bvh/codecs/float3.h"
 #include "bvh/codecs/float3_soa4.h"
 #include "bvh/codecs/float3_soa8.h"
+#include "bvh/codecs/idx32.h"
 #include "bvh/codecs/idx32_soa4.h"
 
 #endif

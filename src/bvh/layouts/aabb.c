@@ -109,7 +109,7 @@ static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh
 const bvh_layout bvh_layout_aabb = {
     "aabb",
     "AABBTree (Rouwe 5.1): 28-byte binary nodes, depth first, triangles after their leaf",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32_soa4] = 8},
+    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8, [BVH_CODEC_idx32_soa4] = 8},
     aabb_encode,
     aabb_validate,
     {

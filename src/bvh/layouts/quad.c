@@ -181,7 +181,7 @@ static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c, const bvh
 const bvh_layout bvh_layout_quad = {
     "quad",
     "QuadTree (Rouwe 5.6): 4-wide 128-byte nodes, SIMD box test, nearest child first",
-    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32_soa4] = 8},
+    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 4, [BVH_CODEC_idx32_soa4] = 8},
     quad_encode,
     quad_validate,
     {
