@@ -51,7 +51,8 @@ PRT_INLINE uint64_t mesh_source_offset(const mesh_source *s, const uint8_t *p) {
 bool mesh_source_can_rewind(const mesh_source *s);
 prt_status mesh_source_rewind(mesh_source *s);
 
-/* Consume n bytes, pulling as many windows as it takes. Fails when the stream ends first. */
+/* Consume n bytes, pulling as many windows as it takes; *short_read when the stream
+ * ends first. */
 prt_status mesh_source_skip(mesh_source *s, uint64_t n, bool *short_read);
 
 /* Next line without its "\n" or "\r\n": *got is false at the end of the stream. Lines are
