@@ -13,8 +13,10 @@ static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u
     int lane = -1;
     for (unsigned m = mask; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        if (t[i] == best && ids[i] < prim) prim = ids[i], lane = i;
+        /* lane < 0: take the first tie even if its id is PRT_INVALID (a crafted file). */
+        if (t[i] == best && (lane < 0 || ids[i] < prim)) prim = ids[i], lane = i;
     }
+    if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
     if (best < h->t || prim < h->prim) h->t = best, h->u = u[lane], h->v = v[lane], h->prim = prim;
 }
 
