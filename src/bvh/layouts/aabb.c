@@ -1,22 +1,7 @@
 /* AABBTree (Rouwé 2019, §5.1): 28-byte nodes (box min, box max, properties) written depth
  * first. A leaf's triangle block follows its node; an inner node's first child follows it
  * and its properties hold the distance to the second child in 4-byte words. */
-#include "bvh/traverse.h"
-
-#define AABB_NODE_BYTES 28
-#define AABB_LEAF 0x80000000u
-
-static inline uint32_t aabb_props(const uint8_t *node) {
-    uint32_t p;
-    memcpy(&p, node + 24, 4);
-    return p;
-}
-
-static inline float aabb_box_hit(const prt__rayx *r, const uint8_t *node, float tfar) {
-    float b[6];
-    memcpy(b, node, sizeof b);
-    return prt__box_hit(r, b, b + 3, tfar);
-}
+#include "bvh/layouts/aabb_node.h"
 
 #define LAYOUT_KERNELS "bvh/layouts/aabb_kernels.inc"
 #include "bvh/layouts/instantiate.inc"
@@ -28,7 +13,21 @@ typedef struct encoder {
     const prt_mesh *m;
     uint8_t *out;
     size_t size;
+    bool split_axis; /* AABBTreeSplitAxis: children ordered along an axis kept in the node */
 } encoder;
+
+/* The axis along which two sibling boxes' centres differ most, and whether the first
+ * (index) child lies above the second on it. */
+static int split_axis_of(const bvh_node *a, const bvh_node *b, bool *swap) {
+    int axis = 0;
+    float best = -1;
+    for (int k = 0; k < 3; k++) {
+        float d = (a->box.lo[k] + a->box.hi[k]) - (b->box.lo[k] + b->box.hi[k]);
+        if (fabsf(d) > best) best = fabsf(d), axis = k;
+    }
+    *swap = (a->box.lo[axis] + a->box.hi[axis]) > (b->box.lo[axis] + b->box.hi[axis]);
+    return axis;
+}
 
 static size_t subtree_bytes(const bvh_tree *t, const bvh_codec *c) {
     size_t bytes = 0;
@@ -49,24 +48,34 @@ static size_t write_node(encoder *e, uint32_t i, size_t o) {
         e->c->encode(e->out + o + AABB_NODE_BYTES, e->m, e->t->prims + n->index, n->count);
         end = o + AABB_NODE_BYTES + e->c->leaf_bytes(n->count);
     } else {
-        size_t right = write_node(e, n->index, o + AABB_NODE_BYTES);
-        if (!right || (right - o) / 4 >= AABB_LEAF) return 0;
-        props = (uint32_t)((right - o) / 4);
-        end = write_node(e, n->index + 1, right);
+        uint32_t first = n->index, second = n->index + 1, axis_bits = 0;
+        if (e->split_axis) {
+            bool swap;
+            int axis = split_axis_of(&e->t->nodes[first], &e->t->nodes[second], &swap);
+            if (swap) first = n->index + 1, second = n->index;
+            axis_bits = (uint32_t)axis << AABB_SPLIT_AXIS_SHIFT;
+        }
+        size_t right = write_node(e, first, o + AABB_NODE_BYTES);
+        uint32_t limit = e->split_axis ? AABB_SPLIT_OFFSET_MASK : ~AABB_LEAF;
+        if (!right || (right - o) / 4 > limit) return 0;
+        props = (uint32_t)((right - o) / 4) | axis_bits;
+        end = write_node(e, second, right);
         if (!end) return 0;
     }
     memcpy(e->out + o + 24, &props, 4);
     return end;
 }
 
-static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
+prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool split_axis,
+                           bvh_blob *out) {
     memset(out, 0, sizeof *out);
-    encoder e = {t, c, m, NULL, subtree_bytes(t, c)};
+    encoder e = {t, c, m, NULL, subtree_bytes(t, c), split_axis};
     e.out = prt__alloc(e.size);
     if (!e.out) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", e.size);
     if (write_node(&e, 0, 0) != e.size) {
         prt__free(e.out);
-        return prt__fail(PRT_ERROR_LIMIT, "aabb layout: a subtree exceeds the 31-bit child offset (8 GB); use quad");
+        return prt__fail(PRT_ERROR_LIMIT, "aabb layouts: a subtree exceeds the child offset bits (%s); use quad",
+                         split_axis ? "2 GB" : "8 GB");
     }
     out->data = e.out;
     out->size = e.size;
@@ -81,8 +90,8 @@ static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_m
 /* Walks the tree checking that it tiles the blob exactly: every second child starts where
  * the first child's subtree ends, so the walk is linear and traversal can never leave the
  * blob or loop. Returns the end offset, or 0 on corruption. */
-static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, size_t o, uint32_t depth,
-                         uint64_t *nodes) {
+static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, bool split_axis, size_t o,
+                         uint32_t depth, uint64_t *nodes) {
     if (depth > BVH_MAX_DEPTH || o > b->size || b->size - o < AABB_NODE_BYTES) return 0;
     ++*nodes;
     uint32_t props = aabb_props(b->data + o);
@@ -94,16 +103,26 @@ static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared
         if (c->leaf_valid && !c->leaf_valid(b->data + o + AABB_NODE_BYTES, n, sh)) return 0;
         return o + AABB_NODE_BYTES + bytes;
     }
-    size_t right = check_node(b, c, sh, o + AABB_NODE_BYTES, depth + 1, nodes);
-    if (!right || right != o + 4 * (size_t)props) return 0;
-    return check_node(b, c, sh, right, depth + 1, nodes);
+    if (split_axis && ((props >> AABB_SPLIT_AXIS_SHIFT) & 3) == 3) return 0;
+    uint32_t offset = split_axis ? props & AABB_SPLIT_OFFSET_MASK : props;
+    size_t right = check_node(b, c, sh, split_axis, o + AABB_NODE_BYTES, depth + 1, nodes);
+    if (!right || right != o + 4 * (size_t)offset) return 0;
+    return check_node(b, c, sh, split_axis, right, depth + 1, nodes);
+}
+
+prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, bool split_axis) {
+    uint64_t nodes = 0;
+    if (check_node(b, c, sh, split_axis, 0, 1, &nodes) != b->size || nodes != b->nodes)
+        return prt__fail(PRT_ERROR_CORRUPT, "aabb tree structure is inconsistent with its size");
+    return PRT_OK;
+}
+
+static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
+    return bvh_aabb_encode(t, c, m, false, out);
 }
 
 static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {
-    uint64_t nodes = 0;
-    if (check_node(b, c, sh, 0, 1, &nodes) != b->size || nodes != b->nodes)
-        return prt__fail(PRT_ERROR_CORRUPT, "aabb tree structure is inconsistent with its size");
-    return PRT_OK;
+    return bvh_aabb_validate(b, c, sh, false);
 }
 
 const bvh_layout bvh_layout_aabb = {

@@ -1,0 +1,31 @@
+/* The 28-byte node of Rouwé's AABBTree family (§5.1, §5.2): box min, box max, properties.
+ * Shared by layouts/aabb.c (encoder, validator, AABBTree kernels) and layouts/aabb_split.c. */
+#ifndef PRT_BVH_LAYOUTS_AABB_NODE_H
+#define PRT_BVH_LAYOUTS_AABB_NODE_H
+
+#include "bvh/traverse.h"
+
+#define AABB_NODE_BYTES 28
+#define AABB_LEAF 0x80000000u
+/* AABBTreeSplitAxis inner nodes: split axis in bits 29..30, offset in bits 0..28. */
+#define AABB_SPLIT_AXIS_SHIFT 29
+#define AABB_SPLIT_OFFSET_MASK 0x1FFFFFFFu
+
+static inline uint32_t aabb_props(const uint8_t *node) {
+    uint32_t p;
+    memcpy(&p, node + 24, 4);
+    return p;
+}
+
+static inline float aabb_box_hit(const prt__rayx *r, const uint8_t *node, float tfar) {
+    float b[6];
+    memcpy(b, node, sizeof b);
+    return prt__box_hit(r, b, b + 3, tfar);
+}
+
+/* Depth-first encoding and its structural check, for both variants (split_axis: children
+ * ordered along an axis stored in the node). */
+prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool split_axis, bvh_blob *out);
+prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, bool split_axis);
+
+#endif
