@@ -5,7 +5,9 @@
 # for the headless viewer test)
 set -euo pipefail
 pkgs=(cmake make gcc pkg-config zlib1g-dev libembree-dev libpng-dev libsdl2-dev)
-if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev xvfb xauth); fi
+# libomp-14-dev: clang's OpenMP for the libFuzzer build (gcc uses its own libgomp);
+# python3: the CLI tests read .hits, PNG and JSON output with it.
+if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev libomp-14-dev xvfb xauth python3); fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
