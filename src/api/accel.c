@@ -71,7 +71,10 @@ static void miss(prt_hit *h) {
 }
 
 void prt_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
-    if (PRT_UNLIKELY(!prt__ray_valid(r))) return miss(h);
+    if (PRT_UNLIKELY(!prt__ray_valid(r))) {
+        miss(h);
+        return;
+    }
     a->ops->intersect1(a, r, h);
 }
 

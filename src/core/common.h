@@ -13,7 +13,6 @@
 #define PRT_NOINLINE __attribute__((noinline))
 #define PRT_LIKELY(x) __builtin_expect(!!(x), 1)
 #define PRT_UNLIKELY(x) __builtin_expect(!!(x), 0)
-#define PRT_ALIGNED(n) __attribute__((aligned(n)))
 #define PRT_ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
 #define PRT_MIN(a, b) ((a) < (b) ? (a) : (b))
 #define PRT_MAX(a, b) ((a) > (b) ? (a) : (b))

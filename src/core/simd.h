@@ -15,7 +15,6 @@ typedef int32_t vi4 __attribute__((vector_size(16))); /* comparison masks: -1 tr
 
 static inline vf4 vf4_set1(float x) { return (vf4){x, x, x, x}; }
 static inline vf4 vf4_load(const float *p) { vf4 v; memcpy(&v, p, sizeof v); return v; }
-static inline void vf4_store(float *p, vf4 v) { memcpy(p, &v, sizeof v); }
 
 #if defined(__SSE4_1__)
 static inline vf4 vf4_min(vf4 a, vf4 b) { return (vf4)_mm_min_ps((__m128)a, (__m128)b); }

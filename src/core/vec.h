@@ -45,11 +45,6 @@ static inline void prt_aabb_grow(prt_aabb *b, const prt_aabb *o) {
         b->hi[k] = prt_maxf(b->hi[k], o->hi[k]);
     }
 }
-static inline prt_aabb prt_aabb_union(prt_aabb a, prt_aabb b) {
-    prt_aabb_grow(&a, &b);
-    return a;
-}
-static inline bool prt_aabb_is_empty(const prt_aabb *b) { return b->lo[0] > b->hi[0]; }
 /* Half the surface area (the SAH only needs ratios). Empty boxes give 0. */
 static inline float prt_aabb_half_area(const prt_aabb *b) {
     if (b->lo[0] > b->hi[0]) return 0.0f;

@@ -29,7 +29,8 @@ static int split_axis_of(const bvh_node *a, const bvh_node *b, bool *swap) {
     return axis;
 }
 
-static size_t subtree_bytes(const bvh_tree *t, const bvh_codec *c) {
+/* Bytes of the whole encoded tree: every node plus every leaf's triangle block. */
+static size_t encoded_bytes(const bvh_tree *t, const bvh_codec *c) {
     size_t bytes = 0;
     for (size_t i = 0; i < t->node_count; i++)
         bytes += AABB_NODE_BYTES + (t->nodes[i].count ? c->leaf_bytes(t->nodes[i].count) : 0);
@@ -69,7 +70,7 @@ static size_t write_node(encoder *e, uint32_t i, size_t o) {
 prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool split_axis,
                            bvh_blob *out) {
     memset(out, 0, sizeof *out);
-    encoder e = {t, c, m, NULL, subtree_bytes(t, c), split_axis};
+    encoder e = {t, c, m, NULL, encoded_bytes(t, c), split_axis};
     e.out = prt__alloc(e.size);
     if (!e.out) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", e.size);
     if (write_node(&e, 0, 0) != e.size) {
