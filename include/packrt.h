@@ -186,6 +186,10 @@ typedef struct prt_stats {
     uint32_t depth;
     double build_seconds;
     size_t build_peak_bytes; /* peak packrt allocation during the build, mesh excluded */
+    /* Lossy representations: the largest distance between a vertex as the representation
+     * decodes it and the mesh's vertex (mesh units), so every decoded triangle lies within
+     * vertex_error of its original. 0 for lossless representations. */
+    double vertex_error;
 } prt_stats;
 
 /* Build an acceleration structure for mesh m (which is validated first) according to
@@ -194,6 +198,8 @@ typedef struct prt_stats {
  * order=df (node order, Rouwé §4.3; the other orders are not built yet). options may be NULL.
  * The build resets the peak of prt_memory_usage() to measure its own peak (reported in
  * prt_stats.build_peak_bytes; concurrent builds see each other's allocations).
+ * A mesh that a representation cannot encode (too many vertices for 16-bit indices, offsets
+ * past its bits) is PRT_ERROR_LIMIT with the reason in prt_last_error().
  * The accel does not keep a pointer to m. Free it with prt_accel_free(). */
 prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_options *options,
                      prt_accel **out);
