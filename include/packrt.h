@@ -170,6 +170,13 @@ typedef struct prt_build_options {
      * thread that called prt_build; NULL for none. The CLI draws its progress bar with it. */
     void (*progress)(void *user, float fraction);
     void *progress_user;
+    /* For specs with ids=none (compact BVH codecs that store one id per leaf): the accel
+     * keeps no map back to mesh triangle ids and hits name triangles by their position in
+     * the accel's own order; triangle_order[k] receives the mesh id of position k, for
+     * k < prt_stats.triangles_built, so the caller can put its per-triangle data in that
+     * order once and save the 4 bytes per triangle the map would cost. Caller-allocated,
+     * mesh triangle count entries; NULL otherwise. */
+    uint32_t *triangle_order;
 } prt_build_options;
 
 /* Memory of an accel, split as in Rouwé's and Benthin's tables. Every byte that a query
@@ -195,7 +202,10 @@ typedef struct prt_stats {
 /* Build an acceleration structure for mesh m (which is validated first) according to
  * spec: "structure[:codec][,key=value]...", e.g. "aabb:float3", "quad:float3-soa4,leaf=8".
  * Keys for BVH representations: split=sah|mean|longest|morton|fixed, leaf=1..16,
- * order=df (node order, Rouwé §4.3; the other orders are not built yet). options may be NULL.
+ * order=df (node order, Rouwé §4.3; the other orders are not built yet), ids=mesh|none
+ * (codecs that store one id per leaf: hits name mesh triangles through a 4-byte-per-triangle
+ * map, or with none name positions in the accel's order, see triangle_order above).
+ * options may be NULL.
  * The build resets the peak of prt_memory_usage() to measure its own peak (reported in
  * prt_stats.build_peak_bytes; concurrent builds see each other's allocations).
  * A mesh that a representation cannot encode (too many vertices for 16-bit indices, offsets

@@ -4,6 +4,7 @@
  * stream and packet paths give what prt_intersect1 gives. */
 #include "support/meshes.h"
 #include "support/reference.h"
+#include "support/repr.h"
 #include "test.h"
 
 /* A hit closer than this (in barycentric units) to an edge may legitimately go to either
@@ -37,15 +38,20 @@ static agreement compare_with_reference(const prt_mesh *m, const char *spec, con
                                         const reference *ref) {
     agreement g = {n, 0, 0, 0, 0};
     prt_accel *a;
-    prt_status s = prt_build(m, spec, NULL, &a);
-    CHECK_MSG(s == PRT_OK, "%s: %s", spec, prt_last_error());
-    if (s) return g;
-    double diag = ref_diagonal(m);
+    if (!repr_build(m, spec, &a)) return g;
+    double diag = ref_diagonal(m), err = repr_vertex_error(a);
     for (size_t i = 0; i < n; i++) {
         prt_hit want = ref->hit[i];
-        if (ref->edge[i] < EDGE_EPS) continue;
         prt_ray r = rays[i];
         prt_hit got;
+        if (err > 0) { /* lossy: within the stated bound, edges included */
+            prt_intersect1(a, &r, &got);
+            g.compared++;
+            g.hitmiss += !ref_lossy_acceptable(m, &rays[i], &got, &want, err, T_TOL * diag);
+            g.hitmiss += (got.prim != PRT_INVALID) != prt_occluded1(a, &rays[i]);
+            continue;
+        }
+        if (ref->edge[i] < EDGE_EPS) continue;
         prt_intersect1(a, &r, &got);
         g.compared++;
         bool hw = want.prim != PRT_INVALID, hg = got.prim != PRT_INVALID;
@@ -65,7 +71,7 @@ static agreement compare_with_reference(const prt_mesh *m, const char *spec, con
     }
     prt_accel_free(a);
     CHECK_MSG(g.compared > n / 2, "%s: only %zu of %zu rays were unambiguous", spec, g.compared, n);
-    CHECK_MSG(g.hitmiss == 0 && g.prim == 0 && g.t == 0, "%s: %zu rays compared, %zu hit/miss, %zu prim, %zu t disagreements",
+    CHECK_MSG(g.hitmiss == 0 && g.prim == 0 && g.t == 0, "%s: %zu rays compared, %zu hit/miss (lossy: outside the bound), %zu prim, %zu t disagreements",
               spec, g.compared, g.hitmiss, g.prim, g.t);
     return g;
 }
@@ -116,7 +122,7 @@ TEST(test_stream_and_packet_equal_single_rays) {
     prt_ray *rays = rays_random(m, n, 10);
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        if (!repr_build(m, prt_repr_name(k), &a)) continue;
         prt_ray *r1 = malloc(n * sizeof *r1), *r2 = malloc(n * sizeof *r2), *r3 = malloc(n * sizeof *r3);
         prt_hit *h1 = malloc(n * sizeof *h1), *h2 = malloc(n * sizeof *h2), *h3 = malloc(n * sizeof *h3);
         uint8_t *occ = malloc(n);
@@ -169,11 +175,11 @@ TEST(test_tnear_and_tfar_bound_the_hit_interval) {
     memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        if (!repr_build(m, prt_repr_name(k), &a)) continue;
         prt_ray r = {{0, 0, 0}, 0, {0, 0, 1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);
-        CHECK(h.prim == 0 && h.t == 1.0f);
+        CHECK(h.prim == 0 && repr_t_near(a, h.t, 1.0f));
         prt_ray shorter = {{0, 0, 0}, 0, {0, 0, 1}, 0.999f}, later = {{0, 0, 0}, 1.001f, {0, 0, 1}, 5};
         prt_ray exact = {{0, 0, 0}, 1.0f, {0, 0, 1}, 1.0f};
         CHECK(!prt_occluded1(a, &shorter) && !prt_occluded1(a, &later) && prt_occluded1(a, &exact));
@@ -198,14 +204,14 @@ TEST(test_degenerate_triangles_are_never_hit) {
     CHECK(prt_mesh_count_degenerate(m) == 2);
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        if (!repr_build(m, prt_repr_name(k), &a)) continue;
         prt_stats st;
         prt_accel_stats(a, &st);
         CHECK(st.triangles == 3 && st.triangles_built == 1);
         prt_ray r = {{0, 0, 0}, 0, {0, 0, 1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);
-        CHECK_MSG(h.prim == 2 && h.t == 3.0f, "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
+        CHECK_MSG(h.prim == 2 && repr_t_near(a, h.t, 3.0f), "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
         prt_accel_free(a);
     }
     prt_mesh_free(m);
@@ -256,13 +262,13 @@ TEST(test_axis_aligned_ray_in_a_face_plane_hits) {
     prt_mesh *m = unit_cube();
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        if (!repr_build(m, prt_repr_name(k), &a)) continue;
         for (int sign = 0; sign < 2; sign++) {
             float y0 = sign ? -0.0f : 0.0f;
             prt_ray r = {{-5, 1, 0.3f}, 0, {1, y0, 0}, INFINITY};
             prt_hit h;
             prt_intersect1(a, &r, &h);
-            CHECK_MSG(h.prim != PRT_INVALID && h.t == 4.0f, "%s, dir y %s0: prim %u t %g", prt_repr_name(k),
+            CHECK_MSG(h.prim != PRT_INVALID && repr_t_near(a, h.t, 4.0f), "%s, dir y %s0: prim %u t %g", prt_repr_name(k),
                       sign ? "-" : "+", h.prim, (double)h.t);
         }
         prt_accel_free(a);
@@ -279,11 +285,11 @@ TEST(test_negative_tnear_finds_hits_behind_the_origin) {
     memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
+        if (!repr_build(m, prt_repr_name(k), &a)) continue;
         prt_ray r = {{0.3f, 0.2f, 5}, -INFINITY, {0, 0, 1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);
-        CHECK_MSG(h.prim != PRT_INVALID && h.t == -5.0f, "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
+        CHECK_MSG(h.prim != PRT_INVALID && repr_t_near(a, h.t, -5.0f), "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
         CHECK(prt_occluded1(a, &r));
         prt_accel_free(a);
     }
@@ -301,14 +307,17 @@ TEST(test_equal_t_ties_pick_the_smallest_triangle_id) {
     prt_mesh *cube = unit_cube();
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a, *c;
-        CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
-        CHECK_OK(prt_build(cube, prt_repr_name(k), NULL, &c));
+        if (!repr_build(m, prt_repr_name(k), &a)) continue;
+        if (!repr_build(cube, prt_repr_name(k), &c)) {
+            prt_accel_free(a);
+            continue;
+        }
         prt_ray r = {{0.1f, 0, 0}, 0, {0, 0, 1}, INFINITY}, rc = {{0.25f, 0.25f, -5}, 0, {0, 0, 1}, INFINITY};
         prt_hit h, hc;
         prt_intersect1(a, &r, &h);
         prt_intersect1(c, &rc, &hc);
-        CHECK_MSG(h.prim == 0 && h.t == 1.0f, "%s: copies: prim %u", prt_repr_name(k), h.prim);
-        CHECK_MSG(hc.prim == 0 && hc.t == 4.0f, "%s: diagonal: prim %u t %g", prt_repr_name(k), hc.prim, (double)hc.t);
+        CHECK_MSG(h.prim == 0 && repr_t_near(a, h.t, 1.0f), "%s: copies: prim %u", prt_repr_name(k), h.prim);
+        CHECK_MSG(hc.prim == 0 && repr_t_near(c, hc.t, 4.0f), "%s: diagonal: prim %u t %g", prt_repr_name(k), hc.prim, (double)hc.t);
         prt_accel_free(a), prt_accel_free(c);
     }
     prt_mesh_free(cube);
@@ -322,6 +331,47 @@ TEST(test_coordinates_beyond_the_limit_are_rejected) {
     CHECK(prt_build(m, "quad:float3-soa4", NULL, &a) == PRT_ERROR_LIMIT && a == NULL);
     CHECK(strstr(prt_last_error(), "magnitude") != NULL);
     prt_mesh_free(m);
+}
+
+TEST(test_ids_none_hits_map_through_the_triangle_order) {
+    /* Codecs with one id per leaf can drop the id map (ids=none): their hits must then be
+     * the default build's hits renumbered by prt_build_options.triangle_order. */
+    prt_mesh *m = mesh_random_soup(1500, 21);
+    size_t n = 3000, tested = 0;
+    prt_ray *rays = rays_random(m, n, 22);
+    uint32_t *order = malloc(m->triangle_count * sizeof *order);
+    for (size_t k = 0; k < prt_repr_count(); k++) {
+        char spec[128];
+        snprintf(spec, sizeof spec, "%s,ids=none", prt_repr_name(k));
+        prt_build_options o = {.triangle_order = order};
+        prt_accel *a, *b;
+        prt_status s = prt_build(m, spec, &o, &b);
+        if (s == PRT_ERROR_ARGUMENT) continue; /* stores ids per triangle: no map to drop */
+        CHECK_MSG(s == PRT_OK, "%s: %s", spec, prt_last_error());
+        if (s) continue;
+        if (!repr_build(m, prt_repr_name(k), &a)) {
+            prt_accel_free(b);
+            continue;
+        }
+        prt_stats sa, sb;
+        prt_accel_stats(a, &sa), prt_accel_stats(b, &sb);
+        CHECK_MSG(sb.bytes_geometry + 4 * sb.triangles_built == sa.bytes_geometry, "%s: %zu geometry bytes, %zu with ids",
+                  spec, sb.bytes_geometry, sa.bytes_geometry);
+        size_t differ = 0;
+        for (size_t i = 0; i < n; i++) {
+            prt_ray r1 = rays[i], r2 = rays[i];
+            prt_hit h1, h2;
+            prt_intersect1(a, &r1, &h1), prt_intersect1(b, &r2, &h2);
+            if (h2.prim != PRT_INVALID) h2.prim = h2.prim < sb.triangles_built ? order[h2.prim] : PRT_INVALID - 1;
+            differ += h1.prim != h2.prim || h1.t != h2.t;
+        }
+        CHECK_MSG(differ == 0, "%s: %zu of %zu rays differ from the build with ids", spec, differ, n);
+        tested++;
+        prt_accel_free(a), prt_accel_free(b);
+    }
+    free(order), free(rays);
+    prt_mesh_free(m);
+    if (!tested) SKIP("no registered codec stores one id per leaf");
 }
 
 int main(void) {
@@ -338,5 +388,6 @@ int main(void) {
     RUN(test_negative_tnear_finds_hits_behind_the_origin);
     RUN(test_equal_t_ties_pick_the_smallest_triangle_id);
     RUN(test_coordinates_beyond_the_limit_are_rejected);
+    RUN(test_ids_none_hits_map_through_the_triangle_order);
     TEST_END();
 }

@@ -69,7 +69,7 @@ int cli_open_accel(const char *cmd, const char *path, const char *spec, const ch
     if ((s = prt_mesh_load(path, &m))) return cli_fail(cmd, path, s);
     cli_progress bar;
     cli_progress_begin(&bar, "building");
-    prt_build_options o = {0, cli_progress_callback, &bar};
+    prt_build_options o = {.progress = cli_progress_callback, .progress_user = &bar};
     s = prt_build(m, spec ? spec : default_spec, &o, accel);
     cli_progress_end(&bar);
     if (s) {

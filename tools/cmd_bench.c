@@ -213,7 +213,7 @@ static prt_status primary_hits(const bench_cli *c, bench_embree *em, const prt_m
     prt_status s = PRT_ERROR_ARGUMENT;
     for (size_t i = 0; i < nspecs; i++) {
         prt_accel *a;
-        prt_build_options o = {c->threads, NULL, NULL};
+        prt_build_options o = {.threads = c->threads};
         if ((s = prt_build(m, specs[i], &o, &a))) continue;
         s = bench_trace_hits(a, primary, hits);
         prt_accel_free(a);
@@ -362,7 +362,7 @@ int cmd_bench(int argc, char **argv) {
         prt_accel *a = file_accel;
         if (!a) {
             say("%s: %s", specs[i], "build");
-            prt_build_options o = {c.threads, NULL, NULL};
+            prt_build_options o = {.threads = c.threads};
             double t0 = prt__now();
             if ((s = prt_build(mesh, specs[i], &o, &a))) {
                 snprintf(row->error, sizeof row->error, "%s: %s", prt_status_string(s), prt_last_error());

@@ -29,7 +29,7 @@ int cmd_build(int argc, char **argv) {
     if (s) return cli_fail("build", mesh_path, s);
     cli_progress bar;
     cli_progress_begin(&bar, "building");
-    prt_build_options o = {threads, cli_progress_callback, &bar};
+    prt_build_options o = {.threads = threads, .progress = cli_progress_callback, .progress_user = &bar};
     prt_accel *a;
     s = prt_build(m, spec, &o, &a);
     cli_progress_end(&bar);

@@ -158,7 +158,7 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
         prt_accel *a;
         cli_progress bar;
         cli_progress_begin(&bar, "building");
-        prt_build_options bo = {0, cli_progress_callback, &bar};
+        prt_build_options bo = {.progress = cli_progress_callback, .progress_user = &bar};
         s = prt_build(m, spec[k], &bo, &a);
         cli_progress_end(&bar);
         if (s) {

@@ -1,6 +1,7 @@
 /* The BVH family behind prt_accel_ops: parses "layout:codec[,split=..,leaf=..]", builds
  * the generic tree, encodes it with the chosen layout and codec, and dispatches queries to
- * the layout's kernels for that codec. Saved as two sections: META and BLOB. */
+ * the layout's kernels for that codec. Saved as sections META and BLOB, SHRD for a codec's
+ * tree-wide data and IDS for the mesh ids of a seq_ids codec's triangles. */
 #include "api/accel.h"
 #include "bvh/bvh.h"
 #include "core/vec.h"
@@ -16,6 +17,7 @@ typedef struct bvh_accel {
     int codec;
     bvh_blob blob;
     bvh_shared shared; /* the codec's tree-wide data (vertex buffer), or empty */
+    uint32_t *mesh_ids; /* owned when built: the ids array behind shared.mesh_ids */
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
@@ -24,8 +26,11 @@ typedef struct bvh_accel {
 /* On-disk META section (little endian, 64 bytes). */
 typedef struct bvh_meta {
     uint64_t blob_size, bytes_tree, bytes_geometry, nodes, leaves;
-    uint32_t depth, layout, codec, reserved[3];
+    uint32_t depth, layout, codec;
+    uint32_t flags;     /* BVH_META_MESH_IDS: an IDS section maps leaf order to mesh ids */
+    uint64_t triangles; /* seq_ids codecs: triangles in the tree */
 } bvh_meta;
+enum { BVH_META_MESH_IDS = 1 };
 _Static_assert(sizeof(bvh_meta) == 64, "META section is 64 bytes");
 
 static const bvh_layout *const g_layouts[] = {
@@ -68,6 +73,8 @@ static bool bvh_name_at(size_t i, const char **name, const char **desc) {
 static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     const bvh_accel *b = (const bvh_accel *)a;
     b->intersect1(b->blob.data, &b->shared, r, h);
+    /* seq_ids codecs answer the leaf-order id; leaves were checked to stay below triangles. */
+    if (b->shared.mesh_ids && h->prim < b->shared.triangles) h->prim = b->shared.mesh_ids[h->prim];
 }
 
 static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -78,7 +85,8 @@ static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
 static void bvh_stats(const prt_accel *a, prt_stats *s) {
     const bvh_accel *b = (const bvh_accel *)a;
     s->bytes_tree = b->blob.bytes_tree;
-    s->bytes_geometry = b->blob.bytes_geometry + b->shared.size;
+    /* Triangle ids are geometry, as they are inside float3's leaves. */
+    s->bytes_geometry = b->blob.bytes_geometry + b->shared.size + (b->shared.mesh_ids ? 4 * b->shared.triangles : 0);
     s->bytes_other = sizeof(bvh_accel);
     s->nodes = b->blob.nodes;
     s->leaves = b->blob.leaves;
@@ -90,6 +98,7 @@ static void bvh_destroy(prt_accel *a) {
     if (b->owns_blob) {
         prt__free(b->blob.data);
         prt__free((void *)b->shared.data);
+        prt__free(b->mesh_ids);
     }
     prt__free(b);
 }
@@ -106,6 +115,30 @@ static bvh_accel *bvh_new(int layout, int codec) {
 
 extern const prt_accel_ops prt__bvh_ops;
 
+/* seq_ids codecs (docs/design-changes.md): renumber the tree's triangles in leaf order so
+ * each leaf holds a consecutive run, encode a copy of the mesh whose triangles are in that
+ * order, and keep the map back to mesh ids (or hand it to the caller with ids=none). */
+static prt_status permute_to_leaf_order(const prt_mesh *m, bvh_tree *t, uint32_t *order_out, bvh_accel *b,
+                                        prt_mesh *out) {
+    size_t n = t->prim_count;
+    uint32_t *tri = prt__alloc(prt__mul_size(n, 3 * sizeof(uint32_t)));
+    uint32_t *ids = order_out ? order_out : prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
+    if (!tri || !ids) {
+        prt__free(tri);
+        if (!order_out) prt__free(ids);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu triangles in leaf order", n);
+    }
+    for (size_t i = 0; i < n; i++) {
+        ids[i] = t->prims[i];
+        memcpy(tri + 3 * i, m->triangles + 3 * (size_t)t->prims[i], 3 * sizeof(uint32_t));
+        t->prims[i] = (uint32_t)i;
+    }
+    *out = (prt_mesh){m->vertices, tri, m->vertex_count, n};
+    b->shared.triangles = n;
+    if (!order_out) b->mesh_ids = ids, b->shared.mesh_ids = ids;
+    return PRT_OK;
+}
+
 static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
     int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
     const bvh_codec *c = &bvh_codecs[codec];
@@ -120,8 +153,16 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         (s = prt__spec_int(spec, "leaf", g_layouts[layout]->default_leaf[codec], 1, BVH_MAX_LEAF, &leaf)))
         return s;
     static const char *const orders[] = {"df"};
-    int order;
-    if ((s = prt__spec_enum(spec, "order", orders, 1, 0, &order))) return s;
+    static const char *const id_modes[] = {"mesh", "none"};
+    int order, ids;
+    if ((s = prt__spec_enum(spec, "order", orders, 1, 0, &order)) ||
+        (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids)))
+        return s;
+    if (ids && !c->seq_ids)
+        return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs a codec that stores one id per leaf; %s stores one per triangle",
+                         c->name);
+    if (ids && !(o && o->triangle_order))
+        return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs prt_build_options.triangle_order to receive the order");
     if ((s = prt__spec_check_unused(spec))) return s;
     p.split = (bvh_split)split;
     p.max_leaf = leaf;
@@ -154,13 +195,16 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     }
     b->owns_blob = true;
-    if (c->shared_build) {
+    prt_mesh leaf_order = *m, *em = (prt_mesh *)m;
+    if (c->seq_ids) s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order), em = &leaf_order;
+    if (!s && c->shared_build) {
         uint8_t *data = NULL;
-        s = c->shared_build(m, &data, &b->shared.size);
+        s = c->shared_build(em, &data, &b->shared.size);
         b->shared.data = data;
     }
-    if (!s) s = b->layout->encode(&tree, c, m, &b->blob);
+    if (!s) s = b->layout->encode(&tree, c, em, &b->blob);
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
+    if (em != m) prt__free(leaf_order.triangles);
     bvh_tree_free(&tree);
     if (s) {
         bvh_destroy(&b->base);
@@ -175,10 +219,12 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
 static prt_status bvh_save(const prt_accel *a, prt_writer *w) {
     const bvh_accel *b = (const bvh_accel *)a;
     bvh_meta meta = {b->blob.size, b->blob.bytes_tree, b->blob.bytes_geometry, b->blob.nodes, b->blob.leaves,
-                     b->blob.depth, 0, 0, {0}};
+                     b->blob.depth, 0, 0, b->shared.mesh_ids ? BVH_META_MESH_IDS : 0, b->shared.triangles};
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), b->blob.data, b->blob.size);
     if (!s && b->shared.size) s = prt__writer_section(w, PRT_FOURCC('S', 'H', 'R', 'D'), b->shared.data, b->shared.size);
+    if (!s && b->shared.mesh_ids)
+        s = prt__writer_section(w, PRT_FOURCC('I', 'D', 'S', ' '), b->shared.mesh_ids, 4 * b->shared.triangles);
     return s;
 }
 
@@ -195,11 +241,24 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (meta.blob_size != size || meta.bytes_tree > size || meta.bytes_geometry != size - meta.bytes_tree ||
         meta.depth > BVH_MAX_DEPTH || meta.depth == 0)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section disagrees with its BLOB");
-    bvh_shared shared = {NULL, 0};
+    bvh_shared shared = {NULL, 0, 0, NULL};
     if (bvh_codecs[codec].shared_build) {
         const void *sd;
         if ((s = prt__reader_section(r, PRT_FOURCC('S', 'H', 'R', 'D'), 1, &sd, &shared.size))) return s;
         shared.data = sd;
+    }
+    if (meta.flags & ~(uint32_t)BVH_META_MESH_IDS || (meta.flags && !bvh_codecs[codec].seq_ids) ||
+        (!bvh_codecs[codec].seq_ids && meta.triangles) || meta.triangles > UINT32_MAX)
+        return prt__fail(PRT_ERROR_CORRUPT, "BVH META section has flags or a triangle count its codec does not use");
+    shared.triangles = (size_t)meta.triangles;
+    if (meta.flags & BVH_META_MESH_IDS) {
+        const void *ids;
+        size_t ids_size;
+        if ((s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'S', ' '), 4, &ids, &ids_size))) return s;
+        if (ids_size != 4 * shared.triangles)
+            return prt__fail(PRT_ERROR_CORRUPT, "BVH IDS section holds %zu bytes for %zu triangles", ids_size,
+                             shared.triangles);
+        shared.mesh_ids = ids;
     }
     bvh_accel *b = bvh_new(layout, codec);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");

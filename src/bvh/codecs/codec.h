@@ -7,8 +7,9 @@
  * Adding a codec: codecs/<name>.h, one line in BVH_CODECS below, one include in
  * codecs/codecs.h and two lines in layouts/instantiate.inc. A codec header defines
  * <name>_block, <name>_align, <name>_leaf_bytes, <name>_encode, <name>_ray (per-ray state),
- * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded, and
- * <name>_shared_build / <name>_leaf_valid as NULL-able macros or functions. */
+ * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded,
+ * <name>_shared_build / <name>_leaf_valid as NULL-able macros or functions, and
+ * <name>_seq_ids (0 or 1, see bvh_codec.seq_ids). */
 #ifndef PRT_BVH_CODECS_CODEC_H
 #define PRT_BVH_CODECS_CODEC_H
 
@@ -34,6 +35,12 @@ typedef enum bvh_codec_id {
 typedef struct bvh_shared {
     const uint8_t *data;
     size_t size;
+    /* Codecs with seq_ids: the number of triangles in the tree (every leaf's ids lie
+     * below it; leaf_valid checks that), and the mesh triangle id of each, or NULL when
+     * the tree was built with ids=none. Ties at equal t go to the smaller mesh id, so a
+     * kernel compares bvh_tie_id(sh, id) rather than its own ids (bvh/codecs/nearest.h). */
+    size_t triangles;
+    const uint32_t *mesh_ids;
 } bvh_shared;
 
 typedef struct bvh_codec {
@@ -49,6 +56,11 @@ typedef struct bvh_codec {
     /* Loading: true when a leaf only references what exists (e.g. vertex indices inside
      * the shared buffer). NULL when a leaf cannot reference anything outside itself. */
     bool (*leaf_valid)(const uint8_t *leaf, uint32_t count, const bvh_shared *shared);
+    /* True for codecs that keep one base id per leaf instead of an id per triangle: the
+     * ids handed to encode() are then consecutive (ids[k] == ids[0] + k), because the tree
+     * is built over the mesh's triangles permuted into leaf order, and the accel maps a
+     * hit back to the mesh id through bvh_shared.mesh_ids (docs/design-changes.md). */
+    bool seq_ids;
 } bvh_codec;
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];

@@ -8,7 +8,7 @@
 #include "geom/triangle.h"
 
 #define FLOAT3_TRI_BYTES 40
-enum { float3_block = 1, float3_align = 4 };
+enum { float3_block = 1, float3_align = 4, float3_seq_ids = 0 };
 
 typedef struct float3_ray {
     char unused;

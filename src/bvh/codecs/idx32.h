@@ -10,7 +10,7 @@
 #include "geom/triangle.h"
 
 #define IDX32_TRI_BYTES 16
-enum { idx32_block = 1, idx32_align = 4 };
+enum { idx32_block = 1, idx32_align = 4, idx32_seq_ids = 0 };
 
 typedef struct idx32_ray {
     const float *vertices;

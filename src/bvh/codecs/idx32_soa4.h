@@ -14,7 +14,7 @@
 #include <math.h>
 
 #define IDX32_SOA4_BLOCK_BYTES 64
-enum { idx32_soa4_block = 4, idx32_soa4_align = 16 };
+enum { idx32_soa4_block = 4, idx32_soa4_align = 16, idx32_soa4_seq_ids = 0 };
 
 typedef struct idx32_soa4_ray {
     prt__rayx4t r4;

@@ -2,6 +2,7 @@
 #ifndef PRT_BVH_CODECS_NEAREST_H
 #define PRT_BVH_CODECS_NEAREST_H
 
+#include "bvh/codecs/codec.h"
 #include "geom/ray.h"
 
 /* Closest-hit update for a SIMD block: among the lanes in mask (all with t <= h->t), the
@@ -18,6 +19,12 @@ static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u
     }
     if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
     if (best < h->t || prim < h->prim) h->t = best, h->u = u[lane], h->v = v[lane], h->prim = prim;
+}
+
+/* The id that decides a tie at equal t for a seq_ids codec: the mesh id of leaf-order
+ * triangle `id` (ids=none: the leaf-order id itself). Only evaluated on exact ties. */
+static inline uint32_t bvh_tie_id(const bvh_shared *sh, uint32_t id) {
+    return sh->mesh_ids && id < sh->triangles ? sh->mesh_ids[id] : id;
 }
 
 #endif
