@@ -204,6 +204,12 @@ typedef struct bench_figures {
 void bench_measure_random_1024(const bench_backend *b, const bench_rays *random,
                                const bench_options *o, double *warm_us, double *cold_us);
 
+/* Rouwé's FLUSH_CACHE_AFTER_EVERY_RAY figure: each of the first n random rays cast alone
+ * after a cache flush of flush_bytes (0: the default), the times summed and scaled to µs
+ * per 1024 rays. 0 when out of memory. */
+double bench_measure_random_cold_per_ray(const bench_backend *b, const bench_rays *random, size_t n,
+                                         size_t flush_bytes);
+
 /* Mrays/s of a workload on one thread and on o->threads threads; hits / occluded (either may
  * be NULL, sized rays->count) receive the results for checking. False when out of memory. */
 bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, const bench_options *o,
@@ -278,6 +284,29 @@ typedef struct bench_report {
 void bench_report_text(FILE *f, const bench_report *r);
 /* The DESIGN §7 JSON object. */
 void bench_report_json(FILE *f, const bench_report *r);
+
+/* ---------------------------------------------------------------------------------
+ * The Rouwé matrix (bench/matrix.c): `packrt bench MESH --matrix`
+ * --------------------------------------------------------------------------------- */
+
+typedef struct bench_matrix_options {
+    int reps;                /* warm figure: minimum over 4 x reps batches; cold: median of reps */
+    bool cold;               /* measure the cold figures */
+    size_t flush_bytes;      /* per-batch flush buffer (0: default) */
+    size_t cold_rays;        /* rays of the per-ray cold figure (0: skip it) */
+    size_t flush_bytes_ray;  /* per-ray flush buffer */
+    uint64_t seed;
+    bool vs_embree;
+    const char *const *specs; /* representations of the main table; NULL: every registered one */
+    size_t spec_count;
+    const char *mesh_name, *machine, *commit;
+    double load_average;
+} bench_matrix_options;
+
+/* Measure every representation (and Embree) on the first 1024 random rays, one thread,
+ * and print Rouwé's tables (§3.11, §4.1-4.3, §6) as markdown to f. Returns 0, or 1 when a
+ * representation failed for a reason other than a mesh it cannot encode. */
+int bench_matrix(FILE *f, const prt_mesh *m, const bench_matrix_options *o);
 
 /* "CPU model, N cores" from /proc/cpuinfo and the online core count. */
 void bench_machine_string(char *buf, size_t size);

@@ -114,3 +114,25 @@ bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, cons
     free(scratch);
     return true;
 }
+
+double bench_measure_random_cold_per_ray(const bench_backend *b, const bench_rays *random, size_t n,
+                                         size_t flush_bytes) {
+    bench_rays batch = *random;
+    batch.count = random->count < n ? random->count : n;
+    batch.tile = 0;
+    batch.pixel = NULL;
+    if (!batch.count) return 0.0;
+    bench_batch *bb = b->load(b->self, &batch);
+    if (!bb) return 0.0;
+    /* Every ray starts from flushed caches; only the ray itself is inside the timer. */
+    double sum = 0;
+    for (size_t i = 0; i < batch.count; i++) {
+        b->reset(b->self, bb);
+        bench_cache_flush(flush_bytes);
+        double t0 = prt__now();
+        b->single(b->self, bb, i, 1);
+        sum += prt__now() - t0;
+    }
+    b->unload(b->self, bb);
+    return sum * 1e6 * 1024.0 / (double)batch.count;
+}

@@ -31,7 +31,11 @@ static void usage(FILE *f) {
             "  --tris N             triangles of the generated default mesh (default 1M)\n"
             "  --no-cold            skip the cold-cache figure (each sample flushes the caches)\n"
             "  --flush-mb N         cache flush buffer in MiB (default: twice the last-level cache)\n"
-            "  --json               print the DESIGN section 7 JSON object instead of the table\n");
+            "  --json               print the DESIGN section 7 JSON object instead of the table\n"
+            "  --matrix             Rouwe's tables instead: every representation (or the -r ones) on\n"
+            "                       1024 random rays, one thread, warm and cold, bytes per triangle,\n"
+            "                       and the splitter, leaf-size and node-order tables, as markdown\n"
+            "  --cold-rays N        --matrix: rays of the flush-before-every-ray figure (default 64, 0: none)\n");
 }
 
 typedef struct bench_cli {
@@ -45,7 +49,8 @@ typedef struct bench_cli {
     size_t rays, tris;
     uint32_t width, height;
     uint64_t seed;
-    bool json, cold;
+    bool json, cold, matrix;
+    size_t cold_rays;
     size_t flush_bytes;
 } bench_cli;
 
@@ -72,6 +77,7 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
     c->vs_embree = true; /* a row that says "not available" when the build has no Embree */
     c->reps = 5, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->seed = 1;
     c->cold = true;
+    c->cold_rays = 64;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -81,6 +87,8 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
             return -1;
         } else if (!strcmp(a, "--json")) {
             c->json = true;
+        } else if (!strcmp(a, "--matrix")) {
+            c->matrix = true;
         } else if (!strcmp(a, "--no-cold")) {
             c->cold = false;
         } else if (a[0] == '-' && a[1] && !v) {
@@ -100,7 +108,8 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
             else if (!strcmp(v, "none")) c->vs_embree = false;
             else return cli_usage("bench", "--vs takes embree or none, not '%s'", v);
         } else if (!strcmp(a, "--threads") || !strcmp(a, "--reps") || !strcmp(a, "--rays") ||
-                   !strcmp(a, "--seed") || !strcmp(a, "--tris") || !strcmp(a, "--flush-mb")) {
+                   !strcmp(a, "--seed") || !strcmp(a, "--tris") || !strcmp(a, "--flush-mb") ||
+                   !strcmp(a, "--cold-rays")) {
             i++;
             if (!cli_parse_count(v, &n)) return cli_usage("bench", "%s: '%s' is not a count", a, v);
             if (!strcmp(a, "--threads")) c->threads = n > 4096 ? 4096 : (int)n;
@@ -108,6 +117,7 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
             else if (!strcmp(a, "--rays")) c->rays = n;
             else if (!strcmp(a, "--seed")) c->seed = n;
             else if (!strcmp(a, "--tris")) c->tris = n;
+            else if (!strcmp(a, "--cold-rays")) c->cold_rays = n > 1024 ? 1024 : n;
             else c->flush_bytes = n << 20;
         } else if (!strcmp(a, "--size")) {
             i++;
@@ -247,6 +257,32 @@ int cmd_bench(int argc, char **argv) {
     } else {
         if ((s = prt_mesh_load(c.path, &mesh))) return cli_fail("bench", c.path, s);
         snprintf(mesh_name, sizeof mesh_name, "%s", c.path);
+    }
+
+    if (c.matrix) {
+        if (!mesh) {
+            prt_accel_free(file_accel);
+            return cli_usage("bench", "--matrix builds every representation: it needs a mesh, not a .prt file");
+        }
+        char machine[256], commit[64];
+        bench_machine_string(machine, sizeof machine);
+        commit_string(commit, sizeof commit);
+        bench_matrix_options mo = {.reps = c.reps,
+                                   .cold = c.cold,
+                                   .flush_bytes = c.flush_bytes,
+                                   .cold_rays = c.cold_rays,
+                                   .flush_bytes_ray = (size_t)64 << 20,
+                                   .seed = c.seed,
+                                   .vs_embree = c.vs_embree,
+                                   .specs = c.spec_count && !c.all_specs ? c.specs : NULL,
+                                   .spec_count = c.all_specs ? 0 : (size_t)c.spec_count,
+                                   .mesh_name = mesh_name,
+                                   .machine = machine,
+                                   .commit = commit,
+                                   .load_average = load};
+        rc = bench_matrix(stdout, mesh, &mo);
+        prt_mesh_free(mesh);
+        return rc;
     }
 
     float lo[3], hi[3];
