@@ -1,5 +1,5 @@
 /* prt_mesh_generate: argument checks and dispatch to the generator of each kind
- * (gen_sphere.c, gen_terrain.c, gen_mandelbulb.c, gen_cad.c). */
+ * (gen_sphere.c, gen_terrain.c, gen_mandelbulb.c, gen_cad.c, gen_level.c). */
 #include "mesh/gen.h"
 
 #include <string.h>
@@ -16,10 +16,11 @@ static const struct {
     {"terrain", gen_terrain},
     {"mandelbulb", gen_mandelbulb},
     {"cad", gen_cad},
+    {"level", gen_level},
 };
 
 const char *prt_gen_kinds(void) {
-    return "sphere terrain mandelbulb cad";
+    return "sphere terrain mandelbulb cad level";
 }
 
 prt_status prt_mesh_generate(const char *kind, size_t triangles, uint64_t seed, prt_mesh **out) {

@@ -9,5 +9,6 @@ prt_status gen_sphere(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_terrain(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_mandelbulb(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_cad(size_t triangles, uint64_t seed, prt_mesh **out);
+prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out);
 
 #endif
