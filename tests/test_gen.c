@@ -83,7 +83,7 @@ static double ratio(const prt_mesh *m, size_t want) {
 TEST(test_gen_kinds_names_every_generator) {
     const char *k = prt_gen_kinds();
     CHECK(strstr(k, "sphere") && strstr(k, "terrain") && strstr(k, "mandelbulb") &&
-          strstr(k, "cad"));
+          strstr(k, "cad") && strstr(k, "level"));
 }
 
 TEST(test_gen_unknown_kind_is_an_argument_error_listing_the_kinds) {
@@ -314,6 +314,27 @@ TEST(test_generators_are_deterministic_for_any_thread_count) {
     }
 }
 
+TEST(test_level_count_is_close_and_rocks_sit_on_the_ground) {
+    static const size_t want[] = {100, 20000, 300000};
+    for (size_t i = 0; i < COUNT_OF(want); i++) {
+        prt_mesh *m;
+        CHECK_OK(prt_mesh_generate("level", want[i], 5, &m));
+        if (!m) continue;
+        CHECK_OK(prt_mesh_validate(m));
+        if (want[i] < 20000) { /* tiny levels: every part at its minimum size */
+            prt_mesh_free(m);
+            continue;
+        }
+        CHECK_MSG(fabs(ratio(m, want[i]) - 1) < 0.02, "%zu triangles for %zu", m->triangle_count, want[i]);
+        float lo[3], hi[3];
+        prt_mesh_bounds(m, lo, hi);
+        /* Ground about [-10, 10] x [-1.5, 1.5] x [-10, 10]; blocks and rocks stand on it. */
+        CHECK(lo[0] >= -10.5f && hi[0] <= 10.5f && lo[2] >= -10.6f && hi[2] <= 10.6f && lo[1] >= -2.5f && hi[1] <= 5.0f);
+        CHECK(hi[1] - lo[1] > 1.0f && hi[0] - lo[0] > 15.0f);
+        prt_mesh_free(m);
+    }
+}
+
 int main(void) {
     RUN(test_gen_kinds_names_every_generator);
     RUN(test_gen_unknown_kind_is_an_argument_error_listing_the_kinds);
@@ -329,5 +350,6 @@ int main(void) {
     RUN(test_cad_count_is_exact_and_parts_stay_in_the_cube);
     RUN(test_cad_parts_face_outward_with_unwelded_faces);
     RUN(test_generators_are_deterministic_for_any_thread_count);
+    RUN(test_level_count_is_close_and_rocks_sit_on_the_ground);
     TEST_END();
 }
