@@ -133,7 +133,7 @@ static prt_status permute_to_leaf_order(const prt_mesh *m, bvh_tree *t, uint32_t
         memcpy(tri + 3 * i, m->triangles + 3 * (size_t)t->prims[i], 3 * sizeof(uint32_t));
         t->prims[i] = (uint32_t)i;
     }
-    *out = (prt_mesh){m->vertices, tri, m->vertex_count, n};
+    *out = (prt_mesh){.vertices = m->vertices, .triangles = tri, .vertex_count = m->vertex_count, .triangle_count = n};
     b->shared.triangles = n;
     if (!order_out) b->mesh_ids = ids, b->shared.mesh_ids = ids;
     return PRT_OK;

@@ -64,7 +64,7 @@ prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out) {
     const float ground_scale[3] = {LEVEL_HALF, 3.0f, LEVEL_HALF}, zero[3] = {0, 0, 0};
     append(m, &v, &t, parts[0], ground_scale, zero);
     /* The ground as placed, for heights: the first part of m. */
-    prt_mesh placed = {m->vertices, m->triangles, parts[0]->vertex_count, parts[0]->triangle_count};
+    prt_mesh placed = {.vertices = m->vertices, .triangles = m->triangles, .vertex_count = parts[0]->vertex_count, .triangle_count = parts[0]->triangle_count};
 
     prt_rng r = prt_rng_seed(seed, 0x1e7e1);
     for (int b = 0; b < BLOCKS; b++) { /* blocks on a ring around the centre, 1.5 units tall */
