@@ -22,7 +22,7 @@ typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const bvh_shared *sh, const
 typedef struct bvh_layout {
     const char *name;
     const char *description;
-    int default_leaf[BVH_CODEC_COUNT]; /* leaf size when the spec gives none */
+    int default_leaf[BVH_CODEC_COUNT]; /* leaf size when the spec gives none (0: bvh_accel.c's rule) */
     /* Encode t with codec c over mesh m into out (out->data from prt__alloc). */
     prt_status (*encode)(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out);
     /* Check a loaded blob so traversal can never leave it or loop, and every leaf with the

@@ -148,9 +148,12 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
                           .progress_user = o ? o->progress_user : NULL,
                           .progress_scale = 0.9f};
     int split, leaf;
+    /* A layout that names no default for a codec: 4 triangles tested one by one, else two blocks. */
+    int default_leaf = g_layouts[layout]->default_leaf[codec];
+    if (!default_leaf) default_leaf = c->block == 1 ? 4 : 2 * c->block > BVH_MAX_LEAF ? BVH_MAX_LEAF : 2 * c->block;
     prt_status s;
     if ((s = prt__spec_enum(spec, "split", bvh_split_names, BVH_SPLIT_COUNT, BVH_SPLIT_SAH, &split)) ||
-        (s = prt__spec_int(spec, "leaf", g_layouts[layout]->default_leaf[codec], 1, BVH_MAX_LEAF, &leaf)))
+        (s = prt__spec_int(spec, "leaf", default_leaf, 1, BVH_MAX_LEAF, &leaf)))
         return s;
     static const char *const orders[] = {"df"};
     static const char *const id_modes[] = {"mesh", "none"};

@@ -48,6 +48,10 @@ typedef struct bvh_codec {
     const char *description;
     int block;    /* triangles tested together; leaves are padded to a multiple */
     size_t align; /* alignment of a leaf block in bytes */
+    /* Bytes of a leaf of count triangles. Always affine in blocks:
+     * leaf_bytes(n) == leaf_bytes(0) + ceil(n / block) * (leaf_bytes(block) - leaf_bytes(0)),
+     * with both terms multiples of align, so a layout can recover a (block-padded) count from
+     * a leaf's size (bvh_leaf_count_of) and need not store it. */
     size_t (*leaf_bytes)(uint32_t count);
     /* Write count triangles (ids into m) to dst, which has leaf_bytes(count) bytes. */
     void (*encode)(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, uint32_t count);
