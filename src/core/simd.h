@@ -55,6 +55,28 @@ static inline int vi8_mask(vi8 m) { int r = 0; for (int i = 0; i < 8; i++) r |= 
 static inline vf8 vf8_select(vi8 m, vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = m[i] ? a[i] : b[i]; return r; }
 #endif
 
+/* Eight bytes widened to floats (quantized box planes). */
+static inline vf8 vf8_from_u8(const uint8_t *p) {
+#if defined(__AVX2__)
+    return (vf8)_mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)p)));
+#else
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = (float)p[i];
+    return r;
+#endif
+}
+
+/* a * b + c with one rounding, the same bits as C's fmaf on every path. */
+static inline vf8 vf8_fmadd(vf8 a, vf8 b, vf8 c) {
+#if defined(__FMA__)
+    return (vf8)_mm256_fmadd_ps((__m256)a, (__m256)b, (__m256)c);
+#else
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = __builtin_fmaf(a[i], b[i], c[i]);
+    return r;
+#endif
+}
+
 static inline float vf8_hmin(vf8 a) {
     vf4 lo = __builtin_shufflevector(a, a, 0, 1, 2, 3), hi = __builtin_shufflevector(a, a, 4, 5, 6, 7);
     return vf4_hmin(vf4_min(lo, hi));

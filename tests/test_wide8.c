@@ -1,0 +1,177 @@
+/* The wide8 layout's invariants: every quantized child box, decoded exactly as traversal
+ * decodes it, contains every vertex of every triangle below that child (the boxes are
+ * conservative, whatever the coordinates' magnitude), every triangle is stored once, and
+ * meshes far from the origin or at tiny scale give exactly the brute-force hits. */
+#include "bvh/bvh.h"
+#include "bvh/layouts/wide8.h"
+#include "support/meshes.h"
+#include "support/reference.h"
+#include "test.h"
+
+/* The codec the walk can read: float3 leaves hold their vertices and ids (40 bytes each). */
+#define TRI_BYTES 40
+
+typedef struct walk {
+    const bvh_blob *b;
+    wide8_header hd;
+    uint8_t *seen; /* per mesh triangle */
+    size_t violations, planes;
+} walk;
+
+/* Grows box by every vertex below slot i of node n; returns the number of triangles. */
+static size_t slot_bounds(walk *w, const wide8_node *n, int i, prt_aabb *box);
+
+static size_t node_bounds(walk *w, uint32_t index, prt_aabb *box) {
+    wide8_node n;
+    memcpy(&n, w->b->data + WIDE8_HEADER_BYTES + (size_t)index * WIDE8_NODE_BYTES, sizeof n);
+    size_t tris = 0;
+    for (int i = 0; i < 8; i++) {
+        if (!(n.imask >> i & 1) && n.meta[i] == 0) continue;
+        prt_aabb child = prt_aabb_empty();
+        tris += slot_bounds(w, &n, i, &child);
+        /* The decoded box, computed as wide8_box_hit computes it. */
+        for (int k = 0; k < 3; k++) {
+            float s = wide8_scale(n.e[k]);
+            float lo = fmaf((float)n.q[2 * k][i], s, n.p[k]), hi = fmaf((float)n.q[2 * k + 1][i], s, n.p[k]);
+            w->planes += 2;
+            if (lo > child.lo[k] || hi < child.hi[k]) w->violations++;
+        }
+        for (int k = 0; k < 3; k++) {
+            box->lo[k] = fminf(box->lo[k], child.lo[k]);
+            box->hi[k] = fmaxf(box->hi[k], child.hi[k]);
+        }
+    }
+    return tris;
+}
+
+static size_t slot_bounds(walk *w, const wide8_node *n, int i, prt_aabb *box) {
+    if (n->imask >> i & 1) return node_bounds(w, n->child + (uint32_t)i, box);
+    uint32_t start = i ? n->meta[i - 1] : 0;
+    size_t off = w->hd.geometry + 4 * (size_t)n->leaf + (size_t)start * w->hd.grain;
+    size_t count = (size_t)(n->meta[i] - start) * w->hd.grain / TRI_BYTES;
+    for (size_t t = 0; t < count; t++) {
+        float v[9];
+        uint32_t id;
+        memcpy(v, w->b->data + off + t * TRI_BYTES, sizeof v);
+        memcpy(&id, w->b->data + off + t * TRI_BYTES + 36, 4);
+        w->seen[id]++;
+        for (int k = 0; k < 9; k++) {
+            box->lo[k % 3] = fminf(box->lo[k % 3], v[k]);
+            box->hi[k % 3] = fmaxf(box->hi[k % 3], v[k]);
+        }
+    }
+    return count;
+}
+
+/* Builds wide8:float3 over m with the given leaf size and checks the invariants. */
+static void check_conservative(const prt_mesh *m, int leaf, const char *what) {
+    bvh_prim *p = calloc(m->triangle_count, sizeof *p);
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        prt_aabb b = prt_aabb_empty();
+        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
+        memcpy(p[t].lo, b.lo, 12);
+        memcpy(p[t].hi, b.hi, 12);
+        p[t].id = (uint32_t)t;
+    }
+    bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = leaf, .block = 1, .threads = 1};
+    bvh_tree tree;
+    CHECK_OK(bvh_build(p, m->triangle_count, &bp, &tree));
+    bvh_blob blob;
+    CHECK_OK(bvh_layout_wide8.encode(&tree, &bvh_codecs[BVH_CODEC_float3], m, &blob));
+    CHECK_OK(bvh_layout_wide8.validate(&blob, &bvh_codecs[BVH_CODEC_float3], &(bvh_shared){0}));
+    walk w = {&blob, {0}, calloc(m->triangle_count, 1), 0, 0};
+    memcpy(&w.hd, blob.data, sizeof w.hd);
+    prt_aabb all = prt_aabb_empty();
+    size_t tris = node_bounds(&w, 0, &all);
+    size_t once = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) once += w.seen[t] == 1;
+    CHECK_MSG(w.violations == 0, "%s, leaf %d: %zu of %zu decoded planes cut into their subtree", what, leaf,
+              w.violations, w.planes);
+    CHECK_MSG(tris == m->triangle_count && once == m->triangle_count, "%s: %zu triangles stored, %zu of %zu once",
+              what, tris, once, m->triangle_count);
+    free(w.seen);
+    prt__free(blob.data);
+    bvh_tree_free(&tree);
+    free(p);
+}
+
+/* A copy of m with every vertex scaled then moved: v * scale + offset. */
+static prt_mesh *transformed(const prt_mesh *m, float scale, float offset) {
+    prt_mesh *t;
+    if (prt_mesh_create(m->vertex_count, m->triangle_count, &t)) return NULL;
+    for (size_t i = 0; i < 3 * m->vertex_count; i++) t->vertices[i] = m->vertices[i] * scale + offset;
+    memcpy(t->triangles, m->triangles, 3 * sizeof(uint32_t) * m->triangle_count);
+    return t;
+}
+
+TEST(test_wide8_child_boxes_contain_their_triangles) {
+    prt_mesh *soup = mesh_random_soup(3000, 7), *same = mesh_same_centroid(200);
+    prt_mesh *far = transformed(soup, 1.0f, 1e6f), *tiny = transformed(soup, 1e-4f, 0.0f);
+    prt_mesh *tiny_far = transformed(soup, 1e-3f, -3e4f), *flat = transformed(soup, 1.0f, 0.0f);
+    for (size_t i = 0; i < flat->vertex_count; i++) flat->vertices[3 * i + 2] = 0.25f; /* zero extent in z */
+    const struct {
+        const prt_mesh *m;
+        const char *name;
+    } cases[] = {{soup, "unit soup"}, {same, "same centroid"}, {far, "soup at 1e6"}, {tiny, "soup at 1e-4 scale"},
+                 {tiny_far, "small soup far away"}, {flat, "flat soup"}};
+    for (size_t c = 0; c < COUNT_OF(cases); c++)
+        for (int leaf = 1; leaf <= 16; leaf *= 4) check_conservative(cases[c].m, leaf, cases[c].name);
+    prt_mesh_free(soup), prt_mesh_free(same), prt_mesh_free(far), prt_mesh_free(tiny), prt_mesh_free(tiny_far),
+        prt_mesh_free(flat);
+}
+
+/* Hits equal the double-precision brute force, away from edges, for the codecs of every
+ * kernel family, on meshes whose magnitude stresses the quantization grid. */
+TEST(test_wide8_far_and_tiny_meshes_hit_as_brute_force) {
+    prt_mesh *soup = mesh_random_soup(2000, 11);
+    prt_mesh *meshes[] = {transformed(soup, 1.0f, 1e6f), transformed(soup, 1e-4f, 0.0f), transformed(soup, 1e-2f, -1e3f)};
+    const char *specs[] = {"wide8:float3", "wide8:float3-soa4", "wide8:float3-soa8", "wide8:idx32-soa4"};
+    for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
+        prt_ray *rays = rays_random(meshes[mi], 2000, 3 + mi);
+        for (size_t s = 0; s < COUNT_OF(specs); s++) {
+            prt_accel *a;
+            CHECK_OK(prt_build(meshes[mi], specs[s], NULL, &a));
+            if (!a) continue;
+            size_t wrong = 0, compared = 0;
+            for (size_t i = 0; i < 2000; i++) {
+                double edge;
+                prt_hit want = ref_intersect(meshes[mi], &rays[i], &edge), got;
+                if (want.prim != PRT_INVALID && edge < 1e-4) continue; /* grazing an edge: either side is right */
+                prt_ray r = rays[i];
+                prt_intersect1(a, &r, &got);
+                compared++;
+                bool same_hit = got.prim == want.prim || (got.prim != PRT_INVALID && want.prim != PRT_INVALID &&
+                                                          fabsf(got.t - want.t) <= 1e-6f * fabsf(want.t));
+                wrong += !same_hit;
+                wrong += prt_occluded1(a, &rays[i]) != (want.prim != PRT_INVALID);
+            }
+            CHECK_MSG(wrong == 0 && compared > 500, "%s on mesh %zu: %zu of %zu rays differ", specs[s], mi, wrong,
+                      compared);
+            prt_accel_free(a);
+        }
+        free(rays);
+        prt_mesh_free(meshes[mi]);
+    }
+    prt_mesh_free(soup);
+}
+
+/* One leaf of 16 float3 triangles per slot fills 128 of the 255 grains a node can
+ * address; the largest leaf size the spec allows must always build. */
+TEST(test_wide8_largest_leaves_fit_the_meta_bits) {
+    prt_mesh *soup = mesh_random_soup(5000, 5);
+    const char *specs[] = {"wide8:float3,leaf=16", "wide8:idx32,leaf=16", "wide8:float3-soa4,leaf=16",
+                           "wide8:float3-soa8,leaf=16", "wide8:float3,leaf=16,split=fixed"};
+    for (size_t s = 0; s < COUNT_OF(specs); s++) {
+        prt_accel *a = NULL;
+        CHECK_OK(prt_build(soup, specs[s], NULL, &a));
+        prt_accel_free(a);
+    }
+    prt_mesh_free(soup);
+}
+
+int main(void) {
+    RUN(test_wide8_child_boxes_contain_their_triangles);
+    RUN(test_wide8_far_and_tiny_meshes_hit_as_brute_force);
+    RUN(test_wide8_largest_leaves_fit_the_meta_bits);
+    TEST_END();
+}
