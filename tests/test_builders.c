@@ -101,10 +101,35 @@ TEST(test_sah_tree_is_shallower_than_linear) {
     prt_mesh_free(m);
 }
 
+/* Rouwé §4.1's point of the fixed splitter: leaves hold whole groups of the block size
+ * (4 for one-at-a-time codecs), all but at most one leaf, so SOA blocks need no padding. */
+TEST(test_fixed_splitter_fills_whole_blocks) {
+    prt_mesh *m = mesh_random_soup(5001, 17);
+    static const int blocks[] = {1, 4, 8};
+    static const int leaves[] = {4, 8, 16};
+    for (size_t bi = 0; bi < PRT_ARRAY_SIZE(blocks); bi++)
+        for (size_t li = 0; li < PRT_ARRAY_SIZE(leaves); li++) {
+            const int g = PRT_MIN(blocks[bi] > 1 ? blocks[bi] : 4, leaves[li]);
+            bvh_prim *p = prims_of(m);
+            bvh_build_params bp = {.split = BVH_SPLIT_FIXED, .max_leaf = leaves[li], .block = blocks[bi]};
+            bvh_tree t;
+            CHECK_OK(bvh_build(p, m->triangle_count, &bp, &t));
+            size_t partial = 0, leaf_count = 0;
+            for (size_t i = 0; i < t.node_count; i++)
+                if (t.nodes[i].count) leaf_count++, partial += t.nodes[i].count % (uint32_t)g != 0;
+            CHECK_MSG(partial <= 1, "block %d leaf %d: %zu of %zu leaves hold a partial group of %d", blocks[bi],
+                      leaves[li], partial, leaf_count, g);
+            bvh_tree_free(&t);
+            free(p);
+        }
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_every_splitter_and_leaf_size_references_each_triangle_once);
     RUN(test_identical_centroids_still_respect_leaf_size);
     RUN(test_single_triangle_tree_is_one_leaf);
     RUN(test_sah_tree_is_shallower_than_linear);
+    RUN(test_fixed_splitter_fills_whole_blocks);
     TEST_END();
 }

@@ -96,10 +96,16 @@ bool bvh_split_mean(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *b
 bool bvh_split_longest(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
 bool bvh_split_morton(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
 
+/* The binned SAH split, also naming the axis it partitioned along (centroids of
+ * prims[0..mid) lie below those of prims[mid..n) on it). */
+bool bvh_split_sah_axis(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox,
+                        size_t *mid, int *axis);
+
 /* Sort prims by the Morton code of their centroid; returns the codes (prt__free them). */
 uint32_t *bvh_morton_sort(bvh_prim *prims, size_t n, const prt_aabb *cbox, int threads);
 
-/* Fixed leaf size: group, build over groups, expand (builders/fixed_leaf.c). */
+/* Fixed leaf size: binned SAH with every split rounded to a multiple of the block
+ * (builders/fixed_leaf.c). */
 prt_status bvh_build_fixed(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *out);
 
 /* Partition by predicate "centroid[axis] < pos"; returns the split index. */
