@@ -84,58 +84,121 @@ static inline unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, fl
 
 /* --- encoding ----------------------------------------------------------------------- */
 
-/* Children of binary node bin, collapsed up to eight by opening the inner child of
- * largest surface area (the greedy rule of Ylitie et al. §3.2, simplified). */
-static int collapse(const bvh_tree *t, uint32_t bin, uint32_t out[8]) {
-    const bvh_node *n = &t->nodes[bin];
-    if (n->count) {
-        out[0] = bin;
-        return 1;
-    }
-    int c = 2;
-    out[0] = n->index, out[1] = n->index + 1;
-    while (c < 8) {
-        int best = -1;
-        float area = -1;
-        for (int i = 0; i < c; i++) {
-            const bvh_node *k = &t->nodes[out[i]];
-            float a = prt_aabb_half_area(&k->box);
-            if (!k->count && a > area) area = a, best = i;
+/* Collapsing the binary tree into 8-wide nodes by the surface area heuristic (Ylitie et
+ * al. 2017, §3.2): for every binary node n and slot budget i, cost[n][i] is the cheapest
+ * way to hand n's subtree to a parent in at most i slots, as one leaf (n's triangles
+ * merged, up to the leaf size), one wide node, or n's two children sharing the budget.
+ * Costs are SAH: surface area times one node test, or times the leaf's blocks. */
+#define WIDE8_COST_NODE 1.0f
+#define WIDE8_COST_BLOCK 1.0f
+
+typedef struct collapse {
+    const bvh_tree *t;
+    int max_leaf, block;
+    uint32_t *first, *total; /* per binary node: its triangles t->prims[first .. first + total) */
+    float (*cost)[8];        /* cost[n][i - 1]: at most i slots */
+    int8_t (*pick)[8];       /* 0: as one slot (see leaf); j > 0: j slots to the first child */
+    uint8_t *leaf;           /* one slot: as a leaf (1) or as a wide node (0) */
+    int8_t *split;           /* as a wide node: slots of its first child */
+} collapse;
+
+/* Subtree triangle ranges, children before parents (builders number children after
+ * their parent). False when a subtree's triangles are not one run of t->prims. */
+static bool subtree_ranges(collapse *c) {
+    const bvh_tree *t = c->t;
+    for (size_t i = t->node_count; i-- > 0;) {
+        const bvh_node *n = &t->nodes[i];
+        if (n->count) {
+            c->first[i] = n->index, c->total[i] = n->count;
+            continue;
         }
-        if (best < 0) break;
-        uint32_t k = t->nodes[out[best]].index;
-        out[best] = k;
-        out[c++] = k + 1;
+        uint32_t a = n->index, b = n->index + 1;
+        if (a <= i || b >= t->node_count) return false;
+        uint32_t lo = PRT_MIN(c->first[a], c->first[b]);
+        if ((size_t)c->total[a] + c->total[b] > UINT32_MAX ||
+            PRT_MAX(c->first[a] + c->total[a], c->first[b] + c->total[b]) - lo != c->total[a] + c->total[b])
+            return false;
+        c->first[i] = lo, c->total[i] = c->total[a] + c->total[b];
     }
-    return c;
+    return true;
+}
+
+/* Best split of `slots` slots between the two children of inner node n. */
+static float share(const collapse *c, const bvh_node *n, int slots, int8_t *j_best) {
+    float best = INFINITY;
+    for (int j = 1; j < slots; j++) {
+        float x = c->cost[n->index][j - 1] + c->cost[n->index + 1][slots - j - 1];
+        if (x < best) best = x, *j_best = (int8_t)j;
+    }
+    return best;
+}
+
+static void collapse_costs(collapse *c) {
+    const bvh_tree *t = c->t;
+    for (size_t i = t->node_count; i-- > 0;) {
+        const bvh_node *n = &t->nodes[i];
+        const float area = prt_aabb_half_area(&n->box);
+        float as_leaf = INFINITY, as_node = INFINITY;
+        if (c->total[i] <= (uint32_t)c->max_leaf)
+            as_leaf = area * WIDE8_COST_BLOCK * (float)((c->total[i] + (uint32_t)c->block - 1) / (uint32_t)c->block);
+        if (!n->count) as_node = area * WIDE8_COST_NODE + share(c, n, 8, &c->split[i]);
+        c->leaf[i] = as_leaf <= as_node;
+        const float one = PRT_MIN(as_leaf, as_node);
+        for (int slots = 1; slots <= 8; slots++) {
+            c->cost[i][slots - 1] = one, c->pick[i][slots - 1] = 0;
+            int8_t j = 0;
+            float x = n->count || slots == 1 ? INFINITY : share(c, n, slots, &j);
+            if (x < one) c->cost[i][slots - 1] = x, c->pick[i][slots - 1] = j;
+        }
+    }
+}
+
+/* The slots (binary node, as a leaf or not) that subtree n fills with a budget of i. */
+static void gather(const collapse *c, uint32_t n, int slots, uint32_t *bin, uint8_t *leaf, int *count) {
+    int j = c->pick[n][slots - 1];
+    if (j) {
+        gather(c, c->t->nodes[n].index, j, bin, leaf, count);
+        gather(c, c->t->nodes[n].index + 1, slots - j, bin, leaf, count);
+        return;
+    }
+    bin[*count] = n, leaf[*count] = c->leaf[n], ++*count;
 }
 
 typedef struct wide8_plan {
     uint32_t bin[8]; /* binary node of each slot: inner children first, then leaves */
     int count, inner;
     uint32_t child;  /* node index of the first inner child */
-    uint32_t depth;
 } wide8_plan;
 
 typedef struct encoder {
-    const bvh_tree *t;
+    const collapse *c;
     wide8_plan *plan;
     uint32_t next; /* next free node index */
     uint32_t depth;
 } encoder;
 
-/* Plan node q for binary node bin: its inner children get consecutive indices, then each
- * is planned in turn (depth first over sibling blocks). */
+/* Plan node q for binary node bin (its children's slots, or bin itself as the one leaf of
+ * a root that is a leaf): the inner children get consecutive indices, then each is
+ * planned in turn (depth first over sibling blocks). */
 static void plan_node(encoder *e, uint32_t q, uint32_t bin, uint32_t depth) {
+    const collapse *c = e->c;
     wide8_plan *p = &e->plan[q];
     uint32_t kids[8];
-    int c = collapse(e->t, bin, kids), inner = 0;
-    for (int i = 0; i < c; i++)
-        if (!e->t->nodes[kids[i]].count) p->bin[inner++] = kids[i];
+    uint8_t leaf[8];
+    int n = 0;
+    if (c->leaf[bin]) kids[0] = bin, leaf[0] = 1, n = 1;
+    else {
+        int j = c->split[bin];
+        gather(c, c->t->nodes[bin].index, j, kids, leaf, &n);
+        gather(c, c->t->nodes[bin].index + 1, 8 - j, kids, leaf, &n);
+    }
+    int inner = 0;
+    for (int i = 0; i < n; i++)
+        if (!leaf[i]) p->bin[inner++] = kids[i];
     int slot = inner;
-    for (int i = 0; i < c; i++)
-        if (e->t->nodes[kids[i]].count) p->bin[slot++] = kids[i];
-    p->count = c, p->inner = inner, p->depth = depth;
+    for (int i = 0; i < n; i++)
+        if (leaf[i]) p->bin[slot++] = kids[i];
+    p->count = n, p->inner = inner;
     p->child = e->next;
     e->next += (uint32_t)inner;
     if (depth > e->depth) e->depth = depth;
@@ -175,39 +238,31 @@ static uint8_t quantize_axis(const prt_aabb *const *boxes, int count, int k, flo
     return (uint8_t)(x + 127);
 }
 
-static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
-    memset(out, 0, sizeof *out);
+/* Write the planned nodes and their leaves into a new blob. */
+static prt_status write_blob(const encoder *e, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
+    const collapse *cl = e->c;
+    const bvh_tree *t = cl->t;
     const size_t head = c->leaf_bytes(0), per = c->leaf_bytes((uint32_t)c->block) - head;
     const size_t grain = head ? gcd_size(head, per) : per;
     if (c->align % 4 || grain % 4 || grain > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "wide8: codec %s has leaf sizes that are not multiples of 4 bytes", c->name);
-    if (t->node_count > (size_t)UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT, "wide8: %zu binary nodes exceed 32-bit node indices", t->node_count);
-    encoder e = {t, prt__alloc(prt__mul_size(t->node_count, sizeof(wide8_plan))), 1, 1};
-    if (!e.plan) return prt__fail(PRT_ERROR_NOMEM, "out of memory planning %zu nodes", t->node_count);
-    plan_node(&e, 0, 0, 1);
-    const uint32_t count = e.next;
+    const uint32_t count = e->next;
     const size_t tree = WIDE8_HEADER_BYTES + (size_t)count * WIDE8_NODE_BYTES;
     const size_t geometry = align_up(tree, c->align > 16 ? c->align : 16);
-    size_t size = geometry;
+    size_t size = geometry, leaves = 0;
     for (uint32_t q = 0; q < count; q++)
-        for (int i = e.plan[q].inner; i < e.plan[q].count; i++) size += c->leaf_bytes(t->nodes[e.plan[q].bin[i]].count);
-    if ((size - geometry) / 4 > UINT32_MAX) {
-        prt__free(e.plan);
+        for (int i = e->plan[q].inner; i < e->plan[q].count; i++, leaves++)
+            size += c->leaf_bytes(cl->total[e->plan[q].bin[i]]);
+    if ((size - geometry) / 4 > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "wide8: %zu bytes of leaves exceed the 16 GB of 32-bit word offsets",
                          size - geometry);
-    }
     uint8_t *data = prt__calloc(1, size);
-    if (!data) {
-        prt__free(e.plan);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", size);
-    }
+    if (!data) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", size);
     wide8_header hd = {(uint32_t)grain, count, geometry};
     memcpy(data, &hd, sizeof hd);
     size_t geo = geometry;
-    prt_status s = PRT_OK;
-    for (uint32_t q = 0; q < count && !s; q++) {
-        const wide8_plan *p = &e.plan[q];
+    for (uint32_t q = 0; q < count; q++) {
+        const wide8_plan *p = &e->plan[q];
         const prt_aabb *boxes[8];
         prt_aabb box = prt_aabb_empty();
         for (int i = 0; i < p->count; i++) {
@@ -228,32 +283,58 @@ static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_
         node.leaf = (uint32_t)((geo - geometry) / 4);
         size_t end = 0;
         for (int i = p->inner; i < p->count; i++) {
-            const bvh_node *n = &t->nodes[p->bin[i]];
-            c->encode(data + geo, m, t->prims + n->index, n->count);
-            size_t bytes = c->leaf_bytes(n->count);
+            const uint32_t bin = p->bin[i];
+            c->encode(data + geo, m, t->prims + cl->first[bin], cl->total[bin]);
+            size_t bytes = c->leaf_bytes(cl->total[bin]);
             geo += bytes, end += bytes / grain;
             if (end > 255) {
-                s = prt__fail(PRT_ERROR_LIMIT, "wide8: the leaves of one node exceed 255 grains of %zu bytes; use a smaller leaf size",
-                              grain);
-                break;
+                prt__free(data);
+                return prt__fail(PRT_ERROR_LIMIT,
+                                 "wide8: the leaves of one node exceed 255 grains of %zu bytes; use a smaller leaf size", grain);
             }
             node.meta[i] = (uint8_t)end;
         }
         memcpy(data + WIDE8_HEADER_BYTES + (size_t)q * WIDE8_NODE_BYTES, &node, sizeof node);
-    }
-    prt__free(e.plan);
-    if (s) {
-        prt__free(data);
-        return s;
     }
     out->data = data;
     out->size = size;
     out->bytes_tree = geometry;
     out->bytes_geometry = size - geometry;
     out->nodes = count;
-    out->leaves = t->leaf_count;
-    out->depth = e.depth;
+    out->leaves = leaves;
+    out->depth = e->depth;
     return PRT_OK;
+}
+
+static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
+    memset(out, 0, sizeof *out);
+    const size_t nn = t->node_count;
+    if (nn > (size_t)UINT32_MAX)
+        return prt__fail(PRT_ERROR_LIMIT, "wide8: %zu binary nodes exceed 32-bit node indices", nn);
+    /* Leaves merge up to the largest leaf the builder made, which the spec's leaf size bounds. */
+    uint32_t max_leaf = 1;
+    for (size_t i = 0; i < nn; i++) max_leaf = PRT_MAX(max_leaf, t->nodes[i].count);
+    collapse cl = {.t = t, .max_leaf = (int)max_leaf, .block = c->block};
+    cl.first = prt__alloc(prt__mul_size(nn, sizeof *cl.first));
+    cl.total = prt__alloc(prt__mul_size(nn, sizeof *cl.total));
+    cl.cost = prt__alloc(prt__mul_size(nn, sizeof *cl.cost));
+    cl.pick = prt__alloc(prt__mul_size(nn, sizeof *cl.pick));
+    cl.leaf = prt__alloc(nn);
+    cl.split = prt__alloc(nn);
+    encoder e = {&cl, prt__alloc(prt__mul_size(nn, sizeof(wide8_plan))), 1, 1};
+    prt_status s = PRT_OK;
+    if (!cl.first || !cl.total || !cl.cost || !cl.pick || !cl.leaf || !cl.split || !e.plan)
+        s = prt__fail(PRT_ERROR_NOMEM, "out of memory planning %zu nodes", nn);
+    else if (!subtree_ranges(&cl))
+        s = prt__fail(PRT_ERROR_ARGUMENT, "wide8: a subtree's triangles are not contiguous in the builder's order");
+    if (!s) {
+        collapse_costs(&cl);
+        plan_node(&e, 0, 0, 1);
+        s = write_blob(&e, c, m, out);
+    }
+    prt__free(cl.first), prt__free(cl.total), prt__free(cl.cost), prt__free(cl.pick), prt__free(cl.leaf),
+        prt__free(cl.split), prt__free(e.plan);
+    return s;
 }
 
 /* --- validation of a loaded blob ---------------------------------------------------- */
