@@ -413,8 +413,8 @@ const bvh_layout bvh_layout_wide8 = {
     "wide8",
     "8-wide BVH after Ylitie et al. 2017 (beyond Rouwe): 80-byte nodes, child boxes as 8-bit offsets on a "
     "power-of-two grid, one 8-lane box test",
-    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 4, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 4,
-     [BVH_CODEC_idx32_soa4] = 4},
+    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4,
+     [BVH_CODEC_idx32_soa4] = 8},
     wide8_encode,
     wide8_validate,
     {
