@@ -6,6 +6,25 @@
 #include <stdlib.h>
 #include <string.h>
 
+prt_status bench_build(const prt_mesh *m, const char *spec, int threads, bench_accel *out) {
+    *out = (bench_accel){NULL, NULL};
+    prt_build_options o = {.threads = threads};
+    if (strstr(spec, "ids=none")) {
+        out->order = malloc((m->triangle_count ? m->triangle_count : 1) * sizeof *out->order);
+        if (!out->order) return PRT_ERROR_NOMEM;
+        o.triangle_order = out->order;
+    }
+    prt_status s = prt_build(m, spec, &o, &out->accel);
+    if (s) free(out->order), out->order = NULL;
+    return s;
+}
+
+void bench_accel_free(bench_accel *b) {
+    prt_accel_free(b->accel);
+    free(b->order);
+    *b = (bench_accel){NULL, NULL};
+}
+
 struct bench_batch {
     bench_rays layout;    /* kind, count, tiles; .rays borrowed: the pristine rays */
     prt_ray *work;        /* what the queries see and shrink */
@@ -37,7 +56,7 @@ static void pk_reset(void *self, bench_batch *b) {
 }
 
 static void pk_single(void *self, bench_batch *b, size_t first, size_t count) {
-    const prt_accel *a = self;
+    const prt_accel *a = ((const bench_accel *)self)->accel;
     if (b->occluded)
         for (size_t i = first; i < first + count; i++) b->occluded[i] = prt_occluded1(a, &b->work[i]);
     else
@@ -64,15 +83,19 @@ static void pk_packets(const prt_accel *a, bench_batch *b, int threads) {
 }
 
 static void pk_stream(void *self, bench_batch *b, int threads) {
-    const prt_accel *a = self;
+    const prt_accel *a = ((const bench_accel *)self)->accel;
     if (b->occluded) prt_occluded_stream(a, b->work, b->occluded, b->layout.count, threads);
     else if (b->layout.tile) pk_packets(a, b, threads);
     else prt_intersect_stream(a, b->work, b->hits, b->layout.count, threads);
 }
 
 static void pk_results(void *self, const bench_batch *b, prt_hit *hits, uint8_t *occluded) {
-    (void)self;
-    if (hits && b->hits) memcpy(hits, b->hits, b->layout.count * sizeof *hits);
+    const uint32_t *order = ((const bench_accel *)self)->order;
+    if (hits && b->hits) {
+        memcpy(hits, b->hits, b->layout.count * sizeof *hits);
+        for (size_t i = 0; order && i < b->layout.count; i++)
+            if (hits[i].prim != PRT_INVALID) hits[i].prim = order[hits[i].prim];
+    }
     if (occluded && b->occluded) memcpy(occluded, b->occluded, b->layout.count);
 }
 
@@ -82,10 +105,10 @@ static void pk_unload(void *self, bench_batch *b) {
     free(b->work), free(b->hits), free(b->occluded), free(b);
 }
 
-static void pk_stats(void *self, prt_stats *s) { prt_accel_stats(self, s); }
+static void pk_stats(void *self, prt_stats *s) { prt_accel_stats(((const bench_accel *)self)->accel, s); }
 
-bench_backend bench_backend_packrt(const prt_accel *a, const char *name) {
-    bench_backend b = {name ? name : prt_accel_spec(a), (void *)a, pk_load, pk_reset, pk_single,
+bench_backend bench_backend_packrt(const bench_accel *a, const char *name) {
+    bench_backend b = {name ? name : prt_accel_spec(a->accel), (void *)a, pk_load, pk_reset, pk_single,
                        pk_stream, pk_results, pk_unload, pk_stats};
     return b;
 }

@@ -93,9 +93,9 @@ prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const
 prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
                               uint64_t seed, bench_rays *out);
 
-/* Convenience: closest hits of r's rays on accel a (rays are copied, r is unchanged).
- * *hits is malloc'ed (free()). */
-prt_status bench_trace_hits(const prt_accel *a, const bench_rays *r, prt_hit **hits);
+/* Convenience: closest hits of r's rays on accel b, naming mesh triangles (rays are
+ * copied, r is unchanged). *hits is malloc'ed (free()). */
+prt_status bench_trace_hits(const bench_accel *b, const bench_rays *r, prt_hit **hits);
 
 /* ---------------------------------------------------------------------------------
  * Backends: what the harness times (packrt: bench/backend_packrt.c)
@@ -124,8 +124,22 @@ typedef struct bench_backend {
     void (*stats)(void *self, prt_stats *s);
 } bench_backend;
 
-/* packrt accel a as a backend (a is borrowed). */
-bench_backend bench_backend_packrt(const prt_accel *a, const char *name);
+/* A packrt accel under test. Specs with ids=none (compact codecs that keep no map to the
+ * mesh's triangle ids) hit positions in the accel's own order; order then maps them back
+ * (as a user who asked for ids=none does once), outside every timed region, so hits can
+ * be checked against Embree's. */
+typedef struct bench_accel {
+    prt_accel *accel;
+    uint32_t *order; /* NULL, or mesh triangle id of each accel position (malloc'ed) */
+} bench_accel;
+
+/* Build spec over m with `threads` build threads; on failure *out is empty and
+ * prt_last_error() says why. */
+prt_status bench_build(const prt_mesh *m, const char *spec, int threads, bench_accel *out);
+void bench_accel_free(bench_accel *b);
+
+/* b as a backend (b and its accel are borrowed). */
+bench_backend bench_backend_packrt(const bench_accel *b, const char *name);
 
 /* ---------------------------------------------------------------------------------
  * Embree (bench/embree_backend.c; stubs returning PRT_ERROR_UNSUPPORTED without Embree)

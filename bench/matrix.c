@@ -59,10 +59,9 @@ static void measure(matrix_run *run, const bench_backend *b, matrix_row *row) {
 
 static void measure_spec(matrix_run *run, const char *spec, matrix_row *row) {
     snprintf(row->name, sizeof row->name, "%s", spec);
-    prt_accel *a;
-    prt_build_options bo = {.threads = 0};
+    bench_accel a;
     double t0 = prt__now();
-    prt_status s = prt_build(run->m, spec, &bo, &a);
+    prt_status s = bench_build(run->m, spec, 0, &a);
     row->status = s;
     if (s) {
         row->limit = s == PRT_ERROR_LIMIT;
@@ -71,9 +70,9 @@ static void measure_spec(matrix_run *run, const char *spec, matrix_row *row) {
     }
     row->build_s = prt__now() - t0;
     row->ok = true;
-    bench_backend b = bench_backend_packrt(a, row->name);
+    bench_backend b = bench_backend_packrt(&a, row->name);
     measure(run, &b, row);
-    prt_accel_free(a);
+    bench_accel_free(&a);
 }
 
 static const char *check_text(const matrix_row *r, char *buf, size_t size) {

@@ -268,7 +268,7 @@ prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, cons
     return PRT_OK;
 }
 
-prt_status bench_trace_hits(const prt_accel *a, const bench_rays *r, prt_hit **hits) {
+prt_status bench_trace_hits(const bench_accel *b, const bench_rays *r, prt_hit **hits) {
     *hits = malloc((r->count ? r->count : 1) * sizeof **hits);
     prt_ray *copy = malloc((r->count ? r->count : 1) * sizeof *copy);
     if (!*hits || !copy) {
@@ -277,7 +277,10 @@ prt_status bench_trace_hits(const prt_accel *a, const bench_rays *r, prt_hit **h
         return PRT_ERROR_NOMEM;
     }
     memcpy(copy, r->rays, r->count * sizeof *copy);
-    prt_intersect_stream(a, copy, *hits, r->count, 0);
+    prt_intersect_stream(b->accel, copy, *hits, r->count, 0);
     free(copy);
+    if (b->order)
+        for (size_t i = 0; i < r->count; i++)
+            if ((*hits)[i].prim != PRT_INVALID) (*hits)[i].prim = b->order[(*hits)[i].prim];
     return PRT_OK;
 }

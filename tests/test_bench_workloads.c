@@ -60,10 +60,10 @@ TEST(test_shadow_rays_end_at_the_light) {
     bench_light_default(lo, hi, light);
     bench_rays primary, shadow;
     CHECK_OK(bench_rays_primary(&cam, 64, 64, 8, &primary));
-    prt_accel *a;
-    CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &a));
+    bench_accel a;
+    CHECK_OK(bench_build(m, "quad:float3-soa4", 0, &a));
     prt_hit *hits;
-    CHECK_OK(bench_trace_hits(a, &primary, &hits));
+    CHECK_OK(bench_trace_hits(&a, &primary, &hits));
     size_t nhit = 0;
     for (size_t i = 0; i < primary.count; i++) nhit += hits[i].prim != PRT_INVALID;
     CHECK_OK(bench_rays_shadow(m, &primary, hits, light, &shadow));
@@ -80,7 +80,7 @@ TEST(test_shadow_rays_end_at_the_light) {
     CHECK_MSG(bad == 0, "%zu shadow rays do not end at the light", bad);
     free(hits);
     bench_rays_free(&primary), bench_rays_free(&shadow);
-    prt_accel_free(a);
+    bench_accel_free(&a);
     prt_mesh_free(m);
 }
 

@@ -222,11 +222,10 @@ static prt_status primary_hits(const bench_cli *c, bench_embree *em, const prt_m
     }
     prt_status s = PRT_ERROR_ARGUMENT;
     for (size_t i = 0; i < nspecs; i++) {
-        prt_accel *a;
-        prt_build_options o = {.threads = c->threads};
-        if ((s = prt_build(m, specs[i], &o, &a))) continue;
-        s = bench_trace_hits(a, primary, hits);
-        prt_accel_free(a);
+        bench_accel a;
+        if ((s = bench_build(m, specs[i], c->threads, &a))) continue;
+        s = bench_trace_hits(&a, primary, hits);
+        bench_accel_free(&a);
         return s;
     }
     return s;
@@ -395,24 +394,24 @@ int cmd_bench(int argc, char **argv) {
     for (size_t i = 0; i < nspecs; i++) {
         bench_row *row = &rows[nrows++];
         snprintf(row->name, sizeof row->name, "%s", specs[i]);
-        prt_accel *a = file_accel;
-        if (!a) {
+        if (!file_accel) {
             say("%s: %s", specs[i], "build");
-            prt_build_options o = {.threads = c.threads};
+            bench_accel a;
             double t0 = prt__now();
-            if ((s = prt_build(mesh, specs[i], &o, &a))) {
+            if ((s = bench_build(mesh, specs[i], c.threads, &a))) {
                 snprintf(row->error, sizeof row->error, "%s: %s", prt_status_string(s), prt_last_error());
                 continue;
             }
             double build_s = prt__now() - t0;
             row->ok = true;
-            bench_backend b = bench_backend_packrt(a, row->name);
+            bench_backend b = bench_backend_packrt(&a, row->name);
             measure_row(&b, &c, wl, on, diagonal, &ref, triangles, row);
             row->build_s = build_s; /* wall clock around prt_build, as for Embree */
-            prt_accel_free(a);
+            bench_accel_free(&a);
         } else {
             row->ok = true;
-            bench_backend b = bench_backend_packrt(a, row->name);
+            bench_accel a = {file_accel, NULL};
+            bench_backend b = bench_backend_packrt(&a, row->name);
             measure_row(&b, &c, wl, on, diagonal, &ref, triangles, row);
         }
     }
