@@ -93,10 +93,6 @@ prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const
 prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
                               uint64_t seed, bench_rays *out);
 
-/* Convenience: closest hits of r's rays on accel b, naming mesh triangles (rays are
- * copied, r is unchanged). *hits is malloc'ed (free()). */
-prt_status bench_trace_hits(const bench_accel *b, const bench_rays *r, prt_hit **hits);
-
 /* ---------------------------------------------------------------------------------
  * Backends: what the harness times (packrt: bench/backend_packrt.c)
  * --------------------------------------------------------------------------------- */
@@ -140,6 +136,11 @@ void bench_accel_free(bench_accel *b);
 
 /* b as a backend (b and its accel are borrowed). */
 bench_backend bench_backend_packrt(const bench_accel *b, const char *name);
+
+/* Convenience: closest hits of r's rays on accel b, naming mesh triangles (rays are
+ * copied, r is unchanged). *hits is malloc'ed (free()). */
+prt_status bench_trace_hits(const bench_accel *b, const bench_rays *r, prt_hit **hits);
+
 
 /* ---------------------------------------------------------------------------------
  * Embree (bench/embree_backend.c; stubs returning PRT_ERROR_UNSUPPORTED without Embree)
