@@ -35,4 +35,19 @@ static inline bool repr_t_near(const prt_accel *a, float got, float want) {
     return err == 0 ? got == want : fabs((double)got - want) <= 2 * err + 1e-6 * fabs((double)want);
 }
 
+/* Whether representation name belongs to the covering set that tests on large meshes
+ * run: every codec under the quad layout and every layout with the float3-soa4 and
+ * idx32-soa4 codecs (scalar, SIMD and indexed kernels), plus every non-BVH
+ * representation. The full layout x codec product runs on the smaller meshes, so every
+ * combination is still checked; the suite's time then grows with layouts plus codecs,
+ * not with their product. */
+static inline bool repr_in_cover(const char *name) {
+    const char *colon = strchr(name, ':');
+    if (!colon) return true;
+    const char *codec = colon + 1;
+    size_t clen = strcspn(codec, ",");
+    return ((size_t)(colon - name) == 4 && !strncmp(name, "quad", 4)) ||
+           (clen == 11 && !strncmp(codec, "float3-soa4", 11)) || (clen == 10 && !strncmp(codec, "idx32-soa4", 10));
+}
+
 #endif
