@@ -6,6 +6,7 @@
  * Child reference: 0 = empty slot; bit 63 set = leaf with the triangle count in bits
  * 56..62 and the byte offset of its block in bits 0..55; otherwise the byte offset of a
  * child node, always greater than its parent's (forward only, which validation uses). */
+#include "bvh/layouts/quad_plan.h"
 #include "bvh/traverse.h"
 
 #include <math.h>
@@ -52,12 +53,6 @@ static int collapse(const bvh_tree *t, uint32_t bin, uint32_t out[4]) {
     return c;
 }
 
-typedef struct quad_plan {
-    uint32_t bin[4]; /* binary node of each child */
-    uint32_t quad[4]; /* quad node index of inner children */
-    int count;
-} quad_plan;
-
 /* Depth-first numbering of the quad nodes (preorder: parents before children). */
 static uint32_t plan(const bvh_tree *t, uint32_t bin, quad_plan *p, uint32_t *next) {
     uint32_t q = (*next)++;
@@ -67,14 +62,19 @@ static uint32_t plan(const bvh_tree *t, uint32_t bin, quad_plan *p, uint32_t *ne
     return q;
 }
 
+uint32_t bvh_quad_plan(const bvh_tree *t, quad_plan *p) {
+    uint32_t count = 0;
+    plan(t, 0, p, &count);
+    return count;
+}
+
 static size_t align_up(size_t x, size_t a) { return (x + a - 1) / a * a; }
 
 static prt_status quad_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
     memset(out, 0, sizeof *out);
     quad_plan *p = prt__alloc(prt__mul_size(t->node_count, sizeof *p));
     if (!p) return prt__fail(PRT_ERROR_NOMEM, "out of memory planning %zu nodes", t->node_count);
-    uint32_t count = 0;
-    plan(t, 0, p, &count);
+    uint32_t count = bvh_quad_plan(t, p);
     size_t tree = (size_t)count * sizeof(quad_node), size = tree;
     for (uint32_t q = 0; q < count; q++)
         for (int i = 0; i < p[q].count; i++) {
