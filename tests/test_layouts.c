@@ -1,9 +1,10 @@
-/* Invariants of the node layouts whose boxes are quantized (quad-half, aabb-compressed,
- * skd): every child box, decoded exactly as traversal decodes it, contains every vertex
+/* Invariants of the node layouts of Rouwé §5.3-5.7 (quad-half, aabb-compressed,
+ * aabb-pns, skd): every child box, decoded exactly as traversal decodes it, contains every vertex
  * of every triangle below that child whatever the coordinates' magnitude; half floats
  * round in the direction asked; meshes far from the origin or at tiny scale give exactly
- * the brute-force hits. */
+ * the brute-force hits; AABBTreePNS reports the subtrees its offset bits cannot reach. */
 #include "bvh/bvh.h"
+#include "bvh/layouts/aabb_node.h"
 #include "bvh/layouts/layout_debug.h"
 #include "bvh/layouts/quad_half.h"
 #include "core/rng.h"
@@ -186,7 +187,7 @@ TEST(test_quantized_child_boxes_contain_their_triangles) {
 TEST(test_far_and_tiny_meshes_hit_as_brute_force) {
     prt_mesh *soup = mesh_random_soup(2000, 11);
     prt_mesh *meshes[] = {transformed(soup, 1.0f, 1e6f), transformed(soup, 1e-4f, 0.0f), transformed(soup, 1e-2f, -1e3f)};
-    const char *layouts[] = {"quad-half", "aabb-compressed"};
+    const char *layouts[] = {"quad-half", "aabb-compressed", "aabb-pns"};
     const char *codecs[] = {"float3", "float3-soa4", "float3-soa8", "idx32-soa4"};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
         prt_ray *rays = rays_random(meshes[mi], 2000, 3 + mi);
@@ -223,11 +224,49 @@ TEST(test_far_and_tiny_meshes_hit_as_brute_force) {
     prt_mesh_free(soup);
 }
 
+/* --- offsets that do not fit ---------------------------------------------------------- */
+
+/* A codec whose leaves are 2 MB per triangle and hold nothing: trees far past 32 MB
+ * without writing (or touching) their memory. */
+static size_t huge_leaf_bytes(uint32_t n) { return (size_t)n << 21; }
+static void huge_encode(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, uint32_t n) {
+    (void)dst, (void)m, (void)ids, (void)n;
+}
+
+/* AABBTreePNS keeps 23 offset bits beside its 8 PNS bits (32 MB): a larger subtree is a
+ * PRT_ERROR_LIMIT that says so, where the AABBTree's 31 bits still fit. */
+TEST(test_aabb_pns_reports_subtrees_beyond_its_offset_bits) {
+    prt_mesh *m = mesh_random_soup(64, 3);
+    bvh_prim *p = calloc(m->triangle_count, sizeof *p);
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        prt_aabb b = prt_aabb_empty();
+        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
+        memcpy(p[t].lo, b.lo, 12);
+        memcpy(p[t].hi, b.hi, 12);
+        p[t].id = (uint32_t)t;
+    }
+    bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 1, .block = 1, .threads = 1};
+    bvh_tree tree;
+    CHECK_OK(bvh_build(p, m->triangle_count, &bp, &tree));
+    const bvh_codec huge = {.name = "huge", .description = "", .block = 1, .align = 4, .leaf_bytes = huge_leaf_bytes,
+                            .encode = huge_encode};
+    bvh_blob blob;
+    prt_status s = bvh_aabb_encode(&tree, &huge, m, AABB_PNS, &blob);
+    CHECK_MSG(s == PRT_ERROR_LIMIT && strstr(prt_last_error(), "PNS") && strstr(prt_last_error(), "offset bits"),
+              "aabb-pns over a 128 MB tree: %s: %s", prt_status_string(s), prt_last_error());
+    CHECK_OK(bvh_aabb_encode(&tree, &huge, m, AABB_PLAIN, &blob));
+    prt__free(blob.data);
+    bvh_tree_free(&tree);
+    free(p);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_half_to_float_is_exact_for_every_finite_half);
     RUN(test_half_rounding_goes_in_the_asked_direction);
     RUN(test_half_rounding_is_tight_and_conservative_at_every_magnitude);
     RUN(test_quantized_child_boxes_contain_their_triangles);
     RUN(test_far_and_tiny_meshes_hit_as_brute_force);
+    RUN(test_aabb_pns_reports_subtrees_beyond_its_offset_bits);
     TEST_END();
 }

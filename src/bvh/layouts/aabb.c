@@ -13,7 +13,7 @@ typedef struct encoder {
     const prt_mesh *m;
     uint8_t *out;
     size_t size;
-    bool split_axis; /* AABBTreeSplitAxis: children ordered along an axis kept in the node */
+    aabb_variant v;
 } encoder;
 
 /* The axis along which two sibling boxes' centres differ most, and whether the first
@@ -27,6 +27,25 @@ static int split_axis_of(const bvh_node *a, const bvh_node *b, bool *swap) {
     }
     *swap = (a->box.lo[axis] + a->box.hi[axis]) > (b->box.lo[axis] + b->box.hi[axis]);
     return axis;
+}
+
+/* AABBTreePNS (Rouwé §5.3, precomputed node sorting): for each of the eight direction
+ * octants (x, y, z sign bits as bits 2, 1, 0), whether rays of that octant should visit
+ * the second child first: the children's centres are compared along 27 directions spread
+ * over the octant and the majority decides (on the bunny, 2% fewer instructions per ray
+ * than AABBTreeSplitAxis's one axis per node). */
+static uint32_t pns_bits(const bvh_node *a, const bvh_node *b) {
+    static const float w[3] = {0.2f, 0.5f, 1.0f};
+    float c[3];
+    for (int k = 0; k < 3; k++) c[k] = (b->box.lo[k] + b->box.hi[k]) - (a->box.lo[k] + a->box.hi[k]);
+    uint32_t bits = 0;
+    for (uint32_t o = 0; o < 8; o++) {
+        const float s[3] = {o & 4 ? -c[0] : c[0], o & 2 ? -c[1] : c[1], o & 1 ? -c[2] : c[2]};
+        int votes = 0;
+        for (int i = 0; i < 27; i++) votes += w[i % 3] * s[0] + w[i / 3 % 3] * s[1] + w[i / 9] * s[2] < 0 ? 1 : -1;
+        bits |= (uint32_t)(votes > 0) << o;
+    }
+    return bits;
 }
 
 /* Bytes of the whole encoded tree: every node plus every leaf's triangle block. */
@@ -50,15 +69,16 @@ static size_t write_node(encoder *e, uint32_t i, size_t o) {
         end = o + AABB_NODE_BYTES + e->c->leaf_bytes(n->count);
     } else {
         uint32_t first = n->index, second = n->index + 1, axis_bits = 0;
-        if (e->split_axis) {
+        if (e->v == AABB_SPLIT) {
             bool swap;
             int axis = split_axis_of(&e->t->nodes[first], &e->t->nodes[second], &swap);
             if (swap) first = n->index + 1, second = n->index;
             axis_bits = (uint32_t)axis << AABB_SPLIT_AXIS_SHIFT;
+        } else if (e->v == AABB_PNS) {
+            axis_bits = pns_bits(&e->t->nodes[first], &e->t->nodes[second]) << AABB_PNS_SHIFT;
         }
         size_t right = write_node(e, first, o + AABB_NODE_BYTES);
-        uint32_t limit = e->split_axis ? AABB_SPLIT_OFFSET_MASK : ~AABB_LEAF;
-        if (!right || (right - o) / 4 > limit) return 0;
+        if (!right || (right - o) / 4 > aabb_offset_mask(e->v)) return 0;
         props = (uint32_t)((right - o) / 4) | axis_bits;
         end = write_node(e, second, right);
         if (!end) return 0;
@@ -67,16 +87,19 @@ static size_t write_node(encoder *e, uint32_t i, size_t o) {
     return end;
 }
 
-prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool split_axis,
-                           bvh_blob *out) {
+prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, aabb_variant v, bvh_blob *out) {
     memset(out, 0, sizeof *out);
-    encoder e = {t, c, m, NULL, encoded_bytes(t, c), split_axis};
+    encoder e = {t, c, m, NULL, encoded_bytes(t, c), v};
     e.out = prt__alloc(e.size);
     if (!e.out) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", e.size);
     if (write_node(&e, 0, 0) != e.size) {
         prt__free(e.out);
+        if (v == AABB_PNS)
+            return prt__fail(PRT_ERROR_LIMIT,
+                             "aabb-pns: a subtree exceeds the 32 MB that the 23 offset bits left beside the 8 PNS bits "
+                             "address (Rouwe's AABBTreePNS ran out of offset bits on his large scene too); use aabb or quad");
         return prt__fail(PRT_ERROR_LIMIT, "aabb layouts: a subtree exceeds the child offset bits (%s); use quad",
-                         split_axis ? "2 GB" : "8 GB");
+                         v == AABB_SPLIT ? "2 GB" : "8 GB");
     }
     out->data = e.out;
     out->size = e.size;
@@ -91,7 +114,7 @@ prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh
 /* Walks the tree checking that it tiles the blob exactly: every second child starts where
  * the first child's subtree ends, so the walk is linear and traversal can never leave the
  * blob or loop. Returns the end offset, or 0 on corruption. */
-static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, bool split_axis, size_t o,
+static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, aabb_variant v, size_t o,
                          uint32_t depth, uint64_t *nodes) {
     if (depth > BVH_MAX_DEPTH || o > b->size || b->size - o < AABB_NODE_BYTES) return 0;
     ++*nodes;
@@ -104,26 +127,26 @@ static size_t check_node(const bvh_blob *b, const bvh_codec *c, const bvh_shared
         if (c->leaf_valid && !c->leaf_valid(b->data + o + AABB_NODE_BYTES, n, sh)) return 0;
         return o + AABB_NODE_BYTES + bytes;
     }
-    if (split_axis && ((props >> AABB_SPLIT_AXIS_SHIFT) & 3) == 3) return 0;
-    uint32_t offset = split_axis ? props & AABB_SPLIT_OFFSET_MASK : props;
-    size_t right = check_node(b, c, sh, split_axis, o + AABB_NODE_BYTES, depth + 1, nodes);
+    if (v == AABB_SPLIT && ((props >> AABB_SPLIT_AXIS_SHIFT) & 3) == 3) return 0;
+    uint32_t offset = props & aabb_offset_mask(v);
+    size_t right = check_node(b, c, sh, v, o + AABB_NODE_BYTES, depth + 1, nodes);
     if (!right || right != o + 4 * (size_t)offset) return 0;
-    return check_node(b, c, sh, split_axis, right, depth + 1, nodes);
+    return check_node(b, c, sh, v, right, depth + 1, nodes);
 }
 
-prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, bool split_axis) {
+prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, aabb_variant v) {
     uint64_t nodes = 0;
-    if (check_node(b, c, sh, split_axis, 0, 1, &nodes) != b->size || nodes != b->nodes)
+    if (check_node(b, c, sh, v, 0, 1, &nodes) != b->size || nodes != b->nodes)
         return prt__fail(PRT_ERROR_CORRUPT, "aabb tree structure is inconsistent with its size");
     return PRT_OK;
 }
 
 static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
-    return bvh_aabb_encode(t, c, m, false, out);
+    return bvh_aabb_encode(t, c, m, AABB_PLAIN, out);
 }
 
 static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {
-    return bvh_aabb_validate(b, c, sh, false);
+    return bvh_aabb_validate(b, c, sh, AABB_PLAIN);
 }
 
 const bvh_layout bvh_layout_aabb = {

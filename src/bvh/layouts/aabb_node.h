@@ -10,6 +10,22 @@
 /* AABBTreeSplitAxis inner nodes: split axis in bits 29..30, offset in bits 0..28. */
 #define AABB_SPLIT_AXIS_SHIFT 29
 #define AABB_SPLIT_OFFSET_MASK 0x1FFFFFFFu
+/* AABBTreePNS inner nodes: bit o of bits 23..30 set when the second child comes first for
+ * rays of direction octant o (x, y, z sign bits as bits 2, 1, 0); offset in bits 0..22. */
+#define AABB_PNS_SHIFT 23
+#define AABB_PNS_OFFSET_MASK 0x7FFFFFu
+
+/* The three variants that share the node and its depth-first order. */
+typedef enum aabb_variant {
+    AABB_PLAIN, /* AABBTree: offset in bits 0..30 */
+    AABB_SPLIT, /* AABBTreeSplitAxis */
+    AABB_PNS,   /* AABBTreePNS */
+} aabb_variant;
+
+/* Offset bits of an inner node's properties in variant v. */
+static inline uint32_t aabb_offset_mask(aabb_variant v) {
+    return v == AABB_SPLIT ? AABB_SPLIT_OFFSET_MASK : v == AABB_PNS ? AABB_PNS_OFFSET_MASK : ~AABB_LEAF;
+}
 
 static inline uint32_t aabb_props(const uint8_t *node) {
     uint32_t p;
@@ -23,9 +39,8 @@ static inline float aabb_box_hit(const prt__rayx *r, const uint8_t *node, float 
     return prt__box_hit(r, b, b + 3, tfar);
 }
 
-/* Depth-first encoding and its structural check, for both variants (split_axis: children
- * ordered along an axis stored in the node). */
-prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool split_axis, bvh_blob *out);
-prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, bool split_axis);
+/* Depth-first encoding and its structural check, for every variant. */
+prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, aabb_variant v, bvh_blob *out);
+prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, aabb_variant v);
 
 #endif

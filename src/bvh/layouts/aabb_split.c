@@ -8,11 +8,11 @@
 #undef LAYOUT_KERNELS
 
 static prt_status aabb_split_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
-    return bvh_aabb_encode(t, c, m, true, out);
+    return bvh_aabb_encode(t, c, m, AABB_SPLIT, out);
 }
 
 static prt_status aabb_split_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {
-    return bvh_aabb_validate(b, c, sh, true);
+    return bvh_aabb_validate(b, c, sh, AABB_SPLIT);
 }
 
 const bvh_layout bvh_layout_aabb_split = {
