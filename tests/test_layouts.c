@@ -116,6 +116,7 @@ static const struct {
 } quantized[] = {
     {&bvh_layout_quad_half, bvh_quad_half_debug_boxes},
     {&bvh_layout_aabb_compressed, bvh_aabb_compressed_debug_boxes},
+    {&bvh_layout_skd, bvh_skd_debug_boxes},
 };
 
 /* Builds layout:float3 over m with the given leaf size and checks every decoded box. */
@@ -187,7 +188,7 @@ TEST(test_quantized_child_boxes_contain_their_triangles) {
 TEST(test_far_and_tiny_meshes_hit_as_brute_force) {
     prt_mesh *soup = mesh_random_soup(2000, 11);
     prt_mesh *meshes[] = {transformed(soup, 1.0f, 1e6f), transformed(soup, 1e-4f, 0.0f), transformed(soup, 1e-2f, -1e3f)};
-    const char *layouts[] = {"quad-half", "aabb-compressed", "aabb-pns"};
+    const char *layouts[] = {"quad-half", "aabb-compressed", "aabb-pns", "skd"};
     const char *codecs[] = {"float3", "float3-soa4", "float3-soa8", "idx32-soa4"};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
         prt_ray *rays = rays_random(meshes[mi], 2000, 3 + mi);

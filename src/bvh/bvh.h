@@ -35,7 +35,7 @@ typedef struct bvh_layout {
 } bvh_layout;
 
 /* X(id, name) */
-#define BVH_LAYOUTS(X) X(aabb, "aabb") X(aabb_split, "aabb-split") X(quad, "quad") X(wide8, "wide8") X(quad_half, "quad-half") X(aabb_compressed, "aabb-compressed") X(aabb_pns, "aabb-pns")
+#define BVH_LAYOUTS(X) X(aabb, "aabb") X(aabb_split, "aabb-split") X(quad, "quad") X(wide8, "wide8") X(quad_half, "quad-half") X(aabb_compressed, "aabb-compressed") X(aabb_pns, "aabb-pns") X(skd, "skd")
 
 #define X(id, nm) extern const bvh_layout bvh_layout_##id;
 BVH_LAYOUTS(X)
