@@ -88,6 +88,8 @@ static void bvh_stats(const prt_accel *a, prt_stats *s) {
     /* Triangle ids are geometry, as they are inside float3's leaves. */
     s->bytes_geometry = b->blob.bytes_geometry + b->shared.size + (b->shared.mesh_ids ? 4 * b->shared.triangles : 0);
     s->bytes_other = sizeof(bvh_accel);
+    const bvh_codec *c = &bvh_codecs[b->codec];
+    s->vertex_error = c->vertex_error ? c->vertex_error(&b->shared) : 0.0;
     s->nodes = b->blob.nodes;
     s->leaves = b->blob.leaves;
     s->depth = b->blob.depth;
@@ -200,9 +202,13 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     b->owns_blob = true;
     prt_mesh leaf_order = *m, *em = (prt_mesh *)m;
     if (c->seq_ids) s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order), em = &leaf_order;
-    if (!s && c->shared_build) {
+    if (!s && c->shared_remap && !c->seq_ids)
+        s = prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s remaps indices without seq_ids", c->name);
+    if (!s && (c->shared_build || c->shared_remap)) {
         uint8_t *data = NULL;
-        s = c->shared_build(em, &data, &b->shared.size);
+        /* shared_remap rewrites the leaf-order copy's indices (seq_ids codecs only). */
+        s = c->shared_remap ? c->shared_remap(&leaf_order, &data, &b->shared.size)
+                            : c->shared_build(em, &data, &b->shared.size);
         b->shared.data = data;
     }
     if (!s) s = b->layout->encode(&tree, c, em, &b->blob);
@@ -245,7 +251,7 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         meta.depth > BVH_MAX_DEPTH || meta.depth == 0)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section disagrees with its BLOB");
     bvh_shared shared = {NULL, 0, 0, NULL};
-    if (bvh_codecs[codec].shared_build) {
+    if (bvh_codecs[codec].shared_build || bvh_codecs[codec].shared_remap) {
         const void *sd;
         if ((s = prt__reader_section(r, PRT_FOURCC('S', 'H', 'R', 'D'), 1, &sd, &shared.size))) return s;
         shared.data = sd;

@@ -8,8 +8,8 @@
  * codecs/codecs.h and two lines in layouts/instantiate.inc. A codec header defines
  * <name>_block, <name>_align, <name>_leaf_bytes, <name>_encode, <name>_ray (per-ray state),
  * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded,
- * <name>_shared_build / <name>_leaf_valid as NULL-able macros or functions, and
- * <name>_seq_ids (0 or 1, see bvh_codec.seq_ids). */
+ * <name>_shared_build / <name>_leaf_valid / <name>_shared_remap / <name>_vertex_error as
+ * NULL-able macros or functions, and <name>_seq_ids (0 or 1, see bvh_codec.seq_ids). */
 #ifndef PRT_BVH_CODECS_CODEC_H
 #define PRT_BVH_CODECS_CODEC_H
 
@@ -21,7 +21,8 @@
     X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test") \
     X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test") \
     X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle") \
-    X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form")
+    X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form") \
+    X(idx8_bitpack_soa4, "idx8-bitpack-soa4", "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossy")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,
@@ -65,6 +66,14 @@ typedef struct bvh_codec {
      * is built over the mesh's triangles permuted into leaf order, and the accel maps a
      * hit back to the mesh id through bvh_shared.mesh_ids (docs/design-changes.md). */
     bool seq_ids;
+    /* Codecs whose leaves index a buffer laid out in leaf order (Indexed8's 8-bit windows,
+     * Rouwé §3.9), instead of shared_build: build the shared data from m, whose triangles are
+     * in leaf order (seq_ids) in a copy the codec may rewrite, replacing each vertex index by
+     * the buffer position that encode() then stores. NULL for the others. */
+    prt_status (*shared_remap)(prt_mesh *m, uint8_t **data, size_t *size);
+    /* Lossy codecs: the largest distance between a vertex as decoded and the mesh's vertex,
+     * kept in the shared data so it survives saving and loading. NULL: lossless. */
+    double (*vertex_error)(const bvh_shared *shared);
 } bvh_codec;
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];

@@ -8,5 +8,6 @@
 #include "bvh/codecs/float3_soa8.h"
 #include "bvh/codecs/idx32.h"
 #include "bvh/codecs/idx32_soa4.h"
+#include "bvh/codecs/idx8_bitpack_soa4.h"
 
 #endif

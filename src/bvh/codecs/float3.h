@@ -53,4 +53,7 @@ PRT_INLINE bool float3_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx
     return false;
 }
 
+#define float3_shared_remap NULL
+#define float3_vertex_error NULL
+
 #endif

@@ -15,4 +15,7 @@
 #define float3_soa4_shared_build NULL
 #define float3_soa4_leaf_valid NULL
 
+#define float3_soa4_shared_remap NULL
+#define float3_soa4_vertex_error NULL
+
 #endif

@@ -15,4 +15,7 @@
 #define float3_soa8_shared_build NULL
 #define float3_soa8_leaf_valid NULL
 
+#define float3_soa8_shared_remap NULL
+#define float3_soa8_vertex_error NULL
+
 #endif

@@ -69,4 +69,7 @@ PRT_INLINE bool idx32_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx 
     return false;
 }
 
+#define idx32_shared_remap NULL
+#define idx32_vertex_error NULL
+
 #endif

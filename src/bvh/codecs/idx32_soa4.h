@@ -109,4 +109,7 @@ PRT_INLINE bool idx32_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__
     return false;
 }
 
+#define idx32_soa4_shared_remap NULL
+#define idx32_soa4_vertex_error NULL
+
 #endif

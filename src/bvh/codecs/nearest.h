@@ -27,4 +27,18 @@ static inline uint32_t bvh_tie_id(const bvh_shared *sh, uint32_t id) {
     return sh->mesh_ids && id < sh->triangles ? sh->mesh_ids[id] : id;
 }
 
+/* bvh_take_nearest for seq_ids codecs: ids[lane] are leaf-order ids, and a tie at equal t
+ * goes to the smaller mesh id (bvh_tie_id), as in every other codec. */
+static inline void bvh_take_nearest_seq(prt__hitx *h, const float *t, const float *u, const float *v,
+                                        const uint32_t *ids, unsigned mask, float best, const bvh_shared *sh) {
+    int lane = -1;
+    for (unsigned m = mask; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        if (t[i] == best && (lane < 0 || bvh_tie_id(sh, ids[i]) < bvh_tie_id(sh, ids[lane]))) lane = i;
+    }
+    if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
+    if (best < h->t || h->prim == PRT_INVALID || bvh_tie_id(sh, ids[lane]) < bvh_tie_id(sh, h->prim))
+        h->t = best, h->u = u[lane], h->v = v[lane], h->prim = ids[lane];
+}
+
 #endif
