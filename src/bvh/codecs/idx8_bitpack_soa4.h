@@ -10,7 +10,7 @@
  * whatever the layout, spans at most WINDOW + 48 < 256 entries. Lossy: every vertex lies
  * within the stated vertex error of its mesh vertex; a mesh vertex appended twice decodes
  * to the same bits both times, so neighbouring triangles stay watertight. Padding lanes
- * repeat one vertex three times: zero area, never hit. */
+ * repeat one vertex three times: zero area, never hit (and turned to NaN when decoded). */
 #ifndef PRT_BVH_CODECS_IDX8_BITPACK_SOA4_H
 #define PRT_BVH_CODECS_IDX8_BITPACK_SOA4_H
 
@@ -18,6 +18,7 @@
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
+#include <assert.h>
 #include <math.h>
 
 #define IDX8BP_HEAD_BYTES 8
@@ -120,7 +121,8 @@ static inline void idx8_bitpack_soa4_encode(uint8_t *dst, const prt_mesh *m, con
             uint32_t i = 4 * b + l < n ? 4 * b + l : 0; /* padding: triangle 0's vertex 0, three times */
             for (int k = 0; k < 3; k++) {
                 uint32_t p = m->triangles[3 * (size_t)ids[i] + (size_t)(4 * b + l < n ? k : 0)] - first;
-                idx[k][l] = (uint8_t)p; /* < WINDOW + 48 by construction */
+                assert(p < 256); /* at most WINDOW + 3 * 16 by construction */
+                idx[k][l] = (uint8_t)p;
             }
         }
         memcpy(dst, idx, sizeof idx);
@@ -144,8 +146,10 @@ static inline bool idx8_bitpack_soa4_leaf_valid(const uint8_t *leaf, uint32_t n,
     if (sh->size != sizeof hd + 8 * (size_t)hd.count) return false;
     for (int k = 0; k < 3; k++)
         if (!isfinite(hd.lo[k]) || !isfinite(hd.step[k]) || hd.step[k] < 0) return false;
-    uint32_t first;
+    uint32_t first, id0;
     memcpy(&first, leaf, 4);
+    memcpy(&id0, leaf + 4, 4);
+    if (id0 >= sh->triangles) return false; /* ids of padding lanes may pass the end: never hit */
     leaf += IDX8BP_HEAD_BYTES;
     for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX8BP_BLOCK_BYTES)
         for (int i = 0; i < IDX8BP_BLOCK_BYTES; i++)
@@ -168,6 +172,15 @@ static inline void idx8_bitpack_soa4_ray_init(idx8_bitpack_soa4_ray *c, const pr
  * four triangles, the four words in one register, each component masked out and widened
  * to float, then lo + q * step as idx8bp_decode computes it (same bits). */
 PRT_INLINE void idx8bp_gather(const uint8_t *block, const uint8_t *base, const idx8_bitpack_soa4_ray *c, float p[36]) {
+    /* Padding lanes (vertex 0 and 1 the same entry: zero area, never a hit) become NaN, so
+     * their exactly zero edge functions do not send the block to the double-precision
+     * fallback. */
+    uint32_t i0, i1;
+    memcpy(&i0, block, 4), memcpy(&i1, block + 4, 4);
+    const uint32_t same = ~(i0 ^ i1);
+    const vi4 pad = {-(int32_t)((same & 0xFF) == 0xFF), -(int32_t)((same >> 8 & 0xFF) == 0xFF),
+                     -(int32_t)((same >> 16 & 0xFF) == 0xFF), -(int32_t)((same >> 24) == 0xFF)};
+    const vf4 nan = vf4_set1(NAN);
 #if defined(__AVX2__)
     const __m256i mask = _mm256_set1_epi64x(IDX8BP_MASK), low = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
     for (int v = 0; v < 3; v++) {
@@ -177,7 +190,7 @@ PRT_INLINE void idx8bp_gather(const uint8_t *block, const uint8_t *base, const i
         for (int k = 0; k < 3; k++) {
             const __m256i q = _mm256_and_si256(_mm256_srli_epi64(words, IDX8BP_BITS * k), mask);
             const vf4 qf = (vf4)_mm_cvtepi32_ps(_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(q, low)));
-            const vf4 x = vf4_set1(c->lo[k]) + qf * vf4_set1(c->step[k]);
+            const vf4 x = vf4_select(pad, nan, vf4_set1(c->lo[k]) + qf * vf4_set1(c->step[k]));
             memcpy(p + 4 * (3 * v + k), &x, sizeof x);
         }
     }
@@ -187,8 +200,10 @@ PRT_INLINE void idx8bp_gather(const uint8_t *block, const uint8_t *base, const i
             uint64_t w;
             memcpy(&w, base + 8 * (size_t)block[4 * v + l], 8);
             for (int k = 0; k < 3; k++)
-                p[4 * (3 * v + k) + l] = idx8bp_decode(c->lo[k], c->step[k], (uint32_t)(w >> (IDX8BP_BITS * k)) & IDX8BP_MASK);
+                p[4 * (3 * v + k) + l] =
+                    pad[l] ? NAN : idx8bp_decode(c->lo[k], c->step[k], (uint32_t)(w >> (IDX8BP_BITS * k)) & IDX8BP_MASK);
         }
+    (void)nan;
 #endif
 }
 
