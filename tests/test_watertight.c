@@ -2,6 +2,7 @@
  * representation, including rays aimed exactly at vertices and edge midpoints, where a
  * non-watertight test lets rays slip between neighbouring triangles. */
 #include "core/rng.h"
+#include "support/repr.h"
 #include "test.h"
 
 static size_t count_misses(const prt_accel *a, prt_ray *rays, size_t n) {
@@ -16,15 +17,18 @@ static size_t count_misses(const prt_accel *a, prt_ray *rays, size_t n) {
     return misses;
 }
 
-/* Every representation must hit with every ray (rays are copied; the originals stay). */
-static void expect_all_hit(const prt_mesh *m, const prt_ray *rays, size_t n, const char *what) {
+/* Every representation must hit with every ray (rays are copied; the originals stay): the
+ * covering set of support/repr.h with all n, every other one with the first n_other. */
+static void expect_all_hit(const prt_mesh *m, const prt_ray *rays, size_t n, size_t n_other, const char *what) {
     prt_ray *work = malloc(n * sizeof *rays);
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
         CHECK_OK(prt_build(m, prt_repr_name(k), NULL, &a));
-        memcpy(work, rays, n * sizeof *rays);
-        size_t misses = count_misses(a, work, n);
-        CHECK_MSG(misses == 0, "%s: %zu of %zu %s escaped the closed sphere", prt_repr_name(k), misses, n, what);
+        if (!a) continue;
+        size_t count = repr_in_cover(prt_repr_name(k)) || n_other > n ? n : n_other;
+        memcpy(work, rays, count * sizeof *rays);
+        size_t misses = count_misses(a, work, count);
+        CHECK_MSG(misses == 0, "%s: %zu of %zu %s escaped the closed sphere", prt_repr_name(k), misses, count, what);
         prt_accel_free(a);
     }
     free(work);
@@ -52,7 +56,7 @@ TEST(test_million_rays_from_inside_a_closed_sphere_all_hit) {
         } while (len > 1 || len < 1e-6f);
         rays[i] = (prt_ray){{o[0], o[1], o[2]}, 0, {d[0], d[1], d[2]}, INFINITY};
     }
-    expect_all_hit(m, rays, n, "random rays");
+    expect_all_hit(m, rays, n, n / 8, "random rays");
     free(rays);
     prt_mesh_free(m);
 }
@@ -77,7 +81,7 @@ TEST(test_rays_through_every_vertex_and_edge_midpoint_hit) {
                 rays[c++] = ray_from(origins[o], mid);
             }
     }
-    expect_all_hit(m, rays, n, "vertex and edge-midpoint rays");
+    expect_all_hit(m, rays, n, n, "vertex and edge-midpoint rays");
     free(rays);
     prt_mesh_free(m);
 }
