@@ -22,7 +22,8 @@
     X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test") \
     X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle") \
     X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form") \
-    X(idx8_bitpack_soa4, "idx8-bitpack-soa4", "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossy")
+    X(idx8_bitpack_soa4, "idx8-bitpack-soa4", "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossy") \
+    X(idx8_soa4, "idx8-soa4", "Indexed8SOA4 (beyond Rouwe: 3.9 with float vertices): vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossless")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,

@@ -9,5 +9,6 @@
 #include "bvh/codecs/idx32.h"
 #include "bvh/codecs/idx32_soa4.h"
 #include "bvh/codecs/idx8_bitpack_soa4.h"
+#include "bvh/codecs/idx8_soa4.h"
 
 #endif

@@ -4,10 +4,8 @@
  * triangle id (seq_ids), then per block of four triangles their 8-bit vertex indices in
  * SOA order (vertex 0 of the four, vertex 1, vertex 2): 8 + 12 bytes per block.
  *
- * The buffer is made by one pass over the triangles in leaf order that reuses a vertex
- * while it lies within the last WINDOW entries and appends it again otherwise (the paper's
- * greedy reuse), so any run of at most 16 consecutive triangles, which is every leaf
- * whatever the layout, spans at most WINDOW + 48 < 256 entries. Lossy: every vertex lies
+ * The buffer and the leaf format are vertex_window.h's (greedy reuse in a 192-entry
+ * window, so every leaf reaches its vertices with 8-bit indices). Lossy: every vertex lies
  * within the stated vertex error of its mesh vertex; a mesh vertex appended twice decodes
  * to the same bits both times, so neighbouring triangles stay watertight. Padding lanes
  * repeat one vertex three times: zero area, never hit (and turned to NaN when decoded). */
@@ -16,14 +14,14 @@
 
 #include "bvh/codecs/codec.h"
 #include "bvh/codecs/nearest.h"
+#include "bvh/codecs/vertex_window.h"
 #include "geom/triangle.h"
 
 #include <assert.h>
 #include <math.h>
 
-#define IDX8BP_HEAD_BYTES 8
-#define IDX8BP_BLOCK_BYTES 12
-#define IDX8BP_WINDOW 192
+#define IDX8BP_HEAD_BYTES VW_HEAD_BYTES
+#define IDX8BP_BLOCK_BYTES VW_BLOCK_BYTES
 #define IDX8BP_BITS 21
 #define IDX8BP_MASK ((1u << IDX8BP_BITS) - 1)
 enum { idx8_bitpack_soa4_block = 4, idx8_bitpack_soa4_align = 4, idx8_bitpack_soa4_seq_ids = 1 };
@@ -44,9 +42,7 @@ typedef struct idx8_bitpack_soa4_ray {
     const bvh_shared *sh;
 } idx8_bitpack_soa4_ray;
 
-static inline size_t idx8_bitpack_soa4_leaf_bytes(uint32_t n) {
-    return IDX8BP_HEAD_BYTES + (size_t)((n + 3) / 4) * IDX8BP_BLOCK_BYTES;
-}
+static inline size_t idx8_bitpack_soa4_leaf_bytes(uint32_t n) { return vw_leaf_bytes(n); }
 
 /* One component as decoded: the same expression everywhere (kernel, error). */
 static inline float idx8bp_decode(float lo, float step, uint32_t q) { return lo + (float)q * step; }
@@ -55,26 +51,13 @@ static inline float idx8bp_decode(float lo, float step, uint32_t q) { return lo 
 
 /* m: triangles in leaf order, rewritten in place to buffer positions. */
 static inline prt_status idx8_bitpack_soa4_shared_remap(prt_mesh *m, uint8_t **data, size_t *size) {
-    const size_t nt = m->triangle_count, nv = m->vertex_count;
-    uint32_t *last = prt__alloc(prt__mul_size(nv, sizeof *last));
-    uint32_t *source = prt__alloc(prt__mul_size(nt, 3 * sizeof *source)); /* mesh vertex of each entry */
-    if (!last || !source || 3 * nt > UINT32_MAX) {
-        prt__free(last), prt__free(source);
-        return prt__fail(3 * nt > UINT32_MAX ? PRT_ERROR_LIMIT : PRT_ERROR_NOMEM,
-                         "idx8-bitpack-soa4: no room for the vertex buffer of %zu triangles", nt);
-    }
     idx8bp_header hd = {{0}, {0}, 0, 0};
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi); /* before the indices become buffer positions */
     for (int k = 0; k < 3; k++) hd.lo[k] = lo[k], hd.step[k] = (hi[k] - lo[k]) / (float)IDX8BP_MASK;
-    memset(last, 0xFF, nv * sizeof *last);
-    uint32_t len = 0;
-    for (size_t i = 0; i < 3 * nt; i++) {
-        uint32_t v = m->triangles[i], p = last[v];
-        if (p == UINT32_MAX || len - p > IDX8BP_WINDOW) p = len++, source[p] = v, last[v] = p;
-        m->triangles[i] = p;
-    }
-    prt__free(last);
+    uint32_t *source = NULL, len = 0;
+    prt_status s = vw_build(m, "idx8-bitpack-soa4", &source, &len);
+    if (s) return s;
     hd.count = len;
     const size_t bytes = sizeof hd + (size_t)len * 8;
     uint8_t *out = prt__alloc(bytes);
@@ -109,24 +92,7 @@ static inline prt_status idx8_bitpack_soa4_shared_remap(prt_mesh *m, uint8_t **d
 
 /* ids are consecutive (seq_ids) and m's indices are buffer positions (shared_remap). */
 static inline void idx8_bitpack_soa4_encode(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, uint32_t n) {
-    uint32_t first = UINT32_MAX;
-    for (uint32_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++) first = PRT_MIN(first, m->triangles[3 * (size_t)ids[i] + (size_t)k]);
-    memcpy(dst, &first, 4);
-    memcpy(dst + 4, &ids[0], 4);
-    dst += IDX8BP_HEAD_BYTES;
-    for (uint32_t b = 0; b < (n + 3) / 4; b++, dst += IDX8BP_BLOCK_BYTES) {
-        uint8_t idx[3][4];
-        for (uint32_t l = 0; l < 4; l++) {
-            uint32_t i = 4 * b + l < n ? 4 * b + l : 0; /* padding: triangle 0's vertex 0, three times */
-            for (int k = 0; k < 3; k++) {
-                uint32_t p = m->triangles[3 * (size_t)ids[i] + (size_t)(4 * b + l < n ? k : 0)] - first;
-                assert(p < 256); /* at most WINDOW + 3 * 16 by construction */
-                idx[k][l] = (uint8_t)p;
-            }
-        }
-        memcpy(dst, idx, sizeof idx);
-    }
+    vw_encode(dst, m, ids, n);
 }
 
 #define idx8_bitpack_soa4_shared_build NULL
@@ -146,15 +112,7 @@ static inline bool idx8_bitpack_soa4_leaf_valid(const uint8_t *leaf, uint32_t n,
     if (sh->size != sizeof hd + 8 * (size_t)hd.count) return false;
     for (int k = 0; k < 3; k++)
         if (!isfinite(hd.lo[k]) || !isfinite(hd.step[k]) || hd.step[k] < 0) return false;
-    uint32_t first, id0;
-    memcpy(&first, leaf, 4);
-    memcpy(&id0, leaf + 4, 4);
-    if (id0 >= sh->triangles) return false; /* ids of padding lanes may pass the end: never hit */
-    leaf += IDX8BP_HEAD_BYTES;
-    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX8BP_BLOCK_BYTES)
-        for (int i = 0; i < IDX8BP_BLOCK_BYTES; i++)
-            if ((uint64_t)first + leaf[i] >= hd.count) return false;
-    return true;
+    return vw_leaf_valid(leaf, n, hd.count, sh);
 }
 
 /* --- traversal ------------------------------------------------------------------------ */
@@ -172,14 +130,7 @@ static inline void idx8_bitpack_soa4_ray_init(idx8_bitpack_soa4_ray *c, const pr
  * four triangles, the four words in one register, each component masked out and widened
  * to float, then lo + q * step as idx8bp_decode computes it (same bits). */
 PRT_INLINE void idx8bp_gather(const uint8_t *block, const uint8_t *base, const idx8_bitpack_soa4_ray *c, float p[36]) {
-    /* Padding lanes (vertex 0 and 1 the same entry: zero area, never a hit) become NaN, so
-     * their exactly zero edge functions do not send the block to the double-precision
-     * fallback. */
-    uint32_t i0, i1;
-    memcpy(&i0, block, 4), memcpy(&i1, block + 4, 4);
-    const uint32_t same = ~(i0 ^ i1);
-    const vi4 pad = {-(int32_t)((same & 0xFF) == 0xFF), -(int32_t)((same >> 8 & 0xFF) == 0xFF),
-                     -(int32_t)((same >> 16 & 0xFF) == 0xFF), -(int32_t)((same >> 24) == 0xFF)};
+    const vi4 pad = vw_padding(block); /* NaN: never hit, and no zero edge functions */
     const vf4 nan = vf4_set1(NAN);
 #if defined(__AVX2__)
     const __m256i mask = _mm256_set1_epi64x(IDX8BP_MASK), low = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);

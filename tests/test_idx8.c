@@ -1,7 +1,9 @@
-/* Indexed8BitPackSOA4 (Rouwé §3.9): shared vertices are stored once while in reach of the
- * 8-bit indices, the stated vertex error bounds the quantization and every hit, ids=none
- * hands out the order it hits in, and a leaf that reaches past the vertex buffer does not
- * load. Expected sizes follow from the format (docs/formats.md), not from the code. */
+/* The Indexed8 codecs (Rouwé §3.9; idx8-soa4 with float vertices, idx8-bitpack-soa4 with
+ * packed ones): shared vertices are stored once while in reach of the 8-bit indices, the
+ * stated vertex error bounds the quantization and every hit, the float variant answers
+ * exactly as Float3SOA4, ids=none hands out the order it hits in, and a leaf that reaches
+ * past the vertex buffer does not load. Expected sizes follow from the format
+ * (docs/formats.md), not from the code. */
 #include "bvh/codecs/idx8_bitpack_soa4.h"
 #include "support/meshes.h"
 #include "support/reference.h"
@@ -53,6 +55,38 @@ static prt_stats stats_of(const prt_mesh *m, const char *spec) {
     prt_accel_free(a);
     free(order);
     return st;
+}
+
+/* Float entries: 12 bytes per entry instead of 8, otherwise the same buffer; the same
+ * vertex floats through the same kernel give Float3SOA4's hits bit for bit. */
+TEST(test_idx8_float_is_exactly_float3_soa4) {
+    prt_mesh *soup = mesh_random_soup(20000, 3), *g = grid(100);
+    prt_stats ss = stats_of(soup, "wide8:idx8-soa4,ids=none"), gs = stats_of(g, "wide8:idx8-soa4,ids=none");
+    double soup_b = (double)ss.bytes_geometry / (double)soup->triangle_count;
+    double grid_b = (double)gs.bytes_geometry / (double)g->triangle_count;
+    CHECK_MSG(soup_b >= 39.0, "soup: %.2f B/tri of geometry, the format needs at least 39", soup_b);
+    CHECK_MSG(grid_b < 14.0, "grid: %.2f B/tri of geometry: shared vertices are not reused", grid_b);
+    CHECK(ss.vertex_error == 0 && gs.vertex_error == 0);
+    const prt_mesh *meshes[] = {soup, g};
+    for (size_t mi = 0; mi < 2; mi++) {
+        prt_accel *a, *b;
+        CHECK_OK(prt_build(meshes[mi], "quad:idx8-soa4", NULL, &a));
+        CHECK_OK(prt_build(meshes[mi], "quad:float3-soa4", NULL, &b));
+        prt_ray *rays = rays_random(meshes[mi], 5000, 21);
+        size_t differ = 0;
+        for (size_t i = 0; a && b && i < 5000; i++) {
+            prt_ray r1 = rays[i], r2 = rays[i];
+            prt_hit h1, h2;
+            prt_intersect1(a, &r1, &h1);
+            prt_intersect1(b, &r2, &h2);
+            differ += h1.prim != h2.prim || memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4);
+            differ += prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i]);
+        }
+        CHECK_MSG(differ == 0, "mesh %zu: %zu of 5000 rays answered differently from float3-soa4", mi, differ);
+        free(rays);
+        prt_accel_free(a), prt_accel_free(b);
+    }
+    prt_mesh_free(soup), prt_mesh_free(g);
 }
 
 TEST(test_idx8_bitpack_reuses_shared_vertices) {
@@ -185,6 +219,7 @@ TEST(test_idx8_bitpack_leaf_outside_the_buffer_is_invalid) {
 }
 
 int main(void) {
+    RUN(test_idx8_float_is_exactly_float3_soa4);
     RUN(test_idx8_bitpack_reuses_shared_vertices);
     RUN(test_idx8_bitpack_error_within_the_quantization_step);
     RUN(test_idx8_bitpack_ids_none_hands_out_its_order);
