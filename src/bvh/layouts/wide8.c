@@ -94,6 +94,8 @@ static inline unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, fl
 
 typedef struct collapse {
     const bvh_tree *t;
+    const bvh_codec *codec;
+    size_t grain; /* of the codec's leaf sizes (write_blob) */
     int max_leaf, block;
     uint32_t *first, *total; /* per binary node: its triangles t->prims[first .. first + total) */
     float (*cost)[8];        /* cost[n][i - 1]: at most i slots */
@@ -192,6 +194,15 @@ static void plan_node(encoder *e, uint32_t q, uint32_t bin, uint32_t depth) {
         gather(c, c->t->nodes[bin].index, j, kids, leaf, &n);
         gather(c, c->t->nodes[bin].index + 1, 8 - j, kids, leaf, &n);
     }
+    /* A node addresses 255 grains of leaves: a leaf past that gets a node of its own
+     * (possible only for codecs with large leaves and a small grain). */
+    size_t grains = 0;
+    for (int i = 0; i < n; i++) {
+        if (!leaf[i]) continue;
+        size_t g = c->codec->leaf_bytes(c->total[kids[i]]) / c->grain;
+        if (grains + g > 255 && !(n == 1 && bin == kids[i])) leaf[i] = 0;
+        else grains += g;
+    }
     int inner = 0;
     for (int i = 0; i < n; i++)
         if (!leaf[i]) p->bin[inner++] = kids[i];
@@ -242,10 +253,7 @@ static uint8_t quantize_axis(const prt_aabb *const *boxes, int count, int k, flo
 static prt_status write_blob(const encoder *e, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
     const collapse *cl = e->c;
     const bvh_tree *t = cl->t;
-    const size_t head = c->leaf_bytes(0), per = c->leaf_bytes((uint32_t)c->block) - head;
-    const size_t grain = head ? gcd_size(head, per) : per;
-    if (c->align % 4 || grain % 4 || grain > UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT, "wide8: codec %s has leaf sizes that are not multiples of 4 bytes", c->name);
+    const size_t grain = cl->grain;
     const uint32_t count = e->next;
     const size_t tree = WIDE8_HEADER_BYTES + (size_t)count * WIDE8_NODE_BYTES;
     const size_t geometry = align_up(tree, c->align > 16 ? c->align : 16);
@@ -314,7 +322,11 @@ static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_
     /* Leaves merge up to the largest leaf the builder made, which the spec's leaf size bounds. */
     uint32_t max_leaf = 1;
     for (size_t i = 0; i < nn; i++) max_leaf = PRT_MAX(max_leaf, t->nodes[i].count);
-    collapse cl = {.t = t, .max_leaf = (int)max_leaf, .block = c->block};
+    const size_t head = c->leaf_bytes(0), per = c->leaf_bytes((uint32_t)c->block) - head;
+    const size_t grain = head ? gcd_size(head, per) : per;
+    if (c->align % 4 || grain % 4 || grain > UINT32_MAX)
+        return prt__fail(PRT_ERROR_LIMIT, "wide8: codec %s has leaf sizes that are not multiples of 4 bytes", c->name);
+    collapse cl = {.t = t, .codec = c, .grain = grain, .max_leaf = (int)max_leaf, .block = c->block};
     cl.first = prt__alloc(prt__mul_size(nn, sizeof *cl.first));
     cl.total = prt__alloc(prt__mul_size(nn, sizeof *cl.total));
     cl.cost = prt__alloc(prt__mul_size(nn, sizeof *cl.cost));
