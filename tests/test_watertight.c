@@ -1,17 +1,33 @@
 /* Watertightness: rays from inside a closed generated sphere must all hit, for every
  * representation, including rays aimed exactly at vertices and edge midpoints, where a
- * non-watertight test lets rays slip between neighbouring triangles. */
+ * non-watertight test lets rays slip between neighbouring triangles. Lossless
+ * representations must not miss once. Lossy ones whose vertices decode differently in
+ * different leaves or blocks (bitpack, bitpack-soa4) leave cracks up to their vertex error
+ * wide: a miss is accepted there only where ref_lossy_acceptable allows one against the
+ * exact answer (the ray passes within the error of an edge). */
 #include "core/rng.h"
+#include "support/reference.h"
 #include "support/repr.h"
 #include "test.h"
 
-static size_t count_misses(const prt_accel *a, prt_ray *rays, size_t n) {
+/* Misses of a, rays[i] a copy of orig[i]; with err > 0 only those the error cannot explain. */
+static size_t count_misses(const prt_accel *a, const prt_mesh *m, const prt_ray *orig, prt_ray *rays, size_t n,
+                           double err) {
     prt_hit *h = malloc(n * sizeof *h);
     uint8_t *occ = malloc(n);
     prt_occluded_stream(a, rays, occ, n, 0);
     prt_intersect_stream(a, rays, h, n, 0);
     size_t misses = 0;
-    for (size_t i = 0; i < n; i++) misses += h[i].prim == PRT_INVALID || !occ[i];
+    const double tol = 1e-5 * ref_diagonal(m);
+    for (size_t i = 0; i < n; i++) {
+        if (h[i].prim != PRT_INVALID && occ[i]) continue;
+        if (err > 0) {
+            double edge;
+            prt_hit want = ref_intersect(m, &orig[i], &edge), miss = {.t = INFINITY, .prim = PRT_INVALID};
+            if (ref_lossy_acceptable(m, &orig[i], &miss, &want, err, tol)) continue;
+        }
+        misses++;
+    }
     free(h);
     free(occ);
     return misses;
@@ -27,7 +43,7 @@ static void expect_all_hit(const prt_mesh *m, const prt_ray *rays, size_t n, siz
         if (!a) continue;
         size_t count = repr_in_cover(prt_repr_name(k)) || n_other > n ? n : n_other;
         memcpy(work, rays, count * sizeof *rays);
-        size_t misses = count_misses(a, work, count);
+        size_t misses = count_misses(a, m, rays, work, count, repr_vertex_error(a));
         CHECK_MSG(misses == 0, "%s: %zu of %zu %s escaped the closed sphere", prt_repr_name(k), misses, count, what);
         prt_accel_free(a);
     }
@@ -39,12 +55,14 @@ static prt_ray ray_from(const float o[3], const float target[3]) {
     return r;
 }
 
-TEST(test_million_rays_from_inside_a_closed_sphere_all_hit) {
+/* 400k random rays for the covering set, 50k for every other pair (under sanitizers this
+ * is the suite's longest test); the vertex and edge rays below are the exact check. */
+TEST(test_random_rays_from_inside_a_closed_sphere_all_hit) {
     prt_mesh *m;
     prt_status s = prt_mesh_generate("sphere", 20000, 1, &m);
     CHECK_OK(s);
     if (s) return;
-    const size_t n = 1000000;
+    const size_t n = 400000;
     prt_ray *rays = malloc(n * sizeof *rays);
     prt_rng rng = prt_rng_seed(99, 3);
     for (size_t i = 0; i < n; i++) {
@@ -87,7 +105,7 @@ TEST(test_rays_through_every_vertex_and_edge_midpoint_hit) {
 }
 
 int main(void) {
-    RUN(test_million_rays_from_inside_a_closed_sphere_all_hit);
+    RUN(test_random_rays_from_inside_a_closed_sphere_all_hit);
     RUN(test_rays_through_every_vertex_and_edge_midpoint_hit);
     TEST_END();
 }
