@@ -23,7 +23,9 @@
     X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle") \
     X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form") \
     X(idx8_bitpack_soa4, "idx8-bitpack-soa4", "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossy") \
-    X(idx8_soa4, "idx8-soa4", "Indexed8SOA4 (beyond Rouwe: 3.9 with float vertices): vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossless")
+    X(idx8_soa4, "idx8-soa4", "Indexed8SOA4 (beyond Rouwe: 3.9 with float vertices): vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossless") \
+    X(idx16, "idx16", "Indexed16 (Rouwe 3.6): shared vertex buffer, three 16-bit indices per triangle, one id per leaf") \
+    X(idx16_soa4, "idx16-soa4", "Indexed16SOA4 (Rouwe 3.7): shared vertex buffer, 16-bit indices of 4 triangles in SOA form, one id per leaf")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,

@@ -10,5 +10,7 @@
 #include "bvh/codecs/idx32_soa4.h"
 #include "bvh/codecs/idx8_bitpack_soa4.h"
 #include "bvh/codecs/idx8_soa4.h"
+#include "bvh/codecs/idx16.h"
+#include "bvh/codecs/idx16_soa4.h"
 
 #endif
