@@ -18,6 +18,7 @@ typedef struct bvh_accel {
     bvh_blob blob;
     bvh_shared shared; /* the codec's tree-wide data (vertex buffer), or empty */
     uint32_t *mesh_ids; /* owned when built: the ids array behind shared.mesh_ids */
+    float leaf_error;   /* codecs with leaf_error: the vertex error measured over the leaves */
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
@@ -26,7 +27,8 @@ typedef struct bvh_accel {
 /* On-disk META section (little endian, 64 bytes). */
 typedef struct bvh_meta {
     uint64_t blob_size, bytes_tree, bytes_geometry, nodes, leaves;
-    uint32_t depth, layout, codec;
+    uint32_t depth, layout; /* layout: written as 0, never read */
+    uint32_t vertex_error;  /* codecs with leaf_error: their measured vertex error, float32 bits; else 0 */
     uint32_t flags;     /* BVH_META_MESH_IDS: an IDS section maps leaf order to mesh ids */
     uint64_t triangles; /* seq_ids codecs: triangles in the tree */
 } bvh_meta;
@@ -89,7 +91,7 @@ static void bvh_stats(const prt_accel *a, prt_stats *s) {
     s->bytes_geometry = b->blob.bytes_geometry + b->shared.size + (b->shared.mesh_ids ? 4 * b->shared.triangles : 0);
     s->bytes_other = sizeof(bvh_accel);
     const bvh_codec *c = &bvh_codecs[b->codec];
-    s->vertex_error = c->vertex_error ? c->vertex_error(&b->shared) : 0.0;
+    s->vertex_error = c->vertex_error ? c->vertex_error(&b->shared) : c->leaf_error ? b->leaf_error : 0.0;
     s->nodes = b->blob.nodes;
     s->leaves = b->blob.leaves;
     s->depth = b->blob.depth;
@@ -116,6 +118,33 @@ static bvh_accel *bvh_new(int layout, int codec) {
 }
 
 extern const prt_accel_ops prt__bvh_ops;
+
+/* The vertex error of a codec with leaf_error, measured by decoding every leaf of the
+ * encoded tree as traversal would: the layout's validate walk visits each leaf with its
+ * (block-padded) count, and this leaf_valid stand-in takes the maximum. Exact, and the walk
+ * is the one loading does anyway. */
+typedef struct error_walk {
+    bvh_shared sh; /* first: validate hands &sh to leaf_valid */
+    const bvh_codec *c;
+    const prt_mesh *m;
+    double err;
+} error_walk;
+
+static bool measure_leaf(const uint8_t *leaf, uint32_t count, const bvh_shared *sh) {
+    error_walk *w = (error_walk *)(uintptr_t)sh;
+    w->err = fmax(w->err, w->c->leaf_error(leaf, count, w->m));
+    return true;
+}
+
+static prt_status measure_leaf_error(bvh_accel *b, const bvh_codec *c, const prt_mesh *m) {
+    bvh_codec walker = *c;
+    walker.leaf_valid = measure_leaf;
+    error_walk w = {b->shared, c, m, 0.0};
+    prt_status s = b->layout->validate(&b->blob, &walker, &w.sh);
+    b->leaf_error = (float)w.err;
+    if ((double)b->leaf_error < w.err) b->leaf_error = nextafterf(b->leaf_error, INFINITY); /* not below it */
+    return s;
+}
 
 /* seq_ids codecs (docs/design-changes.md): renumber the tree's triangles in leaf order so
  * each leaf holds a consecutive run, encode a copy of the mesh whose triangles are in that
@@ -212,6 +241,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         b->shared.data = data;
     }
     if (!s) s = b->layout->encode(&tree, c, em, &b->blob);
+    if (!s && c->leaf_error) s = measure_leaf_error(b, c, em);
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
     if (em != m) prt__free(leaf_order.triangles);
     bvh_tree_free(&tree);
@@ -229,6 +259,7 @@ static prt_status bvh_save(const prt_accel *a, prt_writer *w) {
     const bvh_accel *b = (const bvh_accel *)a;
     bvh_meta meta = {b->blob.size, b->blob.bytes_tree, b->blob.bytes_geometry, b->blob.nodes, b->blob.leaves,
                      b->blob.depth, 0, 0, b->shared.mesh_ids ? BVH_META_MESH_IDS : 0, b->shared.triangles};
+    memcpy(&meta.vertex_error, &b->leaf_error, 4);
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), b->blob.data, b->blob.size);
     if (!s && b->shared.size) s = prt__writer_section(w, PRT_FOURCC('S', 'H', 'R', 'D'), b->shared.data, b->shared.size);
@@ -259,6 +290,11 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (meta.flags & ~(uint32_t)BVH_META_MESH_IDS || (meta.flags && !bvh_codecs[codec].seq_ids) ||
         (!bvh_codecs[codec].seq_ids && meta.triangles) || meta.triangles > UINT32_MAX)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section has flags or a triangle count its codec does not use");
+    float leaf_error;
+    memcpy(&leaf_error, &meta.vertex_error, 4);
+    if (!(leaf_error >= 0 && leaf_error < INFINITY) || (leaf_error != 0 && !bvh_codecs[codec].leaf_error))
+        return prt__fail(PRT_ERROR_CORRUPT, "BVH META section states a vertex error of %g for codec %s", (double)leaf_error,
+                         bvh_codecs[codec].name);
     shared.triangles = (size_t)meta.triangles;
     if (meta.flags & BVH_META_MESH_IDS) {
         const void *ids;
@@ -273,6 +309,7 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
     b->shared = shared;
+    b->leaf_error = leaf_error;
     if ((s = b->layout->validate(&b->blob, &bvh_codecs[codec], &b->shared))) {
         prt__free(b);
         return s;

@@ -8,8 +8,10 @@
  * codecs/codecs.h and two lines in layouts/instantiate.inc. A codec header defines
  * <name>_block, <name>_align, <name>_leaf_bytes, <name>_encode, <name>_ray (per-ray state),
  * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded,
- * <name>_shared_build / <name>_leaf_valid / <name>_shared_remap / <name>_vertex_error as
- * NULL-able macros or functions, and <name>_seq_ids (0 or 1, see bvh_codec.seq_ids). */
+ * <name>_shared_build / <name>_leaf_valid / <name>_shared_remap / <name>_vertex_error /
+ * <name>_leaf_error as NULL-able macros or functions (codecs.h gives leaf_error a NULL
+ * default for the codecs written before it), and <name>_seq_ids (0 or 1, see
+ * bvh_codec.seq_ids). */
 #ifndef PRT_BVH_CODECS_CODEC_H
 #define PRT_BVH_CODECS_CODEC_H
 
@@ -25,7 +27,11 @@
     X(idx8_bitpack_soa4, "idx8-bitpack-soa4", "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossy") \
     X(idx8_soa4, "idx8-soa4", "Indexed8SOA4 (beyond Rouwe: 3.9 with float vertices): vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossless") \
     X(idx16, "idx16", "Indexed16 (Rouwe 3.6): shared vertex buffer, three 16-bit indices per triangle, one id per leaf") \
-    X(idx16_soa4, "idx16-soa4", "Indexed16SOA4 (Rouwe 3.7): shared vertex buffer, 16-bit indices of 4 triangles in SOA form, one id per leaf")
+    X(idx16_soa4, "idx16-soa4", "Indexed16SOA4 (Rouwe 3.7): shared vertex buffer, 16-bit indices of 4 triangles in SOA form, one id per leaf") \
+    X(idx16_bitpack_soa4, "idx16-bitpack-soa4", "Indexed16BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 16-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
+    X(idx32_bitpack_soa4, "idx32-bitpack-soa4", "Indexed32BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 32-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
+    X(bitpack_soa4, "bitpack-soa4", "BitPackSOA4 (Rouwe 3.5): 16-bit components of 4 triangles in SOA form over a float grid per block, one id per leaf; lossy") \
+    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,
@@ -77,6 +83,11 @@ typedef struct bvh_codec {
     /* Lossy codecs: the largest distance between a vertex as decoded and the mesh's vertex,
      * kept in the shared data so it survives saving and loading. NULL: lossless. */
     double (*vertex_error)(const bvh_shared *shared);
+    /* Lossy codecs without shared data (a grid per leaf or block): the largest distance
+     * between a vertex of the leaf as decoded and its vertex in m, the mesh in leaf order
+     * (seq_ids). The BVH family takes the maximum over every leaf of the encoded tree once
+     * after building and keeps it in the META section. NULL for the others. */
+    double (*leaf_error)(const uint8_t *leaf, uint32_t count, const prt_mesh *m);
 } bvh_codec;
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];
