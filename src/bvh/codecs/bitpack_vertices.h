@@ -2,8 +2,7 @@
  * x | y << 21 | z << 42, decoded as lo + q * step with step = (hi - lo) / (2^21 - 1) over a
  * box. The buffer of such vertices that the Indexed BitPack codecs share (§3.8, §3.9) is a
  * 32-byte head (bpv_header) and the u64 entries. Used by idx16/idx32-bitpack-soa4 (buffer),
- * bitpack (words in the leaves, box per leaf) and meant for idx8-bitpack-soa4, which has its
- * own copy of the same code today. */
+ * bitpack (words in the leaves, box per leaf) and idx8-bitpack-soa4 (buffer in leaf order). */
 #ifndef PRT_BVH_CODECS_BITPACK_VERTICES_H
 #define PRT_BVH_CODECS_BITPACK_VERTICES_H
 
@@ -52,13 +51,11 @@ static inline float bpv_round_up(double err) {
     return (double)f < err ? nextafterf(f, INFINITY) : f;
 }
 
-/* The shared buffer of count entries, entry e holding mesh vertex source[e] (source NULL:
- * entry e is vertex e), over the bounds of m's triangles. */
-static inline prt_status bpv_buffer_build(const prt_mesh *m, const uint32_t *source, uint32_t count, uint8_t **data,
-                                          size_t *size) {
+/* The shared buffer of count entries, entry e holding vertex source[e] of m (source NULL:
+ * entry e is vertex e), quantized over the box lo, hi. */
+static inline prt_status bpv_buffer_build_in(const prt_mesh *m, const uint32_t *source, uint32_t count,
+                                             const float lo[3], const float hi[3], uint8_t **data, size_t *size) {
     bpv_header hd = {{0}, {0}, 0, count};
-    float lo[3], hi[3];
-    prt_mesh_bounds(m, lo, hi);
     bpv_grid(lo, hi, hd.lo, hd.step);
     const size_t bytes = sizeof hd + (size_t)count * 8;
     uint8_t *out = prt__alloc(bytes);
@@ -75,6 +72,14 @@ static inline prt_status bpv_buffer_build(const prt_mesh *m, const uint32_t *sou
     *data = out;
     *size = bytes;
     return PRT_OK;
+}
+
+/* The same over the bounds of m's triangles. */
+static inline prt_status bpv_buffer_build(const prt_mesh *m, const uint32_t *source, uint32_t count, uint8_t **data,
+                                          size_t *size) {
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    return bpv_buffer_build_in(m, source, count, lo, hi, data, size);
 }
 
 /* Loading: the buffer is what its head says, with a finite grid. */

@@ -17,17 +17,4 @@
 #include "bvh/codecs/bitpack_soa4.h"
 #include "bvh/codecs/bitpack.h"
 
-/* bvh_codec.leaf_error for the codecs that need none and predate it. */
-#define float3_leaf_error NULL
-#define float3_soa4_leaf_error NULL
-#define float3_soa8_leaf_error NULL
-#define idx32_leaf_error NULL
-#define idx32_soa4_leaf_error NULL
-#define idx8_bitpack_soa4_leaf_error NULL
-#define idx8_soa4_leaf_error NULL
-#define idx16_leaf_error NULL
-#define idx16_soa4_leaf_error NULL
-#define idx16_bitpack_soa4_leaf_error NULL
-#define idx32_bitpack_soa4_leaf_error NULL
-
 #endif

@@ -56,4 +56,6 @@ PRT_INLINE bool float3_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx
 #define float3_shared_remap NULL
 #define float3_vertex_error NULL
 
+#define float3_leaf_error NULL
+
 #endif

@@ -18,4 +18,6 @@
 #define float3_soa4_shared_remap NULL
 #define float3_soa4_vertex_error NULL
 
+#define float3_soa4_leaf_error NULL
+
 #endif

@@ -18,4 +18,6 @@
 #define float3_soa8_shared_remap NULL
 #define float3_soa8_vertex_error NULL
 
+#define float3_soa8_leaf_error NULL
+
 #endif

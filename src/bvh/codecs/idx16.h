@@ -90,4 +90,6 @@ PRT_INLINE bool idx16_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx 
 #define idx16_shared_remap NULL
 #define idx16_vertex_error NULL
 
+#define idx16_leaf_error NULL
+
 #endif

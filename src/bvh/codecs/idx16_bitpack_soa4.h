@@ -14,4 +14,6 @@
 
 #define idx16_bitpack_soa4_shared_remap NULL
 
+#define idx16_bitpack_soa4_leaf_error NULL
+
 #endif

@@ -132,4 +132,6 @@ PRT_INLINE bool idx16_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__
 #define idx16_soa4_shared_remap NULL
 #define idx16_soa4_vertex_error NULL
 
+#define idx16_soa4_leaf_error NULL
+
 #endif

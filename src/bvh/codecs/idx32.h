@@ -72,4 +72,6 @@ PRT_INLINE bool idx32_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx 
 #define idx32_shared_remap NULL
 #define idx32_vertex_error NULL
 
+#define idx32_leaf_error NULL
+
 #endif

@@ -14,4 +14,6 @@
 
 #define idx32_bitpack_soa4_shared_remap NULL
 
+#define idx32_bitpack_soa4_leaf_error NULL
+
 #endif

@@ -126,4 +126,6 @@ PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__r
     return false;
 }
 
+#define idx8_soa4_leaf_error NULL
+
 #endif
