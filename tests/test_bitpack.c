@@ -13,25 +13,6 @@
 
 #include <float.h>
 
-/* An n x n grid of quads in the xz plane, two triangles each, vertices shared. */
-static prt_mesh *grid(uint32_t n) {
-    prt_mesh *m;
-    if (prt_mesh_create((size_t)(n + 1) * (n + 1), 2 * (size_t)n * n, &m)) return NULL;
-    for (uint32_t z = 0; z <= n; z++)
-        for (uint32_t x = 0; x <= n; x++) {
-            float *v = m->vertices + 3 * ((size_t)z * (n + 1) + x);
-            v[0] = (float)x / (float)n, v[1] = 0.05f * sinf(7.0f * (float)(x + 2 * z) / (float)n), v[2] = (float)z / (float)n;
-        }
-    uint32_t *t = m->triangles;
-    for (uint32_t z = 0; z < n; z++)
-        for (uint32_t x = 0; x < n; x++) {
-            uint32_t a = z * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
-            *t++ = a, *t++ = c, *t++ = b;
-            *t++ = b, *t++ = c, *t++ = d;
-        }
-    return m;
-}
-
 static double largest_coordinate(const prt_mesh *m) {
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
@@ -71,7 +52,7 @@ static size_t hits_outside_the_bound(const prt_mesh *m, const prt_accel *a, size
 }
 
 TEST(test_indexed_bitpack_error_within_the_mesh_grid_step) {
-    prt_mesh *meshes[] = {grid(60), mesh_random_soup(3000, 9)};
+    prt_mesh *meshes[] = {mesh_grid(60), mesh_random_soup(3000, 9)};
     const char *specs[] = {"wide8:idx16-bitpack-soa4", "quad:idx32-bitpack-soa4", "aabb:idx32-bitpack-soa4,leaf=7"};
     for (size_t i = 0; i < COUNT_OF(meshes); i++)
         for (size_t s = 0; s < COUNT_OF(specs); s++) {
@@ -91,7 +72,7 @@ TEST(test_indexed_bitpack_error_within_the_mesh_grid_step) {
  * state (measured over every leaf) lies within half a step of the mesh-wide grid of 65535
  * or 2^21 - 1 steps, is far below it on a fine mesh, and bounds every hit. */
 TEST(test_bitpack_per_block_and_leaf_errors_are_measured_and_bound_hits) {
-    prt_mesh *meshes[] = {grid(60), mesh_random_soup(3000, 9)};
+    prt_mesh *meshes[] = {mesh_grid(60), mesh_random_soup(3000, 9)};
     const char *specs[] = {"quad:bitpack-soa4", "wide8:bitpack-soa4", "aabb:bitpack-soa4,leaf=6", "quad:bitpack",
                            "skd:bitpack"};
     for (size_t i = 0; i < COUNT_OF(meshes); i++)
@@ -139,7 +120,7 @@ TEST(test_bitpack_crafted_leaves_are_invalid) {
 /* Leaves: a 4-byte head and 12 indices per (padded) block of 4; the buffer a 32-byte head
  * and 8 bytes per mesh vertex; plus the 4-byte IDS entry per triangle. */
 TEST(test_indexed_bitpack_geometry_follows_the_format) {
-    prt_mesh *m = grid(100);
+    prt_mesh *m = mesh_grid(100);
     const size_t T = m->triangle_count, V = m->vertex_count;
     const char *specs[] = {"quad:idx16-bitpack-soa4", "quad:idx32-bitpack-soa4"};
     const size_t index_bytes[] = {2, 4};
@@ -200,7 +181,7 @@ TEST(test_indexed_bitpack_leaf_outside_the_buffer_is_invalid) {
 }
 
 TEST(test_bitpack_save_and_load_keep_every_hit_and_the_error) {
-    prt_mesh *m = grid(40);
+    prt_mesh *m = mesh_grid(40);
     prt_ray *rays = rays_random(m, 2000, 8);
     char path[512];
     snprintf(path, sizeof path, "%s/test_bitpack_roundtrip.prt", PRT_BINARY_DIR);

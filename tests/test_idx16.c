@@ -12,29 +12,10 @@
 static const char *const g_specs[] = {"quad:idx16", "wide8:idx16", "aabb:idx16,leaf=3",     "skd:idx16",
                                       "quad:idx16-soa4", "wide8:idx16-soa4", "aabb:idx16-soa4,leaf=5", "quad-half:idx16-soa4"};
 
-/* An n x n grid of quads in the xz plane, two triangles each, vertices shared. */
-static prt_mesh *grid(uint32_t n) {
-    prt_mesh *m;
-    if (prt_mesh_create((size_t)(n + 1) * (n + 1), 2 * (size_t)n * n, &m)) return NULL;
-    for (uint32_t z = 0; z <= n; z++)
-        for (uint32_t x = 0; x <= n; x++) {
-            float *v = m->vertices + 3 * ((size_t)z * (n + 1) + x);
-            v[0] = (float)x / (float)n, v[1] = 0.05f * sinf(7.0f * (float)(x + 2 * z) / (float)n), v[2] = (float)z / (float)n;
-        }
-    uint32_t *t = m->triangles;
-    for (uint32_t z = 0; z < n; z++)
-        for (uint32_t x = 0; x < n; x++) {
-            uint32_t a = z * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
-            *t++ = a, *t++ = c, *t++ = b;
-            *t++ = b, *t++ = c, *t++ = d;
-        }
-    return m;
-}
-
 static bool same_hit(prt_hit a, prt_hit b) { return a.prim == b.prim && a.t == b.t && a.u == b.u && a.v == b.v; }
 
 TEST(test_idx16_hits_are_idx32_soa4_hits_and_the_brute_force_triangles) {
-    prt_mesh *meshes[] = {grid(90), mesh_random_soup(4000, 17)};
+    prt_mesh *meshes[] = {mesh_grid(90), mesh_random_soup(4000, 17)};
     for (size_t i = 0; i < COUNT_OF(meshes); i++) {
         const prt_mesh *m = meshes[i];
         prt_ray *rays = rays_random(m, 4000, 31 + i);
@@ -73,7 +54,7 @@ TEST(test_idx16_hits_are_idx32_soa4_hits_and_the_brute_force_triangles) {
  * 4-byte head and 12 bytes per (padded) pair; plus the shared 12 bytes per vertex and one
  * NaN vertex, plus the 4-byte IDS entry per triangle. */
 TEST(test_idx16_geometry_is_six_bytes_per_triangle_plus_the_heads) {
-    prt_mesh *m = grid(100);
+    prt_mesh *m = mesh_grid(100);
     const size_t T = m->triangle_count, V = m->vertex_count;
     const char *specs[] = {"quad:idx16", "quad:idx16-soa4"};
     const size_t pad_per_leaf[] = {6, 18};
@@ -133,7 +114,7 @@ TEST(test_idx16_leaf_outside_the_buffer_is_invalid) {
 }
 
 TEST(test_idx16_save_and_load_keep_every_hit) {
-    prt_mesh *m = grid(40);
+    prt_mesh *m = mesh_grid(40);
     prt_ray *rays = rays_random(m, 2000, 8);
     char path[512];
     snprintf(path, sizeof path, "%s/test_idx16_roundtrip.prt", PRT_BINARY_DIR);

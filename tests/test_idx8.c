@@ -11,25 +11,6 @@
 
 #include <float.h>
 
-/* An n x n grid of quads in the xz plane, two triangles each, vertices shared. */
-static prt_mesh *grid(uint32_t n) {
-    prt_mesh *m;
-    if (prt_mesh_create((size_t)(n + 1) * (n + 1), 2 * (size_t)n * n, &m)) return NULL;
-    for (uint32_t z = 0; z <= n; z++)
-        for (uint32_t x = 0; x <= n; x++) {
-            float *v = m->vertices + 3 * ((size_t)z * (n + 1) + x);
-            v[0] = (float)x / (float)n, v[1] = 0.05f * sinf(7.0f * (float)(x + 2 * z) / (float)n), v[2] = (float)z / (float)n;
-        }
-    uint32_t *t = m->triangles;
-    for (uint32_t z = 0; z < n; z++)
-        for (uint32_t x = 0; x < n; x++) {
-            uint32_t a = z * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
-            *t++ = a, *t++ = c, *t++ = b;
-            *t++ = b, *t++ = c, *t++ = d;
-        }
-    return m;
-}
-
 /* A fan of n triangles around one centre vertex: every triangle shares it, so the buffer
  * must append it again whenever it falls out of the 8-bit window. */
 static prt_mesh *fan(uint32_t n) {
@@ -60,7 +41,7 @@ static prt_stats stats_of(const prt_mesh *m, const char *spec) {
 /* Float entries: 12 bytes per entry instead of 8, otherwise the same buffer; the same
  * vertex floats through the same kernel give Float3SOA4's hits bit for bit. */
 TEST(test_idx8_float_is_exactly_float3_soa4) {
-    prt_mesh *soup = mesh_random_soup(20000, 3), *g = grid(100);
+    prt_mesh *soup = mesh_random_soup(20000, 3), *g = mesh_grid(100);
     prt_stats ss = stats_of(soup, "wide8:idx8-soa4,ids=none"), gs = stats_of(g, "wide8:idx8-soa4,ids=none");
     double soup_b = (double)ss.bytes_geometry / (double)soup->triangle_count;
     double grid_b = (double)gs.bytes_geometry / (double)g->triangle_count;
@@ -92,7 +73,7 @@ TEST(test_idx8_float_is_exactly_float3_soa4) {
 TEST(test_idx8_bitpack_reuses_shared_vertices) {
     /* A soup shares nothing: three 8-byte entries per triangle, plus 3 bytes of indices.
      * A grid has half a vertex per triangle: well under one entry each. */
-    prt_mesh *soup = mesh_random_soup(20000, 3), *g = grid(100);
+    prt_mesh *soup = mesh_random_soup(20000, 3), *g = mesh_grid(100);
     prt_stats ss = stats_of(soup, "quad:idx8-bitpack-soa4,ids=none");
     prt_stats gs = stats_of(g, "quad:idx8-bitpack-soa4,ids=none");
     double soup_b = (double)ss.bytes_geometry / (double)soup->triangle_count;
@@ -106,7 +87,7 @@ TEST(test_idx8_bitpack_reuses_shared_vertices) {
 /* Rounding to the nearest of 2^21 - 1 steps moves a component by at most half a step,
  * and decoding lo + q * step adds float rounding of the coordinates' magnitude. */
 TEST(test_idx8_bitpack_error_within_the_quantization_step) {
-    prt_mesh *meshes[] = {grid(60), mesh_random_soup(5000, 9), fan(3000)};
+    prt_mesh *meshes[] = {mesh_grid(60), mesh_random_soup(5000, 9), fan(3000)};
     for (size_t i = 0; i < COUNT_OF(meshes); i++) {
         const prt_mesh *m = meshes[i];
         float lo[3], hi[3];
@@ -144,7 +125,7 @@ TEST(test_idx8_bitpack_error_within_the_quantization_step) {
 /* ids=none: hits name positions in the accel's order, which maps them to the mesh ids the
  * ids=mesh build answers with. */
 TEST(test_idx8_bitpack_ids_none_hands_out_its_order) {
-    prt_mesh *m = grid(80);
+    prt_mesh *m = mesh_grid(80);
     uint32_t *order = malloc(m->triangle_count * sizeof *order);
     prt_build_options o = {.triangle_order = order};
     prt_accel *with_ids, *without;

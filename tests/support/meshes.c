@@ -64,3 +64,21 @@ prt_ray *rays_random(const prt_mesh *m, size_t n, uint64_t seed) {
     }
     return rays;
 }
+
+prt_mesh *mesh_grid(uint32_t n) {
+    prt_mesh *m;
+    if (prt_mesh_create((size_t)(n + 1) * (n + 1), 2 * (size_t)n * n, &m)) return NULL;
+    for (uint32_t z = 0; z <= n; z++)
+        for (uint32_t x = 0; x <= n; x++) {
+            float *v = m->vertices + 3 * ((size_t)z * (n + 1) + x);
+            v[0] = (float)x / (float)n, v[1] = 0.05f * sinf(7.0f * (float)(x + 2 * z) / (float)n), v[2] = (float)z / (float)n;
+        }
+    uint32_t *t = m->triangles;
+    for (uint32_t z = 0; z < n; z++)
+        for (uint32_t x = 0; x < n; x++) {
+            uint32_t a = z * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+            *t++ = a, *t++ = c, *t++ = b;
+            *t++ = b, *t++ = c, *t++ = d;
+        }
+    return m;
+}

@@ -10,6 +10,10 @@ prt_mesh *mesh_random_soup(size_t n, uint64_t seed);
 /* n triangles that all share one centroid (worst case for splitters). */
 prt_mesh *mesh_same_centroid(size_t n);
 
+/* An n x n grid of quads in the xz plane (a gentle wave in y), two triangles each, vertices
+ * shared: a connected mesh of half a vertex per triangle. */
+prt_mesh *mesh_grid(uint32_t n);
+
 /* Random rays: origins on a sphere around the mesh, aimed inside it (Rouwé's workload). */
 prt_ray *rays_random(const prt_mesh *m, size_t n, uint64_t seed);
 
