@@ -155,10 +155,7 @@ PRT_INLINE void bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, const pr
         vf4 t, u, v;
         int mask = prt__tri4_hit(r, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
         if (!mask) continue;
-        const uint32_t ids[4] = {id0 + 4 * b, id0 + 4 * b + 1, id0 + 4 * b + 2, id0 + 4 * b + 3};
-        float tt[4], uu[4], vv[4];
-        memcpy(tt, &t, sizeof tt), memcpy(uu, &u, sizeof uu), memcpy(vv, &v, sizeof vv);
-        bvh_take_nearest_seq(h, tt, uu, vv, ids, (unsigned)mask, vf4_hmin(t), c->sh);
+        bvh_take_block4_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
     }
 }
 

@@ -3,6 +3,7 @@
 #define PRT_BVH_CODECS_NEAREST_H
 
 #include "bvh/codecs/codec.h"
+#include "core/simd.h"
 #include "geom/ray.h"
 
 /* Closest-hit update for a SIMD block: among the lanes in mask (all with t <= h->t), the
@@ -39,6 +40,16 @@ static inline void bvh_take_nearest_seq(prt__hitx *h, const float *t, const floa
     if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
     if (best < h->t || h->prim == PRT_INVALID || bvh_tie_id(sh, ids[lane]) < bvh_tie_id(sh, h->prim))
         h->t = best, h->u = u[lane], h->v = v[lane], h->prim = ids[lane];
+}
+
+/* A 4-lane block of a seq_ids codec whose lanes are leaf-order ids first .. first + 3: the
+ * hit lanes in mask (t, u, v from the 4-wide triangle test) update h. */
+static inline void bvh_take_block4_seq(prt__hitx *h, vf4 t, vf4 u, vf4 v, int mask, uint32_t first,
+                                       const bvh_shared *sh) {
+    const uint32_t ids[4] = {first, first + 1, first + 2, first + 3};
+    float tt[4], uu[4], vv[4];
+    memcpy(tt, &t, sizeof tt), memcpy(uu, &u, sizeof uu), memcpy(vv, &v, sizeof vv);
+    bvh_take_nearest_seq(h, tt, uu, vv, ids, (unsigned)mask, vf4_hmin(t), sh);
 }
 
 #endif
