@@ -3,19 +3,8 @@
  * within the traversal depth limit. */
 #include "bvh/tree.h"
 #include "support/meshes.h"
+#include "support/prims.h"
 #include "test.h"
-
-static bvh_prim *prims_of(const prt_mesh *m) {
-    bvh_prim *p = calloc(m->triangle_count, sizeof *p);
-    for (size_t t = 0; t < m->triangle_count; t++) {
-        prt_aabb b = prt_aabb_empty();
-        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
-        memcpy(p[t].lo, b.lo, 12);
-        memcpy(p[t].hi, b.hi, 12);
-        p[t].id = (uint32_t)t;
-    }
-    return p;
-}
 
 /* Returns the number of violations found in the subtree of node i. */
 static int check_node(const bvh_tree *t, const bvh_node *parent, uint32_t i, int max_leaf, uint8_t *seen,
@@ -39,11 +28,11 @@ static int check_node(const bvh_tree *t, const bvh_node *parent, uint32_t i, int
 
 static void check_all_splitters(const prt_mesh *m) {
     static const int leaves[] = {1, 2, 4, 8, 16};
-    bvh_prim *orig = prims_of(m);
+    bvh_prim *orig = mesh_prims(m);
     for (int s = 0; s < BVH_SPLIT_COUNT; s++)
         for (size_t l = 0; l < PRT_ARRAY_SIZE(leaves); l++)
             for (int block = 1; block <= 4; block += 3) {
-                bvh_prim *p = prims_of(m);
+                bvh_prim *p = mesh_prims(m);
                 bvh_build_params bp = {.split = (bvh_split)s, .max_leaf = leaves[l], .block = block};
                 bvh_tree t;
                 prt_status st = bvh_build(p, m->triangle_count, &bp, &t);
@@ -78,7 +67,7 @@ TEST(test_identical_centroids_still_respect_leaf_size) {
 
 TEST(test_single_triangle_tree_is_one_leaf) {
     prt_mesh *m = mesh_random_soup(1, 3);
-    bvh_prim *p = prims_of(m);
+    bvh_prim *p = mesh_prims(m);
     bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 8, .block = 1};
     bvh_tree t;
     CHECK_OK(bvh_build(p, 1, &bp, &t));
@@ -90,7 +79,7 @@ TEST(test_single_triangle_tree_is_one_leaf) {
 
 TEST(test_sah_tree_is_shallower_than_linear) {
     prt_mesh *m = mesh_random_soup(20000, 5);
-    bvh_prim *p = prims_of(m);
+    bvh_prim *p = mesh_prims(m);
     bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 4, .block = 1};
     bvh_tree t;
     CHECK_OK(bvh_build(p, m->triangle_count, &bp, &t));
@@ -110,7 +99,7 @@ TEST(test_fixed_splitter_fills_whole_blocks) {
     for (size_t bi = 0; bi < PRT_ARRAY_SIZE(blocks); bi++)
         for (size_t li = 0; li < PRT_ARRAY_SIZE(leaves); li++) {
             const int g = PRT_MIN(blocks[bi] > 1 ? blocks[bi] : 4, leaves[li]);
-            bvh_prim *p = prims_of(m);
+            bvh_prim *p = mesh_prims(m);
             bvh_build_params bp = {.split = BVH_SPLIT_FIXED, .max_leaf = leaves[li], .block = blocks[bi]};
             bvh_tree t;
             CHECK_OK(bvh_build(p, m->triangle_count, &bp, &t));

@@ -9,6 +9,7 @@
 #include "bvh/layouts/quad_half.h"
 #include "core/rng.h"
 #include "support/meshes.h"
+#include "support/prims.h"
 #include "support/reference.h"
 #include "test.h"
 
@@ -121,14 +122,7 @@ static const struct {
 
 /* Builds layout:float3 over m with the given leaf size and checks every decoded box. */
 static void check_conservative(const bvh_layout *layout, debug_fn walk, const prt_mesh *m, int leaf, const char *what) {
-    bvh_prim *p = calloc(m->triangle_count, sizeof *p);
-    for (size_t t = 0; t < m->triangle_count; t++) {
-        prt_aabb b = prt_aabb_empty();
-        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
-        memcpy(p[t].lo, b.lo, 12);
-        memcpy(p[t].hi, b.hi, 12);
-        p[t].id = (uint32_t)t;
-    }
+    bvh_prim *p = mesh_prims(m);
     bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = leaf, .block = 1, .threads = 1};
     bvh_tree tree;
     CHECK_OK(bvh_build(p, m->triangle_count, &bp, &tree));
@@ -152,20 +146,11 @@ static void check_conservative(const bvh_layout *layout, debug_fn walk, const pr
     free(p);
 }
 
-/* A copy of m with every vertex scaled then moved: v * scale + offset. */
-static prt_mesh *transformed(const prt_mesh *m, float scale, float offset) {
-    prt_mesh *t;
-    if (prt_mesh_create(m->vertex_count, m->triangle_count, &t)) return NULL;
-    for (size_t i = 0; i < 3 * m->vertex_count; i++) t->vertices[i] = m->vertices[i] * scale + offset;
-    memcpy(t->triangles, m->triangles, 3 * sizeof(uint32_t) * m->triangle_count);
-    return t;
-}
-
 TEST(test_quantized_child_boxes_contain_their_triangles) {
     prt_mesh *soup = mesh_random_soup(3000, 7), *same = mesh_same_centroid(200);
-    prt_mesh *far = transformed(soup, 1.0f, 1e6f), *tiny = transformed(soup, 1e-4f, 0.0f);
-    prt_mesh *tiny_far = transformed(soup, 1e-3f, -3e4f), *flat = transformed(soup, 1.0f, 0.0f);
-    prt_mesh *huge = transformed(soup, 1e5f, 0.0f), *micro = transformed(soup, 1e-6f, 1e-6f);
+    prt_mesh *far = mesh_transformed(soup, 1.0f, 1e6f), *tiny = mesh_transformed(soup, 1e-4f, 0.0f);
+    prt_mesh *tiny_far = mesh_transformed(soup, 1e-3f, -3e4f), *flat = mesh_transformed(soup, 1.0f, 0.0f);
+    prt_mesh *huge = mesh_transformed(soup, 1e5f, 0.0f), *micro = mesh_transformed(soup, 1e-6f, 1e-6f);
     for (size_t i = 0; i < flat->vertex_count; i++) flat->vertices[3 * i + 2] = 0.25f; /* zero extent in z */
     const struct {
         const prt_mesh *m;
@@ -187,7 +172,7 @@ TEST(test_quantized_child_boxes_contain_their_triangles) {
  * kernel family, on meshes whose magnitude stresses quantized boxes. */
 TEST(test_far_and_tiny_meshes_hit_as_brute_force) {
     prt_mesh *soup = mesh_random_soup(2000, 11);
-    prt_mesh *meshes[] = {transformed(soup, 1.0f, 1e6f), transformed(soup, 1e-4f, 0.0f), transformed(soup, 1e-2f, -1e3f)};
+    prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 1e6f), mesh_transformed(soup, 1e-4f, 0.0f), mesh_transformed(soup, 1e-2f, -1e3f)};
     const char *layouts[] = {"quad-half", "aabb-compressed", "aabb-pns", "skd"};
     const char *codecs[] = {"float3", "float3-soa4", "float3-soa8", "idx32-soa4"};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
@@ -238,14 +223,7 @@ static void huge_encode(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, ui
  * PRT_ERROR_LIMIT that says so, where the AABBTree's 31 bits still fit. */
 TEST(test_aabb_pns_reports_subtrees_beyond_its_offset_bits) {
     prt_mesh *m = mesh_random_soup(64, 3);
-    bvh_prim *p = calloc(m->triangle_count, sizeof *p);
-    for (size_t t = 0; t < m->triangle_count; t++) {
-        prt_aabb b = prt_aabb_empty();
-        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
-        memcpy(p[t].lo, b.lo, 12);
-        memcpy(p[t].hi, b.hi, 12);
-        p[t].id = (uint32_t)t;
-    }
+    bvh_prim *p = mesh_prims(m);
     bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 1, .block = 1, .threads = 1};
     bvh_tree tree;
     CHECK_OK(bvh_build(p, m->triangle_count, &bp, &tree));

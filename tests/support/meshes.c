@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 prt_mesh *mesh_random_soup(size_t n, uint64_t seed) {
     prt_mesh *m;
@@ -81,4 +82,12 @@ prt_mesh *mesh_grid(uint32_t n) {
             *t++ = b, *t++ = c, *t++ = d;
         }
     return m;
+}
+
+prt_mesh *mesh_transformed(const prt_mesh *m, float scale, float offset) {
+    prt_mesh *t;
+    if (prt_mesh_create(m->vertex_count, m->triangle_count, &t)) return NULL;
+    for (size_t i = 0; i < 3 * m->vertex_count; i++) t->vertices[i] = m->vertices[i] * scale + offset;
+    memcpy(t->triangles, m->triangles, 3 * sizeof(uint32_t) * m->triangle_count);
+    return t;
 }

@@ -14,6 +14,9 @@ prt_mesh *mesh_same_centroid(size_t n);
  * shared: a connected mesh of half a vertex per triangle. */
 prt_mesh *mesh_grid(uint32_t n);
 
+/* A copy of m with every vertex scaled then moved: v * scale + offset. */
+prt_mesh *mesh_transformed(const prt_mesh *m, float scale, float offset);
+
 /* Random rays: origins on a sphere around the mesh, aimed inside it (Rouwé's workload). */
 prt_ray *rays_random(const prt_mesh *m, size_t n, uint64_t seed);
 
