@@ -96,7 +96,7 @@ typedef struct collapse {
     const bvh_tree *t;
     const bvh_codec *codec;
     size_t grain; /* of the codec's leaf sizes (write_blob) */
-    int max_leaf, block;
+    int max_leaf;
     uint32_t *first, *total; /* per binary node: its triangles t->prims[first .. first + total) */
     float (*cost)[8];        /* cost[n][i - 1]: at most i slots */
     int8_t (*pick)[8];       /* 0: as one slot (see leaf); j > 0: j slots to the first child */
@@ -141,8 +141,9 @@ static void collapse_costs(collapse *c) {
         const bvh_node *n = &t->nodes[i];
         const float area = prt_aabb_half_area(&n->box);
         float as_leaf = INFINITY, as_node = INFINITY;
+        const uint32_t block = (uint32_t)c->codec->block;
         if (c->total[i] <= (uint32_t)c->max_leaf)
-            as_leaf = area * WIDE8_COST_BLOCK * (float)((c->total[i] + (uint32_t)c->block - 1) / (uint32_t)c->block);
+            as_leaf = area * WIDE8_COST_BLOCK * (float)((c->total[i] + block - 1) / block);
         if (!n->count) as_node = area * WIDE8_COST_NODE + share(c, n, 8, &c->split[i]);
         c->leaf[i] = as_leaf <= as_node;
         const float one = PRT_MIN(as_leaf, as_node);
@@ -326,7 +327,7 @@ static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_
     const size_t grain = head ? gcd_size(head, per) : per;
     if (c->align % 4 || grain % 4 || grain > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "wide8: codec %s has leaf sizes that are not multiples of 4 bytes", c->name);
-    collapse cl = {.t = t, .codec = c, .grain = grain, .max_leaf = (int)max_leaf, .block = c->block};
+    collapse cl = {.t = t, .codec = c, .grain = grain, .max_leaf = (int)max_leaf};
     cl.first = prt__alloc(prt__mul_size(nn, sizeof *cl.first));
     cl.total = prt__alloc(prt__mul_size(nn, sizeof *cl.total));
     cl.cost = prt__alloc(prt__mul_size(nn, sizeof *cl.cost));
