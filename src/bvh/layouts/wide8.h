@@ -8,7 +8,7 @@
 #ifndef PRT_BVH_LAYOUTS_WIDE8_H
 #define PRT_BVH_LAYOUTS_WIDE8_H
 
-#include "core/common.h"
+#include "bvh/bvh.h"
 
 /* Slot i of a node holds child i's box: plane = p + q * 2^(e - 127), computed as one
  * fmaf (the encoder checks the rounded result, so the box is conservative bit for bit).
@@ -50,5 +50,29 @@ static inline float wide8_scale(uint8_t e) {
     memcpy(&s, &bits, 4);
     return s;
 }
+
+/* The leaves wide8_pack writes under its nodes: their sizes, always affine in blocks
+ * (bytes(n) == bytes(0) + ceil(n / block) * (bytes(block) - bytes(0)), both terms
+ * multiples of 4, codec.h), so a node stores where each leaf ends and never its count. */
+typedef struct wide8_leaves {
+    const char *name; /* for messages */
+    int block;        /* primitives tested together: a leaf costs ceil(n / block) */
+    size_t align;     /* alignment of a leaf in the blob */
+    uint32_t max_count; /* the largest leaf a loaded blob may claim */
+    size_t (*bytes)(const void *ctx, uint32_t count);
+    /* Write the leaf of prims[0 .. count) (ids of the tree's primitives) to dst. */
+    void (*encode)(const void *ctx, uint8_t *dst, const uint32_t *prims, uint32_t count);
+    /* Loading: whether a leaf of count primitives only references what exists; NULL: any. */
+    bool (*valid)(const void *ctx, const uint8_t *leaf, uint32_t count);
+    const void *ctx;
+} wide8_leaves;
+
+/* Collapse binary tree t into wide8 nodes by the SAH (Ylitie et al. 2017, §3.2), leaves
+ * merged up to the largest leaf of t, and write nodes and leaves into out. */
+prt_status wide8_pack(const bvh_tree *t, const wide8_leaves *leaves, bvh_blob *out);
+
+/* Check a loaded blob: every node reached once, every leaf inside the geometry range and
+ * valid, so traversal can neither leave the blob, loop, nor overflow its stack. */
+prt_status wide8_check(const bvh_blob *b, const wide8_leaves *leaves);
 
 #endif
