@@ -197,6 +197,9 @@ typedef struct prt_stats {
      * decodes it and the mesh's vertex (mesh units), so every decoded triangle lies within
      * vertex_error of its original. 0 for lossless representations. */
     double vertex_error;
+    /* Figures particular to the representation, one line for people (lossygrid: its grids
+     * and error statistics); empty when it has none. */
+    char detail[256];
 } prt_stats;
 
 /* Build an acceleration structure for mesh m (which is validated first) according to

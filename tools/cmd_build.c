@@ -47,6 +47,7 @@ int cmd_build(int argc, char **argv) {
             out, prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds, st.build_peak_bytes / 1e6,
             (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) / n, (double)st.bytes_tree / n,
             (double)st.bytes_geometry / n);
+    if (st.detail[0]) fprintf(stderr, "  %s\n", st.detail);
     prt_accel_free(a);
     return 0;
 }

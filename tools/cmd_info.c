@@ -21,6 +21,7 @@ static void print_stats(const prt_accel *a) {
     printf("  %-36s %7.2f B/tri  (tree %6.2f, geometry %6.2f, other %.2f)  nodes %zu  leaves %zu  depth %u  build %.3f s\n",
            prt_accel_spec(a), (double)(s.bytes_tree + s.bytes_geometry + s.bytes_other) / n, (double)s.bytes_tree / n,
            (double)s.bytes_geometry / n, (double)s.bytes_other / n, s.nodes, s.leaves, s.depth, s.build_seconds);
+    if (s.detail[0]) printf("    %s\n", s.detail);
 }
 
 static int cmp_u64(const void *a, const void *b) {

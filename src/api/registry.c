@@ -5,9 +5,11 @@
 #include <stdio.h>
 
 extern const prt_repr_family prt__bvh_family;
+extern const prt_repr_family prt__lossygrid_family;
 
 static const prt_repr_family *const g_families[] = {
     &prt__bvh_family,
+    &prt__lossygrid_family,
 };
 
 const prt_repr_family *prt__registry_find(const prt_spec *spec) {

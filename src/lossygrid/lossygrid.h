@@ -1,0 +1,41 @@
+/* What the lossygrid files share: building the blob of wide8 nodes over 128-byte records,
+ * checking a loaded one, and the traversal entry points. */
+#ifndef PRT_LOSSYGRID_LOSSYGRID_H
+#define PRT_LOSSYGRID_LOSSYGRID_H
+
+#include "bvh/bvh.h"
+#include "lossygrid/displacement.h"
+
+#define LG_MAX_LEAF 4 /* records per leaf */
+
+typedef struct lg_build_params {
+    int enc;   /* LG_ENC_OCT or LG_ENC_EXP */
+    int leaf;  /* records per leaf, 1..LG_MAX_LEAF */
+    int threads;
+} lg_build_params;
+
+/* What a build measured, for stats and the results tables (Benthin's Tables 1 and 3). */
+typedef struct lg_build_report {
+    size_t triangles;      /* hittable triangles = accel positions */
+    size_t grids, subgrids, grid_triangles;
+    size_t tri_records, loose_triangles;
+    double vertex_error;   /* largest distance of a decoded grid vertex from the mesh's */
+    double rms_error;      /* over every sub-grid vertex */
+    double rel_error_avg, rel_error_max; /* per sub-grid: its largest error / its box diagonal */
+    float bounds[6];
+} lg_build_report;
+
+/* Build the records and the wide8 blob over them. *order: on entry the caller's array for
+ * the position-to-mesh-id map (ids=none) or NULL to have one allocated; on return the map. */
+prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *p, bvh_blob *blob, uint32_t **order,
+                         lg_build_report *report);
+
+/* Check a loaded blob: nodes as wide8_check does, every record well formed and naming
+ * positions below sh->triangles. */
+prt_status lg_blob_check(const bvh_blob *b, const bvh_shared *sh);
+
+/* Closest and any hit (traverse.c); hits name accel positions. */
+void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
+bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
+
+#endif

@@ -1,0 +1,178 @@
+/* Lossy compressed grid primitives (Benthin, Vaidyanathan, Woop) behind prt_accel_ops:
+ * "lossygrid[,enc=oct|exp][,leaf=N][,ids=mesh|none]". The mesh is cut into 5x5-vertex
+ * sub-grids (extract.c), each compressed into 128 bytes (encode.c), the triangles that fit
+ * no grid packed into exact 128-byte records; a binned SAH BVH over the records is packed
+ * into 8-wide quantized nodes (bvh/layouts/wide8_pack.c) and traversed by the wide8
+ * kernel with the record kernels of record.h. Saved as sections META, BLOB and IDS. */
+#include "api/accel.h"
+#include "bvh/layouts/wide8.h"
+#include "lossygrid/lossygrid.h"
+
+#include <math.h>
+#include <stdio.h>
+
+/* On-disk META section (little endian, 64 bytes). */
+typedef struct lg_meta {
+    uint64_t blob_size, bytes_tree, nodes, leaves;
+    uint64_t triangles; /* accel positions: every record's triangles lie below */
+    uint32_t depth, flags; /* LG_META_MESH_IDS: an IDS section maps positions to mesh ids */
+    float vertex_error;    /* the largest decoded vertex error, measured at build time */
+    float rms_error;
+    uint32_t subgrids, grid_triangles;
+} lg_meta;
+enum { LG_META_MESH_IDS = 1 };
+_Static_assert(sizeof(lg_meta) == 64, "META section is 64 bytes");
+
+typedef struct lg_accel {
+    prt_accel base;
+    bvh_blob blob;
+    bvh_shared shared; /* mesh_ids and the position count, for the tie rule and the id map */
+    lg_meta meta;
+    lg_build_report report; /* built accels only (zero when loaded) */
+    uint32_t *mesh_ids;     /* owned when built */
+    bool owns_blob;
+} lg_accel;
+
+extern const prt_accel_ops prt__lossygrid_ops;
+
+static void lg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
+    const lg_accel *g = (const lg_accel *)a;
+    lg_trace1(g->blob.data, &g->shared, r, h);
+    if (g->shared.mesh_ids && h->prim < g->shared.triangles) h->prim = g->shared.mesh_ids[h->prim];
+}
+
+static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
+    const lg_accel *g = (const lg_accel *)a;
+    return lg_trace_any(g->blob.data, &g->shared, r);
+}
+
+static void lg_stats(const prt_accel *a, prt_stats *s) {
+    const lg_accel *g = (const lg_accel *)a;
+    s->bytes_tree = g->blob.bytes_tree;
+    s->bytes_geometry = g->blob.bytes_geometry + (g->shared.mesh_ids ? 4 * g->shared.triangles : 0);
+    s->bytes_other = sizeof(lg_accel);
+    s->nodes = g->blob.nodes;
+    s->leaves = g->blob.leaves;
+    s->depth = g->blob.depth;
+    s->vertex_error = g->meta.vertex_error;
+    const double n = g->meta.triangles ? (double)g->meta.triangles : 1.0;
+    int k = snprintf(s->detail, sizeof s->detail, "%u sub-grids hold %.1f%% of the triangles, %.1f per sub-grid; vertex error max %.3g, RMS %.3g",
+                     g->meta.subgrids, 100.0 * g->meta.grid_triangles / n,
+                     g->meta.subgrids ? (double)g->meta.grid_triangles / g->meta.subgrids : 0.0, (double)g->meta.vertex_error,
+                     (double)g->meta.rms_error);
+    if (g->report.subgrids && k > 0 && (size_t)k < sizeof s->detail)
+        snprintf(s->detail + k, sizeof s->detail - (size_t)k, "; per sub-grid / its diagonal: avg %.3g%%, max %.3g%%; %zu grids",
+                 100.0 * g->report.rel_error_avg, 100.0 * g->report.rel_error_max, g->report.grids);
+}
+
+static void lg_destroy(prt_accel *a) {
+    lg_accel *g = (lg_accel *)a;
+    if (g->owns_blob) prt__free(g->blob.data), prt__free(g->mesh_ids);
+    prt__free(g);
+}
+
+static bool lg_accepts(const prt_spec *s) { return !strcmp(s->structure, "lossygrid") && !s->codec[0]; }
+
+static bool lg_name_at(size_t i, const char **name, const char **desc) {
+    if (i) return false;
+    *name = "lossygrid";
+    *desc = "Lossy compressed grid primitives (Benthin et al.): 5x5-vertex sub-grids in 128 bytes (bilinear patch plus "
+            "3-byte displacements) under 8-wide quantized nodes, other triangles exact; lossy";
+    return true;
+}
+
+static const char *const g_encs[] = {"oct", "exp"};
+static const char *const g_id_modes[] = {"mesh", "none"};
+
+static prt_status lg_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
+    int enc, leaf, ids;
+    prt_status s;
+    if ((s = prt__spec_enum(spec, "enc", g_encs, LG_ENC_COUNT, LG_ENC_OCT, &enc)) ||
+        (s = prt__spec_int(spec, "leaf", 1, 1, LG_MAX_LEAF, &leaf)) ||
+        (s = prt__spec_enum(spec, "ids", g_id_modes, 2, 0, &ids)) || (s = prt__spec_check_unused(spec)))
+        return s;
+    if (ids && !(o && o->triangle_order))
+        return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs prt_build_options.triangle_order to receive the order");
+    char num[16];
+    snprintf(num, sizeof num, "%d", leaf);
+    prt__spec_set(spec, "enc", g_encs[enc]);
+    prt__spec_set(spec, "leaf", num);
+    prt__spec_set(spec, "ids", g_id_modes[ids]);
+
+    lg_accel *g = prt__calloc(1, sizeof *g);
+    if (!g) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    g->owns_blob = true;
+    lg_build_params p = {enc, leaf, o ? o->threads : 0};
+    uint32_t *order = ids ? o->triangle_order : NULL;
+    s = lg_build_blob(m, &p, &g->blob, &order, &g->report);
+    if (s) {
+        prt__free(g);
+        return s;
+    }
+    if (!ids) g->mesh_ids = order, g->shared.mesh_ids = order;
+    g->shared.triangles = g->report.triangles;
+    g->meta = (lg_meta){g->blob.size, g->blob.bytes_tree, g->blob.nodes, g->blob.leaves, g->report.triangles,
+                        g->blob.depth, ids ? 0 : LG_META_MESH_IDS, (float)g->report.vertex_error,
+                        (float)g->report.rms_error, (uint32_t)g->report.subgrids, (uint32_t)g->report.grid_triangles};
+    if ((double)g->meta.vertex_error < g->report.vertex_error) /* never state less than measured */
+        g->meta.vertex_error = nextafterf(g->meta.vertex_error, INFINITY);
+    memcpy(g->base.bounds, g->report.bounds, sizeof g->base.bounds);
+    g->base.ops = &prt__lossygrid_ops;
+    g->base.triangles_built = g->report.triangles;
+    *out = &g->base;
+    return PRT_OK;
+}
+
+static prt_status lg_save(const prt_accel *a, prt_writer *w) {
+    const lg_accel *g = (const lg_accel *)a;
+    prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &g->meta, sizeof g->meta);
+    if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), g->blob.data, g->blob.size);
+    if (!s && g->shared.mesh_ids)
+        s = prt__writer_section(w, PRT_FOURCC('I', 'D', 'S', ' '), g->shared.mesh_ids, 4 * g->shared.triangles);
+    return s;
+}
+
+static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
+    (void)spec;
+    lg_tables_init();
+    const void *mp, *data;
+    size_t msize, size;
+    prt_status s;
+    if ((s = prt__reader_section(r, PRT_FOURCC('M', 'E', 'T', 'A'), sizeof(lg_meta), &mp, &msize)) ||
+        (s = prt__reader_section(r, PRT_FOURCC('B', 'L', 'O', 'B'), 1, &data, &size)))
+        return s;
+    lg_meta meta;
+    memcpy(&meta, mp, sizeof meta);
+    if (meta.blob_size != size || meta.bytes_tree > size || meta.depth == 0 || meta.depth > BVH_MAX_DEPTH ||
+        meta.flags & ~(uint32_t)LG_META_MESH_IDS || meta.triangles > UINT32_MAX ||
+        !(meta.vertex_error >= 0 && meta.vertex_error < INFINITY))
+        return prt__fail(PRT_ERROR_CORRUPT, "lossygrid META section disagrees with its BLOB");
+    bvh_shared shared = {NULL, 0, (size_t)meta.triangles, NULL};
+    if (meta.flags & LG_META_MESH_IDS) {
+        const void *ids;
+        size_t ids_size;
+        if ((s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'S', ' '), 4, &ids, &ids_size))) return s;
+        if (ids_size != 4 * shared.triangles)
+            return prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDS section holds %zu bytes for %zu triangles", ids_size,
+                             shared.triangles);
+        shared.mesh_ids = ids;
+    }
+    lg_accel *g = prt__calloc(1, sizeof *g);
+    if (!g) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    g->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, size - meta.bytes_tree, meta.nodes, meta.leaves, meta.depth};
+    g->shared = shared;
+    g->meta = meta;
+    if ((s = lg_blob_check(&g->blob, &g->shared))) {
+        prt__free(g);
+        return s;
+    }
+    g->base.ops = &prt__lossygrid_ops;
+    *out = &g->base;
+    return PRT_OK;
+}
+
+const prt_accel_ops prt__lossygrid_ops = {
+    "lossygrid", lg_build, lg_intersect1, lg_occluded1, NULL, lg_stats, lg_save, lg_load, lg_destroy,
+};
+
+const prt_repr_family prt__lossygrid_family = {&prt__lossygrid_ops, lg_accepts, lg_name_at};
