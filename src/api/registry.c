@@ -5,10 +5,12 @@
 #include <stdio.h>
 
 extern const prt_repr_family prt__bvh_family;
+extern const prt_repr_family prt__raystrips_family;
 extern const prt_repr_family prt__lossygrid_family;
 
 static const prt_repr_family *const g_families[] = {
     &prt__bvh_family,
+    &prt__raystrips_family,
     &prt__lossygrid_family,
 };
 

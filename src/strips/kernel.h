@@ -1,0 +1,203 @@
+/* The Ray-Strip kernels shared by single rays (traverse.c) and packets (packet.c): the
+ * edge test of a group of up to 8 consecutive strip triangles (§5.2) and the traversal of
+ * one strip's implicit s-kd tree (§5.1, Algorithm 1).
+ *
+ * Edge tests: every strip vertex is moved into the ray's sheared frame once (Woop, Benthin,
+ * Wald 2013: the ray runs along +z through the origin), and the 2D edge function of an edge
+ * PQ, W(P, Q) = Px Qy - Py Qx, is the ray's Plücker side product with the edge's line in
+ * that frame. A strip has two kinds of edges: sides (j, j + 1), each shared by triangles
+ * j - 1 and j, and diagonals (j, j + 2); 8 triangles take 9 sides and 8 diagonals, each
+ * computed once, eight at a time. W is exactly antisymmetric (W(Q, P) = -W(P, Q) bit for
+ * bit, no FMA) and a zero is recomputed in double, so its sign is exact: an edge gets the
+ * same answer in every triangle and every strip that has it, and no ray slips through a
+ * shared edge or vertex. Triangle j of a strip (vertices j, j + 1, j + 2, winding
+ * alternating) is hit when its three edge functions, -side(j + 1), diag(j), -side(j), have
+ * one sign; these are the weights of vertices j, j + 1, j + 2 (all negated on odd j, which
+ * the division by their sum undoes). Triangles with a repeated vertex (a strip's turns)
+ * get a zero and two opposite values: never hit. */
+#ifndef PRT_STRIPS_KERNEL_H
+#define PRT_STRIPS_KERNEL_H
+
+#include "core/simd.h"
+#include "geom/box.h"
+#include "geom/triangle.h"
+#include "strips/strips.h"
+
+#include <math.h>
+
+/* Far distances grow by Ize's 2 gamma(3), as in geom/box.h, so clipping stays conservative. */
+static inline float rs_far(float t) { return t * (t >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG); }
+
+/* Four boxes (geom/box.h's SOA order): the mask of those hit within [tnear, tfar], with
+ * their entry and (grown) exit distances. */
+static inline int rs_box4(const prt__rayx4 *r, const float *b, float tfar, vf4 *tn, vf4 *tf) {
+    vf4 tmin = r->tnear, tmax = vf4_set1(tfar);
+    for (int k = 0; k < 3; k++) {
+        vf4 n = vf4_load(b + 8 * k + 4 * r->neg[k]);
+        vf4 f = vf4_load(b + 8 * k + 4 * (1 - r->neg[k]));
+        tmin = vf4_max((n - r->org[k]) * r->inv[k], tmin);
+        tmax = vf4_min((f - r->org[k]) * r->inv[k], tmax);
+    }
+    tmax = vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
+    *tn = tmin, *tf = tmax;
+    return vi4_mask(tmin <= tmax);
+}
+
+/* A hit inside a strip: the record, the strip triangle, the weights of its three strip
+ * vertices. */
+typedef struct rs_best {
+    float t, b[3];
+    const uint32_t *rec;
+    uint32_t tri, id;
+} rs_best;
+
+/* Edge functions of a side or diagonal recomputed in double where they came out zero. */
+PRT_NOINLINE static void rs_fix_zero_edges(int zero, float *e, const float *X, const float *Y, int step) {
+    for (; zero; zero &= zero - 1) {
+        int j = __builtin_ctz((unsigned)zero);
+        e[j] = (float)((double)X[j] * (double)Y[j + step] - (double)Y[j] * (double)X[j + step]);
+    }
+}
+
+/* Triangles [first, first + count) of a strip (vertex indices index, ids id; count <= 8)
+ * against ray r within [tnear, tfar]. any: return at the first hit (mask only). Otherwise
+ * the nearest hit goes to *best (ties to the smallest id) and the mask of hits is returned. */
+static inline int rs_group(const prt__rayx *r, const float *vertices, const uint32_t *index, const uint32_t *id,
+                           uint32_t count, float tfar, bool any, uint32_t first, const uint32_t *rec, rs_best *best) {
+    float X[16], Y[16], Z[16];
+    const int kx = r->kx, ky = r->ky, kz = r->kz;
+    const uint32_t nv = count + 2;
+    for (uint32_t j = 0; j < nv; j++) {
+        const float *p = vertices + 3 * (size_t)index[first + j];
+        const float az = p[kz] - r->org[kz];
+        X[j] = (p[kx] - r->org[kx]) - r->sx * az;
+        Y[j] = (p[ky] - r->org[ky]) - r->sy * az;
+        Z[j] = r->sz * az;
+    }
+    for (uint32_t j = nv; j < 11; j++) X[j] = Y[j] = Z[j] = 0.0f;
+    const vf8 x0 = vf8_load(X), x1 = vf8_load(X + 1), x2 = vf8_load(X + 2);
+    const vf8 y0 = vf8_load(Y), y1 = vf8_load(Y + 1), y2 = vf8_load(Y + 2);
+    float S[16], C[8];
+    const vf8 side = x0 * y1 - y0 * x1, diag = x0 * y2 - y0 * x2;
+    memcpy(S, &side, sizeof side);
+    memcpy(C, &diag, sizeof diag);
+    S[8] = X[8] * Y[9] - Y[8] * X[9];
+    const vf8 zero = vf8_set1(0.0f);
+    const int lanes = (1 << count) - 1;
+    int zs = (vi8_mask(side == zero) | (S[8] == 0.0f) << 8) & ((2 << count) - 1), zc = vi8_mask(diag == zero) & lanes;
+    if (PRT_UNLIKELY(zs | zc)) {
+        rs_fix_zero_edges(zs, S, X, Y, 1);
+        rs_fix_zero_edges(zc, C, X, Y, 2);
+    }
+    const vf8 s0 = vf8_load(S), s1 = vf8_load(S + 1), c = vf8_load(C);
+    const vf8 eu = -s1, ev = c, ew = -s0;
+    const vi8 mixed = (vf8_min(vf8_min(eu, ev), ew) < zero) & (vf8_max(vf8_max(eu, ev), ew) > zero);
+    const vf8 det = eu + ev + ew;
+    const vi8 inside = ~mixed & (det != zero);
+    if (!(vi8_mask(inside) & lanes)) return 0;
+    const vf8 T = eu * vf8_load(Z) + ev * vf8_load(Z + 1) + ew * vf8_load(Z + 2);
+    const vf8 t = T / det;
+    const vi8 valid = (vf8){0, 1, 2, 3, 4, 5, 6, 7} < vf8_set1((float)count);
+    const vi8 ok = inside & valid & (t >= vf8_set1(r->tnear)) & (t <= vf8_set1(tfar));
+    int mask = vi8_mask(ok);
+    /* The turns' zero-area triangles never pass the test above; their ids are checked too,
+     * so no file can make one name a triangle. */
+    for (int at = mask; at; at &= at - 1)
+        if (id[first + (uint32_t)__builtin_ctz((unsigned)at)] == RS_DEAD) mask &= ~(at & -at);
+    if (!mask || any) return mask;
+    /* The nearest; equal distances go to the smallest mesh triangle id, here and against
+     * the best so far. */
+    int lane = -1;
+    float tmin = INFINITY;
+    for (int at = mask; at; at &= at - 1) {
+        const int i = __builtin_ctz((unsigned)at);
+        if (lane < 0 || t[i] < tmin || (t[i] == tmin && id[first + (uint32_t)i] < id[first + (uint32_t)lane]))
+            lane = i, tmin = t[i];
+    }
+    if (tmin == best->t && best->rec && best->id < id[first + (uint32_t)lane]) return mask;
+    best->t = tmin;
+    best->id = id[first + (uint32_t)lane];
+    best->b[0] = eu[lane] / det[lane], best->b[1] = ev[lane] / det[lane], best->b[2] = ew[lane] / det[lane];
+    best->rec = rec;
+    best->tri = first + (uint32_t)lane;
+    return mask;
+}
+
+/* Strip traversal state. */
+typedef struct rs_visit {
+    uint32_t node, first, count;
+    float dmin, dmax;
+} rs_visit;
+
+/* The strip at rec whose box is lo/hi (read for q16 only), entered over [dmin, dmax].
+ * any: true at the first hit. Otherwise best->t shrinks with every nearer hit; returns
+ * whether one was found. Algorithm 1 with the reverse flag; lg = log2(leaf). */
+static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const uint32_t *rec, const float *lo,
+                                  const float *hi, float dmin, float dmax, bool any, rs_best *best) {
+    const uint32_t leaf = a->leaf, lg = (uint32_t)__builtin_ctz(leaf);
+    const rs_strip s = rs_strip_at(rec, leaf, a->q16);
+    rs_visit stack[24];
+    int top = 0;
+    bool found = false;
+    uint32_t node = 0, first = 0, count = s.n;
+    for (;;) {
+        while (count > leaf) {
+            const uint32_t groups = (count + leaf - 1) >> lg, left_groups = (groups + 1) >> 1;
+            const uint32_t nl = left_groups << lg;
+            const uint32_t fl = s.flags[node];
+            const int k = (int)(fl & 3u);
+            float p1, p2;
+            if (a->q16) {
+                uint16_t q[2];
+                memcpy(q, (const uint16_t *)s.splits + 2 * node, sizeof q);
+                const float step = rs_q16_step(lo[k], hi[k]);
+                p1 = rs_q16_plane(q[0], lo[k], hi[k], step), p2 = rs_q16_plane(q[1], lo[k], hi[k], step);
+            } else {
+                float f[2];
+                memcpy(f, (const float *)s.splits + 2 * node, sizeof f);
+                p1 = f[0], p2 = f[1];
+            }
+            /* lower half: x <= p1, upper half: x >= p2; the near one is the lower when the ray
+             * runs up the axis. NaN distances (origin on a plane the ray runs along) clip
+             * nothing. */
+            const float tl = (p1 - r->org[k]) * r->inv[k], tu = (p2 - r->org[k]) * r->inv[k];
+            const bool up = !r->neg[k];
+            const float near_end = rs_far(up ? tl : tu), far_start = up ? tu : tl;
+            const float near_hi = near_end < dmax ? near_end : dmax;
+            const float far_lo = far_start > dmin ? far_start : dmin;
+            const bool near_lower = up, lower_left = !(fl & RS_FLAG_REVERSE);
+            const bool near_left = near_lower == lower_left;
+            const bool near_ok = dmin <= near_hi, far_ok = far_lo <= dmax;
+            const uint32_t ln = node + 1, rn = node + left_groups, lf = first, rf = first + nl, lc = nl,
+                           rc = count - nl;
+            if (near_ok) {
+                if (far_ok)
+                    stack[top++] = near_left ? (rs_visit){rn, rf, rc, far_lo, dmax} : (rs_visit){ln, lf, lc, far_lo, dmax};
+                if (near_left) node = ln, first = lf, count = lc;
+                else node = rn, first = rf, count = rc;
+                dmax = near_hi;
+            } else if (far_ok) {
+                if (near_left) node = rn, first = rf, count = rc;
+                else node = ln, first = lf, count = lc;
+                dmin = far_lo;
+            } else {
+                goto pop;
+            }
+        }
+        if (rs_group(r, a->vertices, s.index, s.id, count, best->t, any, first, rec, best)) {
+            if (any) return true;
+            found = true;
+        }
+    pop:
+        for (;;) {
+            if (top == 0) return found;
+            --top;
+            if (any || stack[top].dmin <= best->t) break;
+        }
+        node = stack[top].node, first = stack[top].first, count = stack[top].count;
+        dmin = stack[top].dmin, dmax = stack[top].dmax;
+        if (!any && best->t < dmax) dmax = best->t;
+    }
+}
+
+#endif

@@ -1,0 +1,271 @@
+/* The Ray-Strips family behind prt_accel_ops (Lauterbach, Yoon, Manocha 2007): parses
+ * "raystrips[,chunk=N,leaf=N,split=f32|q16,strip=meshopt|rt]", builds chunks, strips, the
+ * records and the top-level BVH, and saves them as sections META, NODE, STRP and VERT. */
+#include "bvh/layouts/quad_plan.h"
+#include "strips/strips.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+
+/* On-disk META section (little endian, 64 bytes). */
+typedef struct rs_meta {
+    uint64_t node_count, strip_words, strip_count, vertex_count, strip_triangles, mesh_triangles, bytes_strip_tree;
+    uint8_t leaf, q16, reserved[2];
+    uint32_t depth;
+} rs_meta;
+_Static_assert(sizeof(rs_meta) == 64, "META section is 64 bytes");
+
+static const char *const g_split_names[] = {"f32", "q16"};
+static const char *const g_strip_names[] = {"meshopt", "rt"};
+
+extern const prt_accel_ops prt__raystrips_ops;
+
+static bool rs_accepts(const prt_spec *s) { return !strcmp(s->structure, "raystrips") && !s->codec[0]; }
+
+static bool rs_name_at(size_t i, const char **name, const char **desc) {
+    if (i) return false;
+    *name = "raystrips";
+    *desc = "Ray-Strips (Lauterbach 2007): SAH BVH over triangle strips, each with an implicit balanced s-kd tree "
+            "and shared Pluecker edge tests";
+    return true;
+}
+
+static void rs_destroy(prt_accel *acc) {
+    rs_accel *a = (rs_accel *)acc;
+    for (size_t i = 0; i < PRT_ARRAY_SIZE(a->owned); i++) prt__free(a->owned[i]);
+    prt__free(a);
+}
+
+static void rs_stats(const prt_accel *acc, prt_stats *s) {
+    const rs_accel *a = (const rs_accel *)acc;
+    s->bytes_tree = a->node_count * sizeof(rs_node) + a->bytes_strip_tree;
+    s->bytes_geometry = 4 * a->strip_words - a->bytes_strip_tree + 12 * a->vertex_count;
+    s->bytes_other = sizeof(rs_accel);
+    s->nodes = a->node_count;
+    s->leaves = a->strip_count;
+    s->depth = a->depth;
+    s->vertex_error = 0.0;
+}
+
+/* Stripify every chunk: threads take contiguous runs of chunks, so the strips come out in
+ * chunk order whatever the thread count. */
+static prt_status stripify_all(const prt_mesh *m, rs_stripifier which, const uint32_t *tris, const uint32_t *first,
+                               size_t chunks, int threads, rs_strip_list *out) {
+    const int t = prt__threads(threads);
+    rs_strip_list *part = prt__calloc((size_t)t, sizeof *part);
+    if (!part) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    prt_status status = PRT_OK;
+#pragma omp parallel num_threads(t)
+    {
+        const int me = omp_get_thread_num(), nt = omp_get_num_threads();
+        rs_scratch sc;
+        prt_status s = rs_scratch_init(&sc, m->vertex_count) ? PRT_OK : prt__fail(PRT_ERROR_NOMEM, "out of memory");
+        for (size_t c = chunks * (size_t)me / (size_t)nt; !s && c < chunks * (size_t)(me + 1) / (size_t)nt; c++)
+            s = rs_stripify(which, m, tris + first[c], first[c + 1] - first[c], &sc, &part[me]);
+        rs_scratch_free(&sc);
+        if (s) {
+#pragma omp critical
+            status = s;
+        }
+    }
+    for (int i = 0; i < t && !status; i++)
+        if (!rs_strip_list_append(out, &part[i])) status = prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    for (int i = 0; i < t; i++) rs_strip_list_free(&part[i]);
+    prt__free(part);
+    return status;
+}
+
+static uint32_t plan_depth(const quad_plan *p, const bvh_tree *t, uint32_t q) {
+    uint32_t d = 0;
+    for (int i = 0; i < p[q].count; i++)
+        if (!t->nodes[p[q].bin[i]].count) {
+            uint32_t c = plan_depth(p, t, p[q].quad[i]);
+            if (c > d) d = c;
+        }
+    return d + 1;
+}
+
+/* The top-level BVH over the strips and the records in its leaf order. */
+static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l, int threads) {
+    const size_t ns = l->strip_count;
+    bvh_prim *prims = prt__alloc(prt__mul_size(ns, sizeof *prims));
+    uint32_t *rec = NULL;
+    quad_plan *plan = NULL;
+    bvh_tree tree = {0};
+    prt_status s = PRT_OK;
+    if (!prims) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu strip boxes", ns);
+    size_t words = 0;
+    for (size_t i = 0; i < ns; i++) {
+        prt_aabb b = prt_aabb_empty();
+        for (uint32_t j = l->first[i]; j < l->first[i + 1]; j++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)l->index[j]);
+        memcpy(prims[i].lo, b.lo, sizeof b.lo);
+        memcpy(prims[i].hi, b.hi, sizeof b.hi);
+        prims[i].id = (uint32_t)i, prims[i].pad = 0;
+        const uint32_t n = l->first[i + 1] - l->first[i] - 2;
+        words += rs_record_words(n, a->leaf, a->q16);
+        a->strip_triangles += n;
+    }
+    if (words >= RS_LEAF) {
+        prt__free(prims);
+        return prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu words of strips exceed the 31-bit offsets", words);
+    }
+    bvh_build_params p = {.split = BVH_SPLIT_SAH, .max_leaf = 1, .block = 1, .threads = threads};
+    s = bvh_build(prims, ns, &p, &tree);
+    prt__free(prims);
+    if (s) return s;
+    plan = prt__alloc(prt__mul_size(tree.node_count, sizeof *plan));
+    rec = prt__alloc(prt__mul_size(words ? words : 1, sizeof *rec));
+    if (!plan || !rec) {
+        s = prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu words of strips", words);
+        goto done;
+    }
+    const uint32_t count = bvh_quad_plan(&tree, plan);
+    rs_node *nodes = prt__calloc(count, sizeof *nodes);
+    if (!nodes) {
+        s = prt__fail(PRT_ERROR_NOMEM, "out of memory for %u nodes", count);
+        goto done;
+    }
+    a->owned[0] = nodes, a->owned[1] = rec;
+    size_t w = 0;
+    for (uint32_t q = 0; q < count; q++) {
+        rs_node *n = &nodes[q];
+        for (int i = 0; i < 4; i++) {
+            for (int k = 0; k < 3; k++) n->box[8 * k + i] = INFINITY, n->box[8 * k + 4 + i] = -INFINITY;
+            n->child[i] = RS_EMPTY;
+            if (i >= plan[q].count) continue;
+            const bvh_node *b = &tree.nodes[plan[q].bin[i]];
+            if (!b->count) {
+                for (int k = 0; k < 3; k++) n->box[8 * k + i] = b->box.lo[k], n->box[8 * k + 4 + i] = b->box.hi[k];
+                n->child[i] = plan[q].quad[i];
+                continue;
+            }
+            const uint32_t st = tree.prims[b->index], f = l->first[st], nt = l->first[st + 1] - f - 2;
+            const prt_aabb box = rs_encode_strip(m, l->index + f, l->id + f - 2 * (size_t)st, nt, a->leaf, a->q16, rec + w);
+            for (int k = 0; k < 3; k++) n->box[8 * k + i] = box.lo[k], n->box[8 * k + 4 + i] = box.hi[k];
+            n->child[i] = RS_LEAF | (uint32_t)w;
+            a->bytes_strip_tree += 4 * rs_tree_words(nt, a->leaf, a->q16);
+            w += rs_record_words(nt, a->leaf, a->q16);
+        }
+    }
+    a->nodes = nodes, a->node_count = count;
+    a->strips = rec, a->strip_words = words, a->strip_count = ns;
+    a->depth = plan_depth(plan, &tree, 0);
+    rec = NULL;
+done:
+    if (rec) prt__free(rec);
+    prt__free(plan);
+    bvh_tree_free(&tree);
+    return s;
+}
+
+static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
+    int chunk, leaf, split, strip;
+    prt_status s;
+    if ((s = prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 2, 1, 8, &leaf)) ||
+        (s = prt__spec_enum(spec, "split", g_split_names, 2, 0, &split)) ||
+        (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_MESHOPT, &strip)) ||
+        (s = prt__spec_check_unused(spec)))
+        return s;
+    if (leaf & (leaf - 1)) return prt__fail(PRT_ERROR_ARGUMENT, "raystrips: leaf=%d: 1, 2, 4 or 8 triangles", leaf);
+    if (m->triangle_count >= RS_MAX_TRIANGLES)
+        return prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu triangles; ids hold at most %u", m->triangle_count,
+                         RS_MAX_TRIANGLES - 1);
+    char num[16];
+    snprintf(num, sizeof num, "%d", chunk);
+    prt__spec_set(spec, "chunk", num);
+    snprintf(num, sizeof num, "%d", leaf);
+    prt__spec_set(spec, "leaf", num);
+    prt__spec_set(spec, "split", g_split_names[split]);
+    prt__spec_set(spec, "strip", g_strip_names[strip]);
+
+    const int threads = o ? o->threads : 0;
+    uint32_t *tris, *first;
+    size_t n, chunks;
+    if ((s = rs_chunks(m, (uint32_t)chunk, threads, &tris, &n, &first, &chunks))) return s;
+    rs_strip_list strips = {0};
+    s = stripify_all(m, (rs_stripifier)strip, tris, first, chunks, threads, &strips);
+    prt__free(tris), prt__free(first);
+    rs_accel *a = prt__calloc(1, sizeof *a);
+    if (!s && !a) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    if (!s) {
+        a->leaf = (uint32_t)leaf, a->q16 = split == 1;
+        s = encode(a, m, &strips, threads);
+    }
+    rs_strip_list_free(&strips);
+    float *v = s ? NULL : prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 3 * sizeof(float)));
+    if (!s && !v) s = prt__fail(PRT_ERROR_NOMEM, "out of memory for vertices");
+    if (s) {
+        if (a) rs_destroy(&a->base);
+        return s;
+    }
+    memcpy(v, m->vertices, m->vertex_count * 3 * sizeof(float));
+    a->owned[2] = v, a->vertices = v, a->vertex_count = m->vertex_count;
+    for (int k = 0; k < 3; k++) {
+        a->base.bounds[k] = INFINITY, a->base.bounds[3 + k] = -INFINITY;
+        for (int i = 0; i < 4; i++) {
+            a->base.bounds[k] = fminf(a->base.bounds[k], a->nodes[0].box[8 * k + i]);
+            a->base.bounds[3 + k] = fmaxf(a->base.bounds[3 + k], a->nodes[0].box[8 * k + 4 + i]);
+        }
+    }
+    a->base.ops = &prt__raystrips_ops;
+    a->base.triangles_built = n;
+    *out = &a->base;
+    return PRT_OK;
+}
+
+static prt_status rs_save(const prt_accel *acc, prt_writer *w) {
+    const rs_accel *a = (const rs_accel *)acc;
+    rs_meta meta = {a->node_count, a->strip_words, a->strip_count, a->vertex_count, a->strip_triangles,
+                    a->base.triangles, a->bytes_strip_tree, (uint8_t)a->leaf, a->q16, {0, 0}, a->depth};
+    prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
+    if (!s) s = prt__writer_section(w, PRT_FOURCC('N', 'O', 'D', 'E'), a->nodes, a->node_count * sizeof(rs_node));
+    if (!s) s = prt__writer_section(w, PRT_FOURCC('S', 'T', 'R', 'P'), a->strips, a->strip_words * 4);
+    if (!s) s = prt__writer_section(w, PRT_FOURCC('V', 'E', 'R', 'T'), a->vertices, a->vertex_count * 12);
+    return s;
+}
+
+static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
+    const void *mp, *nodes, *strips, *verts;
+    size_t msize, nsize, ssize, vsize;
+    prt_status s;
+    if ((s = prt__reader_section(r, PRT_FOURCC('M', 'E', 'T', 'A'), sizeof(rs_meta), &mp, &msize)) ||
+        (s = prt__reader_section(r, PRT_FOURCC('N', 'O', 'D', 'E'), sizeof(rs_node), &nodes, &nsize)) ||
+        (s = prt__reader_section(r, PRT_FOURCC('S', 'T', 'R', 'P'), 0, &strips, &ssize)) ||
+        (s = prt__reader_section(r, PRT_FOURCC('V', 'E', 'R', 'T'), 0, &verts, &vsize)))
+        return s;
+    rs_meta meta;
+    memcpy(&meta, mp, sizeof meta);
+    /* The spec string names the options; META must agree with it. */
+    int chunk, leaf, split, strip;
+    if (prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 2, 1, 8, &leaf) ||
+        prt__spec_enum(spec, "split", g_split_names, 2, 0, &split) ||
+        prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, 0, &strip) || prt__spec_check_unused(spec))
+        return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
+    if (meta.leaf != leaf || meta.q16 != split || meta.reserved[0] || meta.reserved[1] ||
+        nsize != meta.node_count * sizeof(rs_node) || meta.node_count == 0 || meta.node_count >= RS_LEAF ||
+        ssize != meta.strip_words * 4 || meta.strip_words >= RS_LEAF || meta.vertex_count > UINT32_MAX ||
+        vsize != meta.vertex_count * 12 || meta.mesh_triangles >= RS_MAX_TRIANGLES ||
+        meta.bytes_strip_tree > ssize || meta.depth == 0 || meta.depth > RS_MAX_DEPTH)
+        return prt__fail(PRT_ERROR_CORRUPT, "raystrips: META section disagrees with the spec or the sections");
+    rs_accel *a = prt__calloc(1, sizeof *a);
+    if (!a) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    a->nodes = nodes, a->strips = strips, a->vertices = verts;
+    a->node_count = meta.node_count, a->strip_words = meta.strip_words, a->strip_count = meta.strip_count;
+    a->vertex_count = meta.vertex_count, a->strip_triangles = meta.strip_triangles;
+    a->bytes_strip_tree = meta.bytes_strip_tree;
+    a->leaf = meta.leaf, a->q16 = meta.q16, a->depth = meta.depth;
+    if ((s = rs_validate(a, meta.mesh_triangles))) {
+        prt__free(a);
+        return s;
+    }
+    a->base.ops = &prt__raystrips_ops;
+    *out = &a->base;
+    return PRT_OK;
+}
+
+const prt_accel_ops prt__raystrips_ops = {
+    "raystrips", rs_build, rs_intersect1, rs_occluded1, NULL, rs_stats, rs_save, rs_load, rs_destroy,
+};
+
+const prt_repr_family prt__raystrips_family = {&prt__raystrips_ops, rs_accepts, rs_name_at};

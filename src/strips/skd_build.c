@@ -1,0 +1,90 @@
+/* One Ray-Strip record (Lauterbach et al. 2007, §4.1, Fig. 4 and 5): the strip is split
+ * recursively at its median edge (both halves keep that edge) into groups of `leaf`
+ * triangles, the left half taking ceil(groups / 2) of them, so the tree is balanced and
+ * stored in preorder without pointers: the left child of node i is i + 1, the right one
+ * i + (groups on the left). Each node keeps the axis of least overlap between its halves,
+ * the lower half's maximum and the upper half's minimum along it, and a reverse flag when
+ * the lower half is the strip's second one. Planes are the halves' own vertex bounds, so
+ * the tree is exact (float32) or rounded outward (q16). */
+#include "strips/strips.h"
+
+#include <math.h>
+
+typedef struct encoder {
+    const float *v;
+    const uint32_t *index;
+    uint32_t leaf;
+    bool q16;
+    uint8_t *flags;
+    float *f32;
+    uint16_t *q;
+    prt_aabb box; /* the strip's */
+} encoder;
+
+static prt_aabb range_box(const encoder *e, uint32_t first, uint32_t count) {
+    prt_aabb b = prt_aabb_empty();
+    for (uint32_t i = first; i < first + count; i++) prt_aabb_grow_point(&b, e->v + 3 * (size_t)e->index[i]);
+    return b;
+}
+
+/* Smallest q whose plane is at or above x (a maximum), largest at or below x (a minimum). */
+static uint16_t q_up(float x, float lo, float hi) {
+    const float step = rs_q16_step(lo, hi);
+    long q = step > 0 ? (long)floorf((x - lo) / step) : 0;
+    if (q < 0) q = 0;
+    if (q > (long)RS_Q16_MAX) q = RS_Q16_MAX;
+    while (q > 0 && rs_q16_plane((uint16_t)(q - 1), lo, hi, step) >= x) q--;
+    while (q < (long)RS_Q16_MAX && rs_q16_plane((uint16_t)q, lo, hi, step) < x) q++;
+    return (uint16_t)q;
+}
+
+static uint16_t q_down(float x, float lo, float hi) {
+    const float step = rs_q16_step(lo, hi);
+    long q = step > 0 ? (long)ceilf((x - lo) / step) : 0;
+    if (q < 0) q = 0;
+    if (q > (long)RS_Q16_MAX) q = RS_Q16_MAX;
+    while (q < (long)RS_Q16_MAX && rs_q16_plane((uint16_t)(q + 1), lo, hi, step) <= x) q++;
+    while (q > 0 && rs_q16_plane((uint16_t)q, lo, hi, step) > x) q--;
+    return (uint16_t)q;
+}
+
+static void encode_node(encoder *e, uint32_t node, uint32_t first, uint32_t count) {
+    if (count <= e->leaf) return;
+    const uint32_t groups = rs_groups(count, e->leaf), left_groups = (groups + 1) / 2;
+    const uint32_t nl = left_groups * e->leaf, nr = count - nl;
+    const prt_aabb l = range_box(e, first, nl + 2), r = range_box(e, first + nl, nr + 2);
+    int axis = 0;
+    bool reverse = false;
+    float best = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        const bool rev = l.lo[k] + l.hi[k] > r.lo[k] + r.hi[k];
+        const prt_aabb *lower = rev ? &r : &l, *upper = rev ? &l : &r;
+        const float overlap = lower->hi[k] - upper->lo[k];
+        if (overlap < best) best = overlap, axis = k, reverse = rev;
+    }
+    const prt_aabb *lower = reverse ? &r : &l, *upper = reverse ? &l : &r;
+    e->flags[node] = (uint8_t)(axis | (reverse ? RS_FLAG_REVERSE : 0));
+    if (e->q16) {
+        e->q[2 * node] = q_up(lower->hi[axis], e->box.lo[axis], e->box.hi[axis]);
+        e->q[2 * node + 1] = q_down(upper->lo[axis], e->box.lo[axis], e->box.hi[axis]);
+    } else {
+        e->f32[2 * node] = lower->hi[axis];
+        e->f32[2 * node + 1] = upper->lo[axis];
+    }
+    encode_node(e, node + 1, first, nl);
+    encode_node(e, node + left_groups, first + nl, nr);
+}
+
+prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, uint32_t leaf,
+                         bool q16, uint32_t *rec) {
+    memset(rec, 0, rs_tree_words(n, leaf, q16) * sizeof *rec);
+    rec[0] = n;
+    rs_strip s = rs_strip_at(rec, leaf, q16);
+    encoder e = {m->vertices, index, leaf, q16, (uint8_t *)s.flags, (float *)s.splits, (uint16_t *)s.splits,
+                 prt_aabb_empty()};
+    e.box = range_box(&e, 0, n + 2);
+    encode_node(&e, 0, 0, n);
+    memcpy((uint32_t *)s.index, index, ((size_t)n + 2) * sizeof *index);
+    memcpy((uint32_t *)s.id, id, (size_t)n * sizeof *id);
+    return e.box;
+}

@@ -1,0 +1,160 @@
+/* Ray-Strips (Lauterbach, Yoon, Manocha 2007): the shared definitions of the builder, the
+ * kernels and the family glue. A SAH BVH (4-wide, quad-collapsed) over strips of connected
+ * triangles; each leaf references one Ray-Strip record: a header with the triangle count,
+ * the implicit balanced s-kd tree over the strip (no child pointers), the n + 2 vertex
+ * indices of the strip and one id per strip triangle. docs/raystrips.md has the format. */
+#ifndef PRT_STRIPS_STRIPS_H
+#define PRT_STRIPS_STRIPS_H
+
+#include "api/accel.h"
+#include "bvh/tree.h"
+#include "core/vec.h"
+
+/* --- the top level ------------------------------------------------------------------ */
+
+/* Child reference: RS_EMPTY for an unused slot; RS_LEAF set: the strip record at word
+ * offset (ref & ~RS_LEAF) of the strip blob; otherwise a node index, always greater than
+ * its parent's. */
+#define RS_EMPTY 0xFFFFFFFFu
+#define RS_LEAF 0x80000000u
+#define RS_MAX_DEPTH BVH_MAX_DEPTH
+#define RS_STACK (3 * RS_MAX_DEPTH + 4)
+
+typedef struct rs_node {
+    float box[24]; /* lo_x[4], hi_x[4], lo_y[4], hi_y[4], lo_z[4], hi_z[4] (geom/box.h's SOA order) */
+    uint32_t child[4];
+    uint32_t pad[4];
+} rs_node;
+
+_Static_assert(sizeof(rs_node) == 128, "a top-level node is two cache lines");
+
+/* --- a Ray-Strip record ------------------------------------------------------------- */
+
+/* Word 0: the triangle count n (1..RS_MAX_STRIP) in bits 0..15, the rest 0. Then the
+ * ceil(n / leaf) - 1 s-kd nodes: one flag byte each (bits 0..1 the axis, bit 2 the reverse
+ * flag), padded to a word; their two split planes each (float32, or uint16 quantized in the
+ * strip's box with split=q16, padded to a word); the n + 2 vertex indices; the n ids. */
+#define RS_MAX_STRIP 65535u
+#define RS_FLAG_REVERSE 4u
+/* Id of a strip triangle: the mesh triangle << 3 | the code of the strip positions of its
+ * vertices 1 and 2 (rs_perm); RS_DEAD for the zero-area triangles a strip makes to turn. */
+#define RS_DEAD 0xFFFFFFFFu
+#define RS_ID_SHIFT 3
+#define RS_MAX_TRIANGLES (1u << (32 - RS_ID_SHIFT))
+/* Planes of q16: q * step + lo, with q = 65535 meaning hi exactly. */
+#define RS_Q16_MAX 65535u
+
+/* Strip positions (0..2 from the triangle's first strip vertex) of a mesh triangle's
+ * vertices 1 and 2, by perm code; vertex 0 takes the remaining one. */
+static const uint8_t rs_perm[6][2] = {{1, 2}, {2, 1}, {0, 2}, {2, 0}, {0, 1}, {1, 0}};
+
+static inline uint32_t rs_groups(uint32_t n, uint32_t leaf) { return (n + leaf - 1) / leaf; }
+static inline size_t rs_words(size_t bytes) { return (bytes + 3) / 4; }
+/* Words of the head and the s-kd nodes of a strip of n triangles. */
+static inline size_t rs_tree_words(uint32_t n, uint32_t leaf, bool q16) {
+    size_t nodes = rs_groups(n, leaf) - 1;
+    return 1 + rs_words(nodes) + rs_words(nodes * (q16 ? 4 : 8));
+}
+static inline size_t rs_record_words(uint32_t n, uint32_t leaf, bool q16) {
+    return rs_tree_words(n, leaf, q16) + (size_t)n + 2 + n;
+}
+
+/* The parts of the record at rec (rec[0] is the head). */
+typedef struct rs_strip {
+    uint32_t n;
+    const uint8_t *flags;
+    const void *splits; /* float[2 * nodes] or uint16_t[2 * nodes] */
+    const uint32_t *index, *id;
+} rs_strip;
+
+static inline rs_strip rs_strip_at(const uint32_t *rec, uint32_t leaf, bool q16) {
+    rs_strip s;
+    s.n = rec[0] & 0xFFFFu;
+    size_t nodes = rs_groups(s.n, leaf) - 1;
+    s.flags = (const uint8_t *)(rec + 1);
+    s.splits = rec + 1 + rs_words(nodes);
+    s.index = rec + rs_tree_words(s.n, leaf, q16);
+    s.id = s.index + s.n + 2;
+    return s;
+}
+
+/* --- the accel ------------------------------------------------------------------------ */
+
+typedef enum rs_stripifier { RS_STRIP_MESHOPT, RS_STRIP_RT, RS_STRIP_COUNT } rs_stripifier;
+
+typedef struct rs_accel {
+    prt_accel base;
+    const rs_node *nodes;
+    const uint32_t *strips; /* the strip records, back to back */
+    const float *vertices;
+    size_t node_count, strip_words, strip_count, vertex_count, strip_triangles;
+    size_t bytes_strip_tree; /* heads and s-kd nodes of the records */
+    uint32_t leaf;           /* triangles below which the s-kd tree stops (an implicit leaf) */
+    bool q16;
+    uint32_t depth;
+    void *owned[3]; /* built: nodes, strips, vertices (prt__free) */
+} rs_accel;
+
+/* --- build steps ---------------------------------------------------------------------- */
+
+/* Strips being built: strip s has vertex indices index[first[s] .. first[s + 1]) and the
+ * ids id[first[s] - 2 s ..] of its first[s + 1] - first[s] - 2 triangles. */
+typedef struct rs_strip_list {
+    uint32_t *index, *id, *first;
+    size_t index_count, index_cap, id_count, id_cap, strip_count, first_cap;
+} rs_strip_list;
+
+void rs_strip_list_free(rs_strip_list *l);
+/* Append l's strips to into; false when out of memory. */
+bool rs_strip_list_append(rs_strip_list *into, const rs_strip_list *l);
+/* Append one strip of count indices (and count - 2 ids); false when out of memory. */
+bool rs_strip_list_push(rs_strip_list *l, const uint32_t *index, const uint32_t *id, size_t count);
+
+/* Chunks (chunks.c): the triangles of m that can be hit, grouped by a SAH BVH cut at
+ * subtrees of at most max_chunk triangles. tris holds mesh triangle ids chunk by chunk;
+ * chunk c is tris[first[c] .. first[c + 1]). */
+prt_status rs_chunks(const prt_mesh *m, uint32_t max_chunk, int threads, uint32_t **tris, size_t *tri_count,
+                     uint32_t **first, size_t *chunk_count);
+
+/* Per-thread scratch of the stripifiers: a global-to-local vertex map. */
+typedef struct rs_scratch {
+    uint32_t *local, *stamp, *global;
+    uint32_t generation;
+    uint32_t *buf; /* stripifier output and local indices */
+    size_t buf_cap;
+} rs_scratch;
+
+bool rs_scratch_init(rs_scratch *s, size_t vertex_count);
+void rs_scratch_free(rs_scratch *s);
+
+/* Stripify chunk tris[0..count) of m into strips appended to out (stripify.c with
+ * meshoptimizer, stripify_rt.c our own). Every triangle lands in exactly one strip. */
+prt_status rs_stripify(rs_stripifier which, const prt_mesh *m, const uint32_t *tris, size_t count, rs_scratch *sc,
+                       rs_strip_list *out);
+/* The meshoptimizer and ray-tracing stripifiers' raw output: local strips separated by
+ * ~0u, over the chunk's local triangles (3 count local indices). */
+size_t rs_stripify_meshopt(const uint32_t *local_tris, size_t count, size_t local_vertices, uint32_t *out);
+size_t rs_stripify_rt(const uint32_t *local_tris, size_t count, size_t local_vertices, const float *vertices,
+                      const uint32_t *global, uint32_t *out);
+size_t rs_stripify_bound(size_t count);
+
+/* Encode one strip (skd_build.c): n triangles over vertex indices index[0..n+2), ids id[0..n),
+ * into rec (rs_record_words words); returns its box. */
+prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, uint32_t leaf,
+                         bool q16, uint32_t *rec);
+
+/* q16 planes of a strip whose box is lo..hi on the axis (the kernel's decoding). */
+static inline float rs_q16_step(float lo, float hi) { return (hi - lo) * (1.0f / (float)RS_Q16_MAX); }
+static inline float rs_q16_plane(uint16_t q, float lo, float hi, float step) {
+    return q == RS_Q16_MAX ? hi : lo + (float)q * step;
+}
+
+/* Kernels (traverse.c, packet.c). */
+void rs_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
+bool rs_occluded1(const prt_accel *a, const prt_ray *r);
+void rs_intersect_packet(const prt_accel *a, prt_packet *p);
+
+/* Check a loaded accel so the kernels cannot leave its arrays or loop (validate.c). */
+prt_status rs_validate(const rs_accel *a, size_t mesh_triangles);
+
+#endif

@@ -1,0 +1,85 @@
+/* Checks of a loaded Ray-Strips accel: every record tiles the strip blob with a count, axis
+ * bytes, vertex indices and ids in range; the nodes form a tree (children after their
+ * parent, each referenced once, depth bounded so the kernels' stacks suffice) whose leaves
+ * are exactly the records and whose empty slots can never be hit. A corrupt file is then
+ * an error here, never a bad access in the kernels. */
+#include "strips/strips.h"
+
+#include <math.h>
+
+static prt_status corrupt(const char *what, size_t at) {
+    return prt__fail(PRT_ERROR_CORRUPT, "raystrips: %s (at %zu)", what, at);
+}
+
+static prt_status check_records(const rs_accel *a, size_t mesh_triangles, uint8_t *start) {
+    size_t w = 0, triangles = 0, tree_bytes = 0;
+    for (size_t s = 0; s < a->strip_count; s++) {
+        if (w >= a->strip_words) return corrupt("strip records end early", s);
+        const uint32_t head = a->strips[w], n = head & 0xFFFFu;
+        if (head >> 16 || n == 0) return corrupt("strip head", w);
+        const size_t size = rs_record_words(n, a->leaf, a->q16);
+        if (size > a->strip_words - w) return corrupt("strip record past the end", w);
+        const rs_strip st = rs_strip_at(a->strips + w, a->leaf, a->q16);
+        const size_t nodes = rs_groups(n, a->leaf) - 1;
+        for (size_t i = 0; i < nodes; i++)
+            if ((st.flags[i] & 3u) == 3u || st.flags[i] & ~7u) return corrupt("s-kd node flags", w);
+        for (size_t i = 0; i < (size_t)n + 2; i++)
+            if (st.index[i] >= a->vertex_count) return corrupt("strip vertex index", w);
+        for (size_t i = 0; i < n; i++) {
+            const uint32_t id = st.id[i];
+            if (id != RS_DEAD && ((id >> RS_ID_SHIFT) >= mesh_triangles || (id & 7u) >= 6))
+                return corrupt("strip triangle id", w);
+        }
+        start[w / 8] |= (uint8_t)(1u << (w % 8));
+        triangles += n;
+        tree_bytes += 4 * rs_tree_words(n, a->leaf, a->q16);
+        w += size;
+    }
+    if (w != a->strip_words || triangles != a->strip_triangles || tree_bytes != a->bytes_strip_tree)
+        return corrupt("strip records disagree with META", w);
+    return PRT_OK;
+}
+
+static prt_status check_nodes(const rs_accel *a, uint8_t *start) {
+    uint8_t *depth = prt__calloc(a->node_count, 1);
+    if (!depth) return prt__fail(PRT_ERROR_NOMEM, "out of memory validating");
+    prt_status s = PRT_OK;
+    size_t leaves = 0;
+    depth[0] = 1;
+    for (size_t q = 0; q < a->node_count && !s; q++) {
+        const rs_node *n = &a->nodes[q];
+        if (!depth[q]) s = corrupt("a node no parent references", q);
+        for (int i = 0; i < 4 && !s; i++) {
+            const uint32_t c = n->child[i];
+            if (c == RS_EMPTY) {
+                for (int k = 0; k < 3; k++)
+                    if (!(n->box[8 * k + i] == INFINITY && n->box[8 * k + 4 + i] == -INFINITY))
+                        s = corrupt("an empty slot's box can be hit", q);
+            } else if (c & RS_LEAF) {
+                const size_t w = c & ~RS_LEAF;
+                if (w >= a->strip_words || !(start[w / 8] >> (w % 8) & 1)) s = corrupt("a leaf off a strip record", q);
+                else start[w / 8] &= (uint8_t)~(1u << (w % 8)), leaves++; /* each record once */
+            } else if (c <= q || c >= a->node_count || depth[c]) {
+                s = corrupt("a child reference", q);
+            } else if (depth[q] >= RS_MAX_DEPTH) {
+                s = corrupt("the tree is too deep", q);
+            } else {
+                depth[c] = (uint8_t)(depth[q] + 1);
+            }
+        }
+    }
+    if (!s && leaves != a->strip_count) s = corrupt("leaves and strip records differ in number", leaves);
+    prt__free(depth);
+    return s;
+}
+
+prt_status rs_validate(const rs_accel *a, size_t mesh_triangles) {
+    if ((a->leaf & (a->leaf - 1)) || a->leaf == 0 || a->leaf > 8) return corrupt("leaf size", a->leaf);
+    if (a->strip_count > a->strip_words) return corrupt("strip count", a->strip_count);
+    uint8_t *start = prt__calloc(a->strip_words / 8 + 1, 1);
+    if (!start) return prt__fail(PRT_ERROR_NOMEM, "out of memory validating");
+    prt_status s = check_records(a, mesh_triangles, start);
+    if (!s) s = check_nodes(a, start);
+    prt__free(start);
+    return s;
+}

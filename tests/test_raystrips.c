@@ -1,0 +1,336 @@
+/* Ray-Strips (src/strips/): every option against the brute-force reference on connected
+ * and poorly connected meshes; the structure itself (every triangle in exactly one strip,
+ * strip triangles are the mesh's, s-kd planes bound their halves, strips on a connected
+ * mesh are long); rays through strip vertices and edges all hit; .prt files whose
+ * records or nodes are damaged behind the checksums are errors, never crashes. */
+#include "api/accel.h"
+#include "mesh/mesh.h"
+#include "strips/strips.h"
+#include "support/meshes.h"
+#include "support/reference.h"
+#include "support/repr.h"
+#include "test.h"
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#define EDGE_EPS 1e-4
+
+static const char *const g_specs[] = {
+    "raystrips",
+    "raystrips,leaf=1",
+    "raystrips,leaf=4,split=q16",
+    "raystrips,leaf=8",
+    "raystrips,leaf=8,split=q16,chunk=32",
+    "raystrips,strip=rt",
+    "raystrips,strip=rt,leaf=4,split=q16,chunk=1024",
+    "raystrips,chunk=4,leaf=2,split=q16",
+};
+
+/* Closest hits (prim and t) and any hits against the reference on rays away from edges. */
+static void expect_matches_reference(const prt_mesh *m, const char *spec, const prt_ray *rays, size_t n) {
+    prt_accel *a;
+    if (!repr_build(m, spec, &a)) return;
+    const double diag = ref_diagonal(m);
+    size_t compared = 0, wrong = 0, occ_wrong = 0;
+    for (size_t i = 0; i < n; i++) {
+        double edge;
+        const prt_hit want = ref_intersect(m, &rays[i], &edge);
+        if (edge < EDGE_EPS) continue;
+        prt_ray r = rays[i];
+        prt_hit got;
+        prt_intersect1(a, &r, &got);
+        compared++;
+        bool ok = got.prim == want.prim;
+        if (ok && got.prim != PRT_INVALID) {
+            ok = fabs((double)got.t - want.t) <= 1e-5 * diag && got.u >= -1e-4f && got.v >= -1e-4f &&
+                 got.u + got.v <= 1.0001f;
+            /* The barycentrics name the mesh triangle's own vertices 1 and 2. */
+            const uint32_t *t = m->triangles + 3 * (size_t)got.prim;
+            for (int k = 0; k < 3 && ok; k++) {
+                const double p = (1.0 - got.u - got.v) * m->vertices[3 * t[0] + k] + got.u * m->vertices[3 * t[1] + k] +
+                                 got.v * m->vertices[3 * t[2] + k];
+                ok = fabs(p - (rays[i].org[k] + (double)got.t * rays[i].dir[k])) <= 1e-4 * diag;
+            }
+        }
+        wrong += !ok;
+        occ_wrong += prt_occluded1(a, &rays[i]) != (want.prim != PRT_INVALID);
+    }
+    CHECK_MSG(compared > n / 2 && wrong == 0 && occ_wrong == 0, "%s: %zu rays compared, %zu closest and %zu any hits wrong",
+              spec, compared, wrong, occ_wrong);
+    prt_accel_free(a);
+}
+
+TEST(test_every_option_matches_brute_force_on_a_connected_grid) {
+    prt_mesh *m = mesh_grid(48);
+    prt_ray *rays = rays_random(m, 3000, 1);
+    for (size_t i = 0; i < COUNT_OF(g_specs); i++) expect_matches_reference(m, g_specs[i], rays, 3000);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_every_option_matches_brute_force_on_a_soup_without_connectivity) {
+    prt_mesh *m = mesh_random_soup(2000, 2);
+    prt_ray *rays = rays_random(m, 3000, 3);
+    for (size_t i = 0; i < COUNT_OF(g_specs); i++) expect_matches_reference(m, g_specs[i], rays, 3000);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+TEST(test_bunny_matches_brute_force) {
+    const char *path = ref_shared_path("bunny.ply");
+    if (!path) SKIP("../shared/data/bunny.ply is absent");
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(path, &m);
+    CHECK_OK(s);
+    if (s) return;
+    prt_ray *rays = rays_random(m, 1500, 4);
+    const char *specs[] = {"raystrips", "raystrips,leaf=8,split=q16", "raystrips,strip=rt"};
+    for (size_t i = 0; i < COUNT_OF(specs); i++) expect_matches_reference(m, specs[i], rays, 1500);
+    free(rays);
+    prt_mesh_free(m);
+}
+
+/* Walks the records: every hittable mesh triangle appears once, each strip triangle has
+ * the mesh triangle's vertices, and each s-kd node's planes bound its halves' vertices.
+ * Returns the number of strips. */
+static size_t check_structure(const prt_mesh *m, const char *spec) {
+    prt_accel *acc;
+    if (!repr_build(m, spec, &acc)) return 0;
+    const rs_accel *a = (const rs_accel *)acc;
+    uint8_t *seen = calloc(m->triangle_count, 1);
+    size_t bad_tri = 0, bad_plane = 0, twice = 0, live = 0;
+    for (size_t w = 0, s = 0; s < a->strip_count; s++) {
+        const rs_strip st = rs_strip_at(a->strips + w, a->leaf, a->q16);
+        for (uint32_t k = 0; k < st.n; k++) {
+            if (st.id[k] == RS_DEAD) continue;
+            const uint32_t prim = st.id[k] >> RS_ID_SHIFT, code = st.id[k] & 7;
+            const uint32_t *t = m->triangles + 3 * (size_t)prim, *p = st.index + k;
+            live++;
+            twice += seen[prim]++ > 0;
+            /* Vertex 1 and 2 of the mesh triangle sit where the code says; vertex 0 in the rest. */
+            const int p1 = rs_perm[code][0], p2 = rs_perm[code][1];
+            bad_tri += code >= 6 || p[p1] != t[1] || p[p2] != t[2] || p[3 - p1 - p2] != t[0];
+        }
+        /* Planes: recompute the halves' boxes the way the layout defines them. */
+        typedef struct visit {
+            uint32_t node, first, count;
+        } visit;
+        visit todo[64];
+        int top = 0;
+        todo[top++] = (visit){0, 0, st.n};
+        while (top) {
+            const visit v = todo[--top];
+            if (v.count <= a->leaf) continue;
+            const uint32_t groups = rs_groups(v.count, a->leaf), lg = (groups + 1) / 2, nl = lg * a->leaf;
+            const uint32_t fl = st.flags[v.node], k = fl & 3;
+            const bool rev = fl & RS_FLAG_REVERSE;
+            float lo = INFINITY, hi = -INFINITY, box_lo = INFINITY, box_hi = -INFINITY;
+            for (uint32_t j = 0; j < st.n + 2; j++) {
+                const float x = m->vertices[3 * st.index[j] + k];
+                box_lo = fminf(box_lo, x), box_hi = fmaxf(box_hi, x);
+            }
+            /* lower half: its maximum is at most the first plane; upper: its minimum at least the second. */
+            const uint32_t lf = rev ? v.first + nl : v.first, lc = rev ? v.count - nl : nl;
+            const uint32_t uf = rev ? v.first : v.first + nl, uc = rev ? nl : v.count - nl;
+            for (uint32_t j = lf; j < lf + lc + 2; j++) hi = fmaxf(hi, m->vertices[3 * st.index[j] + k]);
+            for (uint32_t j = uf; j < uf + uc + 2; j++) lo = fminf(lo, m->vertices[3 * st.index[j] + k]);
+            float p1, p2;
+            if (a->q16) {
+                const uint16_t *q = (const uint16_t *)st.splits + 2 * v.node;
+                const float step = rs_q16_step(box_lo, box_hi);
+                p1 = rs_q16_plane(q[0], box_lo, box_hi, step), p2 = rs_q16_plane(q[1], box_lo, box_hi, step);
+            } else {
+                p1 = ((const float *)st.splits)[2 * v.node], p2 = ((const float *)st.splits)[2 * v.node + 1];
+            }
+            bad_plane += !(hi <= p1 && lo >= p2);
+            todo[top++] = (visit){v.node + 1, v.first, nl};
+            todo[top++] = (visit){v.node + lg, v.first + nl, v.count - nl};
+        }
+        w += rs_record_words(st.n, a->leaf, a->q16);
+    }
+    size_t missing = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) missing += !seen[t] && !prt__mesh_triangle_degenerate(m, t);
+    CHECK_MSG(!bad_tri && !bad_plane && !twice && !missing && live == acc->triangles_built,
+              "%s: %zu wrong strip triangles, %zu planes that cut their half, %zu twice, %zu missing", spec, bad_tri,
+              bad_plane, twice, missing);
+    size_t strips = a->strip_count;
+    free(seen);
+    prt_accel_free(acc);
+    return strips;
+}
+
+TEST(test_strips_hold_every_triangle_once_under_bounding_planes) {
+    prt_mesh *grid = mesh_grid(40), *soup = mesh_random_soup(1500, 5);
+    for (size_t i = 0; i < COUNT_OF(g_specs); i++) {
+        check_structure(grid, g_specs[i]);
+        check_structure(soup, g_specs[i]);
+    }
+    prt_mesh_free(grid), prt_mesh_free(soup);
+}
+
+TEST(test_connected_mesh_gives_long_strips_and_a_soup_single_triangles) {
+    prt_mesh *grid = mesh_grid(40), *soup = mesh_random_soup(1500, 5);
+    const char *specs[] = {"raystrips,strip=meshopt", "raystrips,strip=rt"};
+    for (size_t i = 0; i < COUNT_OF(specs); i++) {
+        const size_t g = check_structure(grid, specs[i]), s = check_structure(soup, specs[i]);
+        /* 3200 triangles in chunks of 128: a strip per chunk would be 25 long. */
+        /* meshoptimizer strips for vertex caches (4 to 6 long here); ours aim for length. */
+        CHECK_MSG(g > 0 && grid->triangle_count / g >= (i ? 12u : 4u), "%s: %zu strips over %zu grid triangles", specs[i], g,
+                  grid->triangle_count);
+        CHECK_MSG(s == soup->triangle_count, "%s: %zu strips over %zu unconnected triangles", specs[i], s,
+                  soup->triangle_count);
+    }
+    prt_mesh_free(grid), prt_mesh_free(soup);
+}
+
+TEST(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit) {
+    /* Interior vertices and edge midpoints, from above and slanted: a ray there lies on an
+     * edge shared by two strip triangles, often of different strips. */
+    const uint32_t n = 24;
+    prt_mesh *m = mesh_grid(n);
+    for (size_t i = 0; i < COUNT_OF(g_specs); i++) {
+        prt_accel *a;
+        if (!repr_build(m, g_specs[i], &a)) continue;
+        size_t misses = 0, rays = 0;
+        for (size_t t = 0; t < m->triangle_count; t++)
+            for (int e = 0; e < 3; e++) {
+                const float *p = m->vertices + 3 * m->triangles[3 * t + e],
+                            *q = m->vertices + 3 * m->triangles[3 * t + (e + 1) % 3];
+                const float target[2][3] = {{p[0], p[1], p[2]},
+                                            {0.5f * (p[0] + q[0]), 0.5f * (p[1] + q[1]), 0.5f * (p[2] + q[2])}};
+                for (int j = 0; j < 2; j++) {
+                    if (target[j][0] <= 0 || target[j][0] >= 1 || target[j][2] <= 0 || target[j][2] >= 1) continue;
+                    const float o[3] = {target[j][0] + 0.3f, 2.0f, target[j][2] - 0.2f};
+                    prt_ray r = {{o[0], o[1], o[2]}, 0, {target[j][0] - o[0], target[j][1] - o[1], target[j][2] - o[2]},
+                                 INFINITY};
+                    prt_hit h;
+                    prt_ray r2 = r;
+                    prt_intersect1(a, &r2, &h);
+                    misses += h.prim == PRT_INVALID || !prt_occluded1(a, &r);
+                    rays++;
+                }
+            }
+        CHECK_MSG(misses == 0, "%s: %zu of %zu rays through vertices and edges missed", g_specs[i], misses, rays);
+        prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+}
+
+/* A saved image of spec over m, read back into 64-byte aligned memory. */
+static uint8_t *saved_image(const prt_mesh *m, const char *spec, size_t *size) {
+    prt_accel *a;
+    *size = 0;
+    if (!repr_build(m, spec, &a)) return NULL;
+    char path[256];
+    snprintf(path, sizeof path, "%s/packrt_test_raystrips_%d.prt", P_tmpdir, (int)getpid());
+    CHECK_OK(prt_accel_save(a, path));
+    prt_accel_free(a);
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    *size = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *img = aligned_alloc(64, (*size + 63) / 64 * 64);
+    if (fread(img, 1, *size, f) != *size) *size = 0;
+    fclose(f);
+    remove(path);
+    return img;
+}
+
+TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
+    prt_mesh *m = mesh_grid(12);
+    const char *specs[] = {"raystrips", "raystrips,split=q16,leaf=4"};
+    for (size_t sp = 0; sp < COUNT_OF(specs); sp++) {
+        size_t size;
+        uint8_t *img = saved_image(m, specs[sp], &size);
+        if (!img) continue;
+        prt_accel *a = NULL;
+        CHECK_OK(prt__accel_open(img, size, true, &a));
+        prt_accel_free(a);
+        size_t strp_len = 0, node_len = 0;
+        /* Every word of the nodes and records set to values that break one rule each. */
+        const uint32_t values[] = {0xFFFFFFFFu, 0x80000000u, 0x7FFFFFFFu, 0x10000u, 0, 1, 3, 0x07070707u, 12345678u};
+        const uint32_t tags[] = {PRT_FOURCC('S', 'T', 'R', 'P'), PRT_FOURCC('N', 'O', 'D', 'E'),
+                                 PRT_FOURCC('M', 'E', 'T', 'A')};
+        size_t rejected = 0, tried = 0;
+        for (size_t t = 0; t < COUNT_OF(tags); t++) {
+            size_t len = 0;
+            prt_file_info info;
+            prt_reader r;
+            CHECK_OK(prt__file_open(img, size, false, &info, &r));
+            size_t off = 0;
+            for (uint32_t i = 0; i < r.count; i++)
+                if (r.sections[i].tag == tags[t]) off = r.sections[i].offset, len = r.sections[i].size;
+            if (tags[t] == PRT_FOURCC('S', 'T', 'R', 'P')) strp_len = len;
+            else if (tags[t] == PRT_FOURCC('N', 'O', 'D', 'E')) node_len = len;
+            for (size_t w = 0; w + 4 <= len; w += 4)
+                for (size_t v = 0; v < COUNT_OF(values); v++) {
+                    uint8_t *bad = aligned_alloc(64, (size + 63) / 64 * 64);
+                    memcpy(bad, img, size);
+                    memcpy(bad + off + w, &values[v], 4);
+                    if (memcmp(bad, img, size)) {
+                        prt_accel *b = NULL;
+                        tried++;
+                        if (prt__accel_open(bad, size, false, &b) != PRT_OK) rejected++;
+                        else {
+                            /* Accepted (a plane or a box moved): rays must still be safe. */
+                            prt_ray *rays = rays_random(m, 64, w);
+                            for (int i = 0; i < 64; i++) {
+                                prt_hit h;
+                                prt_intersect1(b, &rays[i], &h);
+                                prt_occluded1(b, &rays[i]);
+                                /* META states the mesh's triangle count the ids are checked against. */
+                                CHECK(h.prim == PRT_INVALID || h.prim < m->triangle_count ||
+                                      tags[t] == PRT_FOURCC('M', 'E', 'T', 'A'));
+                            }
+                            free(rays);
+                            prt_accel_free(b);
+                        }
+                    }
+                    free(bad);
+                }
+        }
+        CHECK_MSG(strp_len > 0 && node_len > 0 && rejected > tried / 3, "%s: %zu of %zu damaged images rejected",
+                  specs[sp], rejected, tried);
+        free(img);
+    }
+    prt_mesh_free(m);
+}
+
+TEST(test_single_triangle_and_bad_options) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(3, 1, &m));
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const uint32_t t[3] = {0, 1, 2};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    prt_accel *a = NULL;
+    CHECK_OK(prt_build(m, "raystrips", NULL, &a));
+    if (a) {
+        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=128,leaf=2,split=f32,strip=meshopt"));
+        prt_ray r = {{0.25f, 0.5f, 1}, 0, {0, 0, -1}, INFINITY};
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        CHECK(h.prim == 0 && h.t == 1.0f && h.u == 0.25f && h.v == 0.5f);
+        prt_accel_free(a);
+    }
+    const char *bad[] = {"raystrips,leaf=3", "raystrips,leaf=16", "raystrips,chunk=2", "raystrips,split=f16",
+                         "raystrips,strip=stripe", "raystrips,ids=none", "raystrips:float3"};
+    for (size_t i = 0; i < COUNT_OF(bad); i++) {
+        a = NULL;
+        CHECK_MSG(prt_build(m, bad[i], NULL, &a) == PRT_ERROR_ARGUMENT && a == NULL, "%s was accepted", bad[i]);
+    }
+    prt_mesh_free(m);
+}
+
+int main(void) {
+    RUN(test_every_option_matches_brute_force_on_a_connected_grid);
+    RUN(test_every_option_matches_brute_force_on_a_soup_without_connectivity);
+    RUN(test_bunny_matches_brute_force);
+    RUN(test_strips_hold_every_triangle_once_under_bounding_planes);
+    RUN(test_connected_mesh_gives_long_strips_and_a_soup_single_triangles);
+    RUN(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit);
+    RUN(test_damaged_records_and_nodes_behind_the_checksums_are_errors);
+    RUN(test_single_triangle_and_bad_options);
+    TEST_END();
+}
