@@ -80,11 +80,21 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
         if (!grids || !errs || !prims || !*order)
             s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu records", nrec);
     }
+    float *grid_max = NULL; /* LG_ENC_FIX: per grid, its largest displacement component */
+    if (!s && bp->enc == LG_ENC_FIX && !(grid_max = prt__calloc(ex.grid_count + 1, sizeof *grid_max)))
+        s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu grids", ex.grid_count);
     if (!s) {
-#pragma omp parallel for schedule(dynamic, 256) num_threads(bp->threads > 0 ? bp->threads : omp_get_max_threads())
+        const int nth = bp->threads > 0 ? bp->threads : omp_get_max_threads();
+        if (grid_max) {
+#pragma omp parallel for schedule(dynamic, 256) num_threads(nth)
+            for (size_t i = 0; i < ng; i++) errs[i].max = lg_grid_max_displacement(m, &ex.subgrids[i]);
+            for (size_t i = 0; i < ng; i++) grid_max[ex.subgrids[i].grid] = fmaxf(grid_max[ex.subgrids[i].grid], (float)errs[i].max);
+        }
+#pragma omp parallel for schedule(dynamic, 256) num_threads(nth)
         for (size_t i = 0; i < ng; i++) {
             prt_aabb b;
-            lg_grid_encode(m, &ex.subgrids[i], bp->enc, &grids[i], &b, &errs[i]);
+            const uint8_t scale = grid_max ? lg_fix_exponent(grid_max[ex.subgrids[i].grid]) : 0;
+            lg_grid_encode(m, &ex.subgrids[i], bp->enc, scale, &grids[i], &b, &errs[i]);
             set_prim(&prims[i], &b, i);
         }
         for (size_t i = 0; i < ntri_rec; i++) {
@@ -122,6 +132,7 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
         memset(blob, 0, sizeof *blob);
     }
     bvh_tree_free(&tree);
+    prt__free(grid_max);
     prt__free(canon), prt__free(tri_ids), prt__free(grids), prt__free(errs), prt__free(tris), prt__free(prims);
     lg_extraction_free(&ex);
     return s;

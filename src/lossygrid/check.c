@@ -28,10 +28,11 @@ static bool rec_valid(const void *ctx, const uint8_t *leaf, uint32_t count) {
             for (int k = 0; k < t.count; k++)
                 for (int c = 0; c < 3; c++)
                     if (lg_tri_index(&t, k, c) >= t.verts) return false;
-        } else if (leaf[127] == LG_KIND_GRID_OCT || leaf[127] == LG_KIND_GRID_EXP) {
+        } else if (leaf[127] < LG_ENC_COUNT) {
             lg_grid_rec g;
             memcpy(&g, leaf, sizeof g);
-            if (g.res > 15 || (uint64_t)g.first + 2u * (uint64_t)(lg_rx(&g) * lg_ry(&g)) > sh->triangles) return false;
+            const bool fix_ok = g.scale > (g.res >> 4) && g.scale < 255; /* both exponents in 1..254 */
+            if ((g.kind == LG_ENC_FIX ? !fix_ok : g.scale != 0 || g.res > 15) || (uint64_t)g.first + 2u * (uint64_t)(lg_rx(&g) * lg_ry(&g)) > sh->triangles) return false;
             for (int c = 0; c < 4; c++)
                 if (!finite3(g.corner[c])) return false;
         } else {

@@ -6,6 +6,8 @@
 #include <pthread.h>
 
 float lg_dirs[LG_DIRS][4];
+lg_res_tables lg_res[16];
+int32_t lg_row_index[16][3][8] __attribute__((aligned(32)));
 static pthread_once_t g_once = PTHREAD_ONCE_INIT;
 static int16_t g_lattice[LG_DIR_N + 1][LG_DIR_N + 1]; /* code of lattice point (i, j), i + j <= N */
 
@@ -19,6 +21,34 @@ static void fill_tables(void) {
             g_lattice[i][j] = (int16_t)n;
         }
     for (; n < LG_DIRS; n++) memcpy(lg_dirs[n], lg_dirs[0], sizeof lg_dirs[0]);
+    for (int r = 0; r < 16; r++) {
+        lg_res_tables *t = &lg_res[r];
+        const int rx = (r & 3) + 1, ry = (r >> 2) + 1;
+        int slot = 0;
+        memset(t->slot_lane, -1, sizeof t->slot_lane);
+        for (int l = 0; l < 40; l++) t->code_at[l] = -1;
+        for (int j = 0; j < 5; j++)
+            for (int i = 0; i < 8; i++) {
+                const int l = 8 * j + i;
+                t->inner[l] = i > 0 && i < rx && j > 0 && j < ry ? -1 : 0;
+                if (i > rx || j > ry) {
+                    t->u1[l] = t->u[l] = t->v1[l] = t->v[l] = NAN;
+                    continue;
+                }
+                t->u[l] = (float)i / (float)rx, t->u1[l] = 1.0f - t->u[l];
+                t->v[l] = (float)j / (float)ry, t->v1[l] = 1.0f - t->v[l];
+                if ((i == 0 || i == rx) && (j == 0 || j == ry)) continue;
+                t->code_at[l] = LG_DISP_OFFSET + 3 * slot;
+                t->slot_lane[slot++] = (int8_t)l;
+            }
+    }
+    for (int d = 0; d < 16; d++)
+        for (int x = 0; x < 4; x++) {
+            const bool odd = d >> x & 1; /* cell triangles as in extract.h */
+            const int32_t tri[2][3] = {{x, x + 1, odd ? 8 + x : 9 + x}, {odd ? x + 1 : x, 9 + x, 8 + x}};
+            for (int h = 0; h < 2; h++)
+                for (int c = 0; c < 3; c++) lg_row_index[d][c][2 * x + h] = tri[h][c];
+        }
 }
 
 void lg_tables_init(void) { pthread_once(&g_once, fill_tables); }
@@ -35,9 +65,9 @@ typedef struct best {
     float v[3];
 } best;
 
-static void try_code(int enc, uint32_t code, const float base[3], const float target[3], best *b) {
+static void try_code(int enc, uint8_t s, uint32_t code, const float base[3], const float target[3], best *b) {
     float d[3], v[3];
-    lg_disp_decode(enc, code, d);
+    lg_disp_decode(enc, code, s, d);
     for (int k = 0; k < 3; k++) v[k] = base[k] + d[k];
     double e = dist2(v, target);
     if (e < b->err) b->code = code, b->err = e, memcpy(b->v, v, sizeof v);
@@ -57,7 +87,13 @@ static void length_codes(float len, uint32_t em[2]) {
     }
 }
 
-uint32_t lg_disp_encode(int enc, const float base[3], const float target[3], float out[3]) {
+uint8_t lg_fix_exponent(float m) {
+    int e = 1;
+    while (e < 254 && 127.0f * lg_fix_scale((uint8_t)e) < m) e++;
+    return (uint8_t)e;
+}
+
+uint32_t lg_disp_encode(int enc, uint8_t s, const float base[3], const float target[3], float out[3]) {
     float d[3], a[3];
     uint32_t oct = 0;
     for (int k = 0; k < 3; k++) {
@@ -66,7 +102,19 @@ uint32_t lg_disp_encode(int enc, const float base[3], const float target[3], flo
         oct |= (uint32_t)(d[k] < 0) << k;
     }
     best b = {0, INFINITY, {0, 0, 0}};
-    try_code(enc, oct, base, target, &b); /* zero */
+    if (enc == LG_ENC_FIX) { /* components are independent: round each */
+        const float scale = lg_fix_scale(s);
+        uint32_t code = 0;
+        for (int k = 0; k < 3; k++) {
+            long q = lrintf(d[k] / scale);
+            q = q > 127 ? 127 : q < -127 ? -127 : q;
+            code |= (uint32_t)(uint8_t)(int8_t)q << (8 * k);
+        }
+        try_code(enc, s, code, base, target, &b);
+        memcpy(out, b.v, sizeof b.v);
+        return b.code;
+    }
+    try_code(enc, s, oct, base, target, &b); /* zero */
     if (enc == LG_ENC_OCT) {
         const float sum = a[0] + a[1] + a[2];
         if (sum > 0) {
@@ -80,7 +128,7 @@ uint32_t lg_disp_encode(int enc, const float base[3], const float target[3], flo
                     if (!(len > 0)) continue;
                     uint32_t em[2];
                     length_codes(len, em);
-                    for (int c = 0; c < 2; c++) try_code(enc, oct | dir << 3 | em[c] << 13, base, target, &b);
+                    for (int c = 0; c < 2; c++) try_code(enc, s, oct | dir << 3 | em[c] << 13, base, target, &b);
                 }
         }
     } else {
@@ -96,7 +144,7 @@ uint32_t lg_disp_encode(int enc, const float base[3], const float target[3], flo
                     long q = lrintf(a[k] / scale);
                     code |= (uint32_t)(q > 31 ? 31 : q) << (9 + 5 * k);
                 }
-                try_code(enc, code, base, target, &b);
+                try_code(enc, s, code, base, target, &b);
             }
         }
     }

@@ -15,10 +15,14 @@ typedef struct lg_grid_error {
     double diag;  /* diagonal of the sub-grid's decoded box */
 } lg_grid_error;
 
-/* Compress src into rec (first = 0) with displacement encoding enc; box receives the
- * decoded vertices' bounds. */
-void lg_grid_encode(const prt_mesh *m, const lg_source *src, int enc, lg_grid_rec *rec, prt_aabb *box,
+/* Compress src into rec (first = 0) with displacement encoding enc (LG_ENC_FIX: scale is
+ * its grid's exponent byte, lg_fix_exponent of the largest lg_grid_max_displacement of its
+ * sub-grids); box receives the decoded vertices' bounds. */
+void lg_grid_encode(const prt_mesh *m, const lg_source *src, int enc, uint8_t scale, lg_grid_rec *rec, prt_aabb *box,
                     lg_grid_error *err);
+
+/* The largest component of a displacement off src's bilinear patch. */
+float lg_grid_max_displacement(const prt_mesh *m, const lg_source *src);
 
 /* Pack the loose triangles into exact records, near triangles together (Morton order,
  * then greedily the candidate adding the fewest vertices). *recs (count *nrec) and, per

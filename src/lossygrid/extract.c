@@ -233,6 +233,7 @@ static prt_status cut(extractor *x, const rect *g, lg_extraction *out, size_t *c
             lg_source *sg = &out->subgrids[out->subgrid_count++];
             memset(sg, 0, sizeof *sg);
             sg->rx = (uint8_t)rx, sg->ry = (uint8_t)ry;
+            sg->grid = (uint32_t)out->grid_count;
             for (int j = 0; j <= ry; j++)
                 for (int i = 0; i <= rx; i++) sg->v[5 * j + i] = grid_vertex(x, g, sx + i, sy + j);
             for (int y = 0; y < ry; y++) {

@@ -20,6 +20,7 @@ typedef struct lg_source {
     uint16_t diag;
     uint32_t tri[32];
     uint8_t rot[32];
+    uint32_t grid; /* the grid it was cut from, 0 .. grid_count - 1 */
 } lg_source;
 
 typedef struct lg_extraction {

@@ -1,5 +1,5 @@
 /* Lossy compressed grid primitives (Benthin, Vaidyanathan, Woop) behind prt_accel_ops:
- * "lossygrid[,enc=oct|exp][,leaf=N][,ids=mesh|none]". The mesh is cut into 5x5-vertex
+ * "lossygrid[,enc=oct|exp|fix][,leaf=N][,ids=mesh|none]". The mesh is cut into 5x5-vertex
  * sub-grids (extract.c), each compressed into 128 bytes (encode.c), the triangles that fit
  * no grid packed into exact 128-byte records; a binned SAH BVH over the records is packed
  * into 8-wide quantized nodes (bvh/layouts/wide8_pack.c) and traversed by the wide8
@@ -81,13 +81,13 @@ static bool lg_name_at(size_t i, const char **name, const char **desc) {
     return true;
 }
 
-static const char *const g_encs[] = {"oct", "exp"};
+static const char *const g_encs[] = {"oct", "exp", "fix"};
 static const char *const g_id_modes[] = {"mesh", "none"};
 
 static prt_status lg_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
     int enc, leaf, ids;
     prt_status s;
-    if ((s = prt__spec_enum(spec, "enc", g_encs, LG_ENC_COUNT, LG_ENC_OCT, &enc)) ||
+    if ((s = prt__spec_enum(spec, "enc", g_encs, LG_ENC_COUNT, LG_ENC_FIX, &enc)) ||
         (s = prt__spec_int(spec, "leaf", 1, 1, LG_MAX_LEAF, &leaf)) ||
         (s = prt__spec_enum(spec, "ids", g_id_modes, 2, 0, &ids)) || (s = prt__spec_check_unused(spec)))
         return s;

@@ -10,8 +10,11 @@
 #include "geom/triangle.h"
 #include "lossygrid/displacement.h"
 
+#include <stddef.h>
+
 #define LG_RECORD_BYTES 128
-enum { LG_KIND_GRID_OCT = LG_ENC_OCT, LG_KIND_GRID_EXP = LG_ENC_EXP, LG_KIND_TRIS = 2 };
+/* A sub-grid's kind byte is its displacement encoding; exact triangles come after. */
+enum { LG_KIND_TRIS = LG_ENC_COUNT };
 
 /* A sub-grid of rx x ry quads (1..4 each). Grid vertex (i, j), i <= rx, j <= ry, is the
  * bilinear patch over the four exact corners at u = i / rx, v = j / ry, plus a decoded
@@ -25,9 +28,9 @@ typedef struct lg_grid_rec {
     uint8_t rot[8];
     uint16_t diag;
     uint8_t disp[21][3];
-    uint8_t res; /* rx - 1 | (ry - 1) << 2 */
-    uint8_t pad;
-    uint8_t kind; /* LG_KIND_GRID_OCT or LG_KIND_GRID_EXP: the displacement encoding */
+    uint8_t res;   /* rx - 1 | (ry - 1) << 2 | k << 4, k: LG_ENC_FIX's shift inside the sub-grid */
+    uint8_t scale; /* LG_ENC_FIX: the grid's exponent byte; else 0 */
+    uint8_t kind;  /* the displacement encoding, LG_ENC_* */
 } lg_grid_rec;
 
 /* count triangles, each three 4-bit indices into v (nibble 3 k + c, low nibble first),
@@ -42,9 +45,12 @@ typedef struct lg_tri_rec {
     uint8_t kind; /* LG_KIND_TRIS */
 } lg_tri_rec;
 
+_Static_assert(offsetof(lg_grid_rec, disp) == LG_DISP_OFFSET, "codes where the decoder's tables expect them");
 _Static_assert(sizeof(lg_grid_rec) == LG_RECORD_BYTES && sizeof(lg_tri_rec) == LG_RECORD_BYTES, "records are 128 bytes");
 
 static inline int lg_rx(const lg_grid_rec *g) { return (g->res & 3) + 1; }
+/* The exponent byte of LG_ENC_FIX inside the sub-grid (on its border: scale). */
+static inline uint8_t lg_inner_scale(const lg_grid_rec *g) { return (uint8_t)(g->scale - (g->res >> 4)); }
 static inline int lg_ry(const lg_grid_rec *g) { return (g->res >> 2 & 3) + 1; }
 static inline int lg_tri_index(const lg_tri_rec *t, int k, int c) {
     const int nib = 3 * k + c;
@@ -53,30 +59,78 @@ static inline int lg_tri_index(const lg_tri_rec *t, int k, int c) {
 
 static inline float lg_lerp(float a, float b, float w1, float w) { return a * w1 + b * w; }
 
-/* Decode a sub-grid's vertices into x, y, z (index 5 j + i); the others become NaN so
- * triangles past the resolution never hit. The encoder calls this too. */
-static inline void lg_grid_decode(const lg_grid_rec *g, float *restrict x, float *restrict y, float *restrict z) {
-    const int rx = lg_rx(g), ry = lg_ry(g), enc = g->kind;
-    float *out[3] = {x, y, z};
-    for (int i = 0; i < 25; i++) x[i] = y[i] = z[i] = NAN;
-    int slot = 0;
-    for (int j = 0; j <= ry; j++) {
-        const float v = (float)j / (float)ry, v1 = 1.0f - v;
-        for (int i = 0; i <= rx; i++) {
-            const float u = (float)i / (float)rx, u1 = 1.0f - u;
-            const bool corner = (i == 0 || i == rx) && (j == 0 || j == ry);
-            float d[3] = {0, 0, 0};
-            if (!corner) lg_disp_decode(enc, lg_disp_load(g->disp[slot++]), d);
-            for (int k = 0; k < 3; k++) {
-                float p;
-                if (corner) p = g->corner[(i == rx) + 2 * (j == ry)][k];
-                else {
-                    const float a = lg_lerp(g->corner[0][k], g->corner[1][k], u1, u);
-                    const float b = lg_lerp(g->corner[2][k], g->corner[3][k], u1, u);
-                    p = lg_lerp(a, b, v1, v) + d[k];
-                }
-                out[k][5 * j + i] = p;
-            }
+/* The grid vertices of a sub-grid as traversal sees them (and as the encoder measures
+ * them), one 8-lane row per grid row: lane i of w[k][j] is component k of vertex (i, j),
+ * NaN past the resolution so those triangles never hit. The patch point is
+ * lg_lerp(lg_lerp(c00, c10, 1 - u, u), lg_lerp(c01, c11, 1 - u, u), 1 - v, v), the same
+ * operations whichever sub-grid of a grid evaluates a shared border. */
+typedef struct lg_grid_vertices {
+    vf8 w[3][5];
+} lg_grid_vertices;
+
+static inline vf8 lg_gather(const float *base, vi8 idx) {
+#if defined(__AVX2__)
+    return (vf8)_mm256_i32gather_ps(base, (__m256i)idx, 4);
+#else
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = base[idx[i]];
+    return r;
+#endif
+}
+
+/* lg_disp_decode for eight codes at once, bit for bit. */
+static inline void lg_disp_decode8(int enc, vi8 c, uint8_t scale, uint8_t inner_scale, vi8 inner, vf8 d[3]) {
+    const vi8 one = {1, 1, 1, 1, 1, 1, 1, 1};
+    if (enc == LG_ENC_FIX) {
+        const vf8 s = vf8_select(inner, vf8_set1(lg_fix_scale(inner_scale)), vf8_set1(lg_fix_scale(scale)));
+        for (int k = 0; k < 3; k++) d[k] = __builtin_convertvector(c << (24 - 8 * k) >> 24, vf8) * s;
+    } else if (enc == LG_ENC_OCT) {
+        const vi8 e = c >> 13 & 63, m = c >> 19 & 31, zero = e == 0;
+        const vf8 len = (vf8)(((e + 86) << 23 | m << 18) & ~zero);
+        const vi8 idx = (c >> 3 & 1023) << 2;
+        for (int k = 0; k < 3; k++) d[k] = (vf8)((vi8)(lg_gather(lg_dirs[0] + k, idx) * len) ^ (c >> k & one) << 31);
+    } else {
+        const vf8 scale = (vf8)(((c >> 3 & 63) + 81) << 23);
+        for (int k = 0; k < 3; k++)
+            d[k] = (vf8)((vi8)(__builtin_convertvector(c >> (9 + 5 * k) & 31, vf8) * scale) ^ (c >> k & one) << 31);
+    }
+}
+
+/* The 24-bit codes of the eight lanes of grid row j (0 where a lane has none: a corner,
+ * or past the resolution): one gather of 4 bytes at each code's offset. */
+static inline vi8 lg_codes(const lg_grid_rec *g, const lg_res_tables *t, int j) {
+    vi8 at;
+    memcpy(&at, &t->code_at[8 * j], sizeof at);
+#if defined(__AVX2__)
+    const __m256i c = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)(const void *)g, (__m256i)at,
+                                                  (__m256i)(at >= 0), 1);
+    return (vi8)c & 0xFFFFFF;
+#else
+    vi8 c;
+    for (int i = 0; i < 8; i++) c[i] = at[i] < 0 ? 0 : (int32_t)lg_disp_load((const uint8_t *)g + at[i]);
+    return c;
+#endif
+}
+
+static inline void lg_grid_decode(const lg_grid_rec *g, lg_grid_vertices *out) {
+    const lg_res_tables *t = &lg_res[g->res & 15];
+    const int rows = lg_ry(g) + 1;
+    const uint8_t inner_scale = lg_inner_scale(g);
+    for (int j = 0; j < 5; j++) {
+        if (j >= rows) {
+            for (int k = 0; k < 3; k++) out->w[k][j] = vf8_set1(NAN);
+            continue;
+        }
+        vf8 d[3];
+        vi8 inner;
+        memcpy(&inner, &t->inner[8 * j], sizeof inner);
+        lg_disp_decode8(g->kind, lg_codes(g, t, j), g->scale, inner_scale, inner, d);
+        const vf8 u1 = vf8_load(&t->u1[8 * j]), u = vf8_load(&t->u[8 * j]);
+        const vf8 v1 = vf8_load(&t->v1[8 * j]), v = vf8_load(&t->v[8 * j]);
+        for (int k = 0; k < 3; k++) {
+            const vf8 a = vf8_set1(g->corner[0][k]) * u1 + vf8_set1(g->corner[1][k]) * u;
+            const vf8 b = vf8_set1(g->corner[2][k]) * u1 + vf8_set1(g->corner[3][k]) * u;
+            out->w[k][j] = (a * v1 + b * v) + d[k];
         }
     }
 }
@@ -97,17 +151,68 @@ static inline void lgrec_ray_init(lgrec_ray *c, const prt__rayx *r, const bvh_sh
     c->sh = sh;
 }
 
-/* The eight cell triangles of row y (lane 2 x + h) in SOA form for prt__tri8_hit. */
-static inline void lg_grid_row(const lg_grid_rec *g, const float *x, const float *y, const float *z, int row,
-                               float p[72]) {
-    const float *src[3] = {x, y, z};
-    for (int cx = 0; cx < 4; cx++) {
-        const int c00 = 5 * row + cx, c10 = c00 + 1, c01 = c00 + 5, c11 = c00 + 6;
-        const bool odd = g->diag >> (row * 4 + cx) & 1;
-        const int tri[2][3] = {{c00, c10, odd ? c01 : c11}, {odd ? c10 : c00, c11, c01}};
-        for (int h = 0; h < 2; h++)
-            for (int c = 0; c < 9; c++) p[c * 8 + 2 * cx + h] = src[c % 3][tri[h][c / 3]];
+/* The grid vertices moved into the ray's sheared space once per sub-grid, as the
+ * watertight test moves each triangle vertex (geom/triangle_simd.inc): x, y after the
+ * shear, z scaled. A vertex shared by several triangles is transformed once and the same
+ * bits reach all of them, so the edge test stays watertight across the sub-grid. */
+typedef struct lg_sheared {
+    vf8 x[5], y[5], z[5];
+} lg_sheared;
+
+static inline void lg_shear(const lg_grid_vertices *g, int rows, const prt__rayx *r, const prt__rayx8t *rw,
+                            lg_sheared *o) {
+    const int kx = r->kx, ky = r->ky, kz = r->kz;
+    for (int j = 0; j < rows; j++) {
+        const vf8 az = g->w[kz][j] - rw->org[kz];
+        o->x[j] = (g->w[kx][j] - rw->org[kx]) - rw->sx * az;
+        o->y[j] = (g->w[ky][j] - rw->org[ky]) - rw->sy * az;
+        o->z[j] = rw->sz * az;
     }
+}
+
+/* Lane i of the row below (index i) or above (8 + i). */
+static inline vf8 lg_pick(vf8 lo, vf8 hi, vi8 idx) {
+#if defined(__AVX2__)
+    const __m256 a = _mm256_permutevar8x32_ps((__m256)lo, (__m256i)idx);
+    const __m256 b = _mm256_permutevar8x32_ps((__m256)hi, (__m256i)idx);
+    return (vf8)_mm256_blendv_ps(a, b, (__m256)(idx << 28)); /* bit 3 of the index, moved to the sign */
+#else
+    return __builtin_shuffle(lo, hi, idx);
+#endif
+}
+
+/* The watertight test (geom/triangle_simd.inc, the same operations in the same order) on
+ * the eight triangles of cell row `row`, lane 2 x + h: the mask of lanes hit in
+ * [tnear, tfar], with t (+inf elsewhere), u and v set when non-zero. */
+static inline int lg_row_hit(const lg_sheared *s, int row, unsigned diag, const prt__rayx8t *rw, vf8 tfar, vf8 *t_out,
+                             vf8 *u_out, vf8 *v_out) {
+    vi8 ia, ib, ic;
+    memcpy(&ia, lg_row_index[diag][0], 32), memcpy(&ib, lg_row_index[diag][1], 32), memcpy(&ic, lg_row_index[diag][2], 32);
+    const vf8 ax = lg_pick(s->x[row], s->x[row + 1], ia), ay = lg_pick(s->y[row], s->y[row + 1], ia);
+    const vf8 bx = lg_pick(s->x[row], s->x[row + 1], ib), by = lg_pick(s->y[row], s->y[row + 1], ib);
+    const vf8 cx = lg_pick(s->x[row], s->x[row + 1], ic), cy = lg_pick(s->y[row], s->y[row + 1], ic);
+    vf8 u = cx * by - cy * bx;
+    vf8 v = ax * cy - ay * cx;
+    vf8 w = bx * ay - by * ax;
+    const vf8 zero = vf8_set1(0.0f);
+    const vi8 any_zero = (u == zero) | (v == zero) | (w == zero);
+    if (PRT_UNLIKELY(vi8_mask(any_zero))) prt__tri8_fix_edges(any_zero, &ax, &ay, &bx, &by, &cx, &cy, &u, &v, &w);
+    const vi8 mixed = (vf8_min(vf8_min(u, v), w) < zero) & (vf8_max(vf8_max(u, v), w) > zero);
+    const vf8 det = u + v + w;
+    const vi8 inside = ~mixed & (det != zero);
+    if (!vi8_mask(inside)) return 0;
+    const vf8 az = lg_pick(s->z[row], s->z[row + 1], ia), bz = lg_pick(s->z[row], s->z[row + 1], ib);
+    const vf8 cz = lg_pick(s->z[row], s->z[row + 1], ic);
+    const vf8 T = u * az + v * bz + w * cz;
+    const vf8 t = T / det;
+    const vi8 ok = inside & (t >= rw->tnear) & (t <= tfar);
+    const int mask = vi8_mask(ok);
+    if (mask) {
+        *t_out = vf8_select(ok, t, vf8_set1(INFINITY));
+        *u_out = v / det;
+        *v_out = w / det;
+    }
+    return mask;
 }
 
 /* Barycentrics (u, v) of the cell triangle, re-expressed for its mesh triangle, whose
@@ -136,11 +241,11 @@ static inline void lg_take(prt__hitx *h, vf8 t, vf8 u, vf8 v, unsigned mask, con
 
 PRT_INLINE void lgrec_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h) {
     for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES) {
-        float p[72] __attribute__((aligned(32)));
         vf8 t, u, v;
         uint32_t ids[8];
         if (leaf[127] == LG_KIND_TRIS) {
             const lg_tri_rec *tr = (const lg_tri_rec *)leaf;
+            float p[72] __attribute__((aligned(32)));
             lg_tri_soa(tr, p);
             const unsigned mask = (unsigned)prt__tri8_hit(r, &c->r8, p, vf8_set1(h->t), &t, &u, &v);
             if (!mask) continue;
@@ -149,18 +254,19 @@ PRT_INLINE void lgrec_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx
             continue;
         }
         const lg_grid_rec *g = (const lg_grid_rec *)leaf;
-        float x[25], y[25], z[25];
-        lg_grid_decode(g, x, y, z);
+        lg_grid_vertices gv;
+        lg_grid_decode(g, &gv);
         const int rx = lg_rx(g), ry = lg_ry(g);
+        lg_sheared sh;
+        lg_shear(&gv, ry + 1, r, &c->r8, &sh);
         for (int row = 0; row < ry; row++) {
-            lg_grid_row(g, x, y, z, row, p);
-            const unsigned mask = (unsigned)prt__tri8_hit(r, &c->r8, p, vf8_set1(h->t), &t, &u, &v);
+            const unsigned mask = (unsigned)lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, vf8_set1(h->t), &t, &u, &v);
             if (!mask) continue;
             int rot[8];
-            for (int l = 0; l < 8; l++) {
-                const int k = 2 * (row * rx + (l >> 1)) + (l & 1);
-                ids[l] = g->first + (uint32_t)k;
-                rot[l] = k < 32 ? g->rot[k >> 2] >> (2 * (k & 3)) & 3 : 0;
+            for (unsigned l = mask; l; l &= l - 1) {
+                const int lane = __builtin_ctz(l), k = 2 * (row * rx + (lane >> 1)) + (lane & 1);
+                ids[lane] = g->first + (uint32_t)k;
+                rot[lane] = g->rot[k >> 2 & 7] >> (2 * (k & 3)) & 3;
             }
             lg_take(h, t, u, v, mask, ids, rot, c->sh);
         }
@@ -170,20 +276,21 @@ PRT_INLINE void lgrec_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx
 PRT_INLINE bool lgrec_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, float tfar) {
     const vf8 tf = vf8_set1(tfar);
     for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES) {
-        float p[72] __attribute__((aligned(32)));
         vf8 t, u, v;
         if (leaf[127] == LG_KIND_TRIS) {
+            float p[72] __attribute__((aligned(32)));
             lg_tri_soa((const lg_tri_rec *)leaf, p);
             if (prt__tri8_hit(r, &c->r8, p, tf, &t, &u, &v)) return true;
             continue;
         }
         const lg_grid_rec *g = (const lg_grid_rec *)leaf;
-        float x[25], y[25], z[25];
-        lg_grid_decode(g, x, y, z);
-        for (int row = 0; row < lg_ry(g); row++) {
-            lg_grid_row(g, x, y, z, row, p);
-            if (prt__tri8_hit(r, &c->r8, p, tf, &t, &u, &v)) return true;
-        }
+        lg_grid_vertices gv;
+        lg_grid_decode(g, &gv);
+        const int ry = lg_ry(g);
+        lg_sheared sh;
+        lg_shear(&gv, ry + 1, r, &c->r8, &sh);
+        for (int row = 0; row < ry; row++)
+            if (lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, tf, &t, &u, &v)) return true;
     }
     return false;
 }

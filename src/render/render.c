@@ -141,6 +141,12 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
     /* 1e-4 of the diagonal: far above the rounding of a hit point (~1e-7 relative), far below
      * any feature worth shading; the same offset as the benchmark's secondary rays. */
     scene.offset = 1e-4f * diag;
+    /* A lossy representation's surface lies up to its vertex error from the mesh's, where
+     * hit points are placed: start secondary rays beyond it, or they would hit the lossy
+     * copy of their own surface. */
+    prt_stats stats;
+    prt_accel_stats(a, &stats);
+    if (stats.vertex_error > 0) scene.offset += 2.0f * (float)stats.vertex_error;
     scene.fd_step = 1e-4f * diag;
     if (o.use_light)
         scene.light = prt_v3_load(o.light);
