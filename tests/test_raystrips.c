@@ -298,6 +298,44 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
     prt_mesh_free(m);
 }
 
+/* Packets (2x2 blocks, or runs of four) give every ray exactly its single-ray hit: coherent
+ * camera rays over the grid, in packets of several widths and counts. */
+TEST(test_packets_give_the_single_ray_hits) {
+    prt_mesh *m = mesh_grid(40);
+    const uint32_t res = 32, n = res * res;
+    prt_ray *rays = malloc(n * sizeof *rays), *r1 = malloc(n * sizeof *rays), *r2 = malloc(n * sizeof *rays);
+    prt_hit *h1 = malloc(n * sizeof *h1), *h2 = malloc(n * sizeof *h2);
+    for (uint32_t y = 0; y < res; y++)
+        for (uint32_t x = 0; x < res; x++) {
+            const float tx = -0.1f + 1.2f * (float)x / res, tz = -0.1f + 1.2f * (float)y / res;
+            rays[y * res + x] = (prt_ray){{0.5f, 1.5f, -0.8f}, 0, {tx - 0.5f, -1.5f, tz + 0.8f}, INFINITY};
+        }
+    const uint32_t widths[][2] = {{2, 4}, {4, 16}, {8, 64}, {16, 256}, {4, 12}, {3, 9}, {1, 7}};
+    for (size_t i = 0; i < COUNT_OF(g_specs); i++) {
+        prt_accel *a;
+        if (!repr_build(m, g_specs[i], &a)) continue;
+        memcpy(r1, rays, n * sizeof *rays);
+        for (uint32_t k = 0; k < n; k++) prt_intersect1(a, &r1[k], &h1[k]);
+        size_t hits = 0;
+        for (uint32_t k = 0; k < n; k++) hits += h1[k].prim != PRT_INVALID;
+        for (size_t w = 0; w < COUNT_OF(widths); w++) {
+            memcpy(r2, rays, n * sizeof *rays);
+            for (uint32_t k = 0; k < n; k += widths[w][1]) {
+                prt_packet p = {r2 + k, h2 + k, n - k < widths[w][1] ? n - k : widths[w][1], widths[w][0]};
+                prt_intersect_packet(a, &p);
+            }
+            size_t diff = 0;
+            for (uint32_t k = 0; k < n; k++)
+                diff += memcmp(&h1[k], &h2[k], sizeof h1[k]) != 0 || memcmp(&r1[k], &r2[k], sizeof r1[k]) != 0;
+            CHECK_MSG(diff == 0 && hits > n / 2, "%s, width %u: %zu of %u packet rays differ (%zu hits)", g_specs[i],
+                      widths[w][0], diff, n, hits);
+        }
+        prt_accel_free(a);
+    }
+    free(rays), free(r1), free(r2), free(h1), free(h2);
+    prt_mesh_free(m);
+}
+
 TEST(test_single_triangle_and_bad_options) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_create(3, 1, &m));
@@ -331,6 +369,7 @@ int main(void) {
     RUN(test_connected_mesh_gives_long_strips_and_a_soup_single_triangles);
     RUN(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit);
     RUN(test_damaged_records_and_nodes_behind_the_checksums_are_errors);
+    RUN(test_packets_give_the_single_ray_hits);
     RUN(test_single_triangle_and_bad_options);
     TEST_END();
 }

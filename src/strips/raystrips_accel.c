@@ -265,7 +265,7 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
 }
 
 const prt_accel_ops prt__raystrips_ops = {
-    "raystrips", rs_build, rs_intersect1, rs_occluded1, NULL, rs_stats, rs_save, rs_load, rs_destroy,
+    "raystrips", rs_build, rs_intersect1, rs_occluded1, rs_intersect_packet, rs_stats, rs_save, rs_load, rs_destroy,
 };
 
 const prt_repr_family prt__raystrips_family = {&prt__raystrips_ops, rs_accepts, rs_name_at};
