@@ -1,5 +1,6 @@
 /* prt_mesh_generate: argument checks and dispatch to the generator of each kind
- * (gen_sphere.c, gen_terrain.c, gen_mandelbulb.c, gen_cad.c, gen_level.c). */
+ * (gen_sphere.c, gen_terrain.c, gen_mandelbulb.c, gen_cad.c, gen_level.c, gen_canyon.c,
+ * gen_torus.c). */
 #include "mesh/gen.h"
 
 #include <string.h>
@@ -17,10 +18,12 @@ static const struct {
     {"mandelbulb", gen_mandelbulb},
     {"cad", gen_cad},
     {"level", gen_level},
+    {"canyon", gen_canyon},
+    {"torus", gen_torus},
 };
 
 const char *prt_gen_kinds(void) {
-    return "sphere terrain mandelbulb cad level";
+    return "sphere terrain mandelbulb cad level canyon torus";
 }
 
 prt_status prt_mesh_generate(const char *kind, size_t triangles, uint64_t seed, prt_mesh **out) {

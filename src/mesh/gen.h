@@ -11,4 +11,13 @@ prt_status gen_mandelbulb(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_cad(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out);
 
+prt_status gen_canyon(size_t triangles, uint64_t seed, prt_mesh **out);
+prt_status gen_torus(size_t triangles, uint64_t seed, prt_mesh **out);
+
+/* Grid surfaces (gen_grid.c): the two triangles of each of nu x nv cells over vertices
+ * laid out row by row (nu + 1 a row, or nu when wrap_u; likewise rows), split along the
+ * shorter diagonal; and a grid size near a triangle count at a given nu / nv. */
+void gen_grid_triangles(prt_mesh *m, size_t nu, size_t nv, bool wrap_u, bool wrap_v);
+void gen_grid_size(size_t triangles, double aspect, size_t *nu, size_t *nv);
+
 #endif
