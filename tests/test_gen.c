@@ -296,7 +296,7 @@ TEST(test_cad_parts_face_outward_with_unwelded_faces) {
 }
 
 TEST(test_generators_are_deterministic_for_any_thread_count) {
-    static const char *kinds[] = {"sphere", "terrain", "mandelbulb", "cad"};
+    static const char *kinds[] = {"sphere", "terrain", "mandelbulb", "cad", "canyon", "torus"};
     int threads = omp_get_max_threads();
     for (size_t i = 0; i < N_OF(kinds); i++) {
         prt_mesh *a = NULL, *b = NULL, *c = NULL;
@@ -311,6 +311,37 @@ TEST(test_generators_are_deterministic_for_any_thread_count) {
         prt_mesh_free(a);
         prt_mesh_free(b);
         prt_mesh_free(c);
+    }
+}
+
+/* The displaced surfaces: near the request, valid, no degenerate triangle; the torus
+ * closed (every directed edge once, no border) and facing out, the canyon facing up. */
+TEST(test_canyon_and_torus_are_displaced_grids) {
+    static const size_t want[] = {2, 1000, 250000};
+    for (size_t i = 0; i < COUNT_OF(want); i++) {
+        const char *kinds[] = {"canyon", "torus"};
+        for (int k = 0; k < 2; k++) {
+            prt_mesh *m;
+            CHECK_OK(prt_mesh_generate(kinds[k], want[i], 3, &m));
+            if (!m) continue;
+            CHECK_MSG(want[i] < 100 || fabs(ratio(m, want[i]) - 1) < 0.02, "%s: %zu triangles for %zu", kinds[k],
+                      m->triangle_count, want[i]);
+            CHECK_OK(prt_mesh_validate(m));
+            CHECK(prt_mesh_count_degenerate(m) == 0);
+            size_t repeated, boundary;
+            edge_census(m, &repeated, &boundary);
+            CHECK_MSG(repeated == 0, "%s: %zu repeated directed edges", kinds[k], repeated);
+            if (k == 1) {
+                CHECK_MSG(boundary == 0, "torus: %zu border edges", boundary);
+                CHECK_MSG(signed_volume(m) > 0, "torus: volume %g", signed_volume(m));
+            } else { /* up-facing: the first triangle's normal has a positive y */
+                const float *a = &m->vertices[3 * (size_t)m->triangles[0]], *b = &m->vertices[3 * (size_t)m->triangles[1]],
+                            *c = &m->vertices[3 * (size_t)m->triangles[2]];
+                const double ny = (double)(c[0] - a[0]) * (b[2] - a[2]) - (double)(b[0] - a[0]) * (c[2] - a[2]);
+                CHECK_MSG(ny > 0, "canyon: first triangle faces down (%g)", ny);
+            }
+            prt_mesh_free(m);
+        }
     }
 }
 
@@ -350,6 +381,7 @@ int main(void) {
     RUN(test_cad_count_is_exact_and_parts_stay_in_the_cube);
     RUN(test_cad_parts_face_outward_with_unwelded_faces);
     RUN(test_generators_are_deterministic_for_any_thread_count);
+    RUN(test_canyon_and_torus_are_displaced_grids);
     RUN(test_level_count_is_close_and_rocks_sit_on_the_ground);
     TEST_END();
 }
