@@ -91,6 +91,11 @@ TEST(test_bunny_matches_brute_force) {
     prt_mesh_free(m);
 }
 
+/* Whether the accel's vertex i is the mesh's vertex j (the accel renumbers its vertices). */
+static bool same_vertex(const rs_accel *a, uint32_t i, const prt_mesh *m, uint32_t j) {
+    return i < a->vertex_count && !memcmp(a->vertices + 3 * (size_t)i, m->vertices + 3 * (size_t)j, 3 * sizeof(float));
+}
+
 /* Walks the records: every hittable mesh triangle appears once, each strip triangle has
  * the mesh triangle's vertices, and each s-kd node's planes bound its halves' vertices.
  * Returns the number of strips. */
@@ -110,7 +115,8 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
             twice += seen[prim]++ > 0;
             /* Vertex 1 and 2 of the mesh triangle sit where the code says; vertex 0 in the rest. */
             const int p1 = rs_perm[code][0], p2 = rs_perm[code][1];
-            bad_tri += code >= 6 || p[p1] != t[1] || p[p2] != t[2] || p[3 - p1 - p2] != t[0];
+            bad_tri += code >= 6 || !same_vertex(a, p[p1], m, t[1]) || !same_vertex(a, p[p2], m, t[2]) ||
+                       !same_vertex(a, p[3 - p1 - p2], m, t[0]);
         }
         /* Planes: recompute the halves' boxes the way the layout defines them. */
         typedef struct visit {
@@ -127,14 +133,14 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
             const bool rev = fl & RS_FLAG_REVERSE;
             float lo = INFINITY, hi = -INFINITY, box_lo = INFINITY, box_hi = -INFINITY;
             for (uint32_t j = 0; j < st.n + 2; j++) {
-                const float x = m->vertices[3 * st.index[j] + k];
+                const float x = a->vertices[3 * st.index[j] + k];
                 box_lo = fminf(box_lo, x), box_hi = fmaxf(box_hi, x);
             }
             /* lower half: its maximum is at most the first plane; upper: its minimum at least the second. */
             const uint32_t lf = rev ? v.first + nl : v.first, lc = rev ? v.count - nl : nl;
             const uint32_t uf = rev ? v.first : v.first + nl, uc = rev ? nl : v.count - nl;
-            for (uint32_t j = lf; j < lf + lc + 2; j++) hi = fmaxf(hi, m->vertices[3 * st.index[j] + k]);
-            for (uint32_t j = uf; j < uf + uc + 2; j++) lo = fminf(lo, m->vertices[3 * st.index[j] + k]);
+            for (uint32_t j = lf; j < lf + lc + 2; j++) hi = fmaxf(hi, a->vertices[3 * st.index[j] + k]);
+            for (uint32_t j = uf; j < uf + uc + 2; j++) lo = fminf(lo, a->vertices[3 * st.index[j] + k]);
             float p1, p2;
             if (a->q16) {
                 const uint16_t *q = (const uint16_t *)st.splits + 2 * v.node;
@@ -345,7 +351,7 @@ TEST(test_single_triangle_and_bad_options) {
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "raystrips", NULL, &a));
     if (a) {
-        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=128,leaf=2,split=f32,strip=meshopt"));
+        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=128,leaf=2,split=f32,strip=meshopt,packet=2x2"));
         prt_ray r = {{0.25f, 0.5f, 1}, 0, {0, 0, -1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);

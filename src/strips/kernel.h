@@ -59,68 +59,21 @@ PRT_NOINLINE static void rs_fix_zero_edges(int zero, float *e, const float *X, c
     }
 }
 
+/* rs_group4 (count <= 3) and rs_group8 (count <= 8) from strips/group.inc. */
+#define RG_W 4
+#include "strips/group.inc"
+#undef RG_W
+#define RG_W 8
+#include "strips/group.inc"
+#undef RG_W
+
 /* Triangles [first, first + count) of a strip (vertex indices index, ids id; count <= 8)
  * against ray r within [tnear, tfar]. any: return at the first hit (mask only). Otherwise
  * the nearest hit goes to *best (ties to the smallest id) and the mask of hits is returned. */
 static inline int rs_group(const prt__rayx *r, const float *vertices, const uint32_t *index, const uint32_t *id,
                            uint32_t count, float tfar, bool any, uint32_t first, const uint32_t *rec, rs_best *best) {
-    float X[16], Y[16], Z[16];
-    const int kx = r->kx, ky = r->ky, kz = r->kz;
-    const uint32_t nv = count + 2;
-    for (uint32_t j = 0; j < nv; j++) {
-        const float *p = vertices + 3 * (size_t)index[first + j];
-        const float az = p[kz] - r->org[kz];
-        X[j] = (p[kx] - r->org[kx]) - r->sx * az;
-        Y[j] = (p[ky] - r->org[ky]) - r->sy * az;
-        Z[j] = r->sz * az;
-    }
-    for (uint32_t j = nv; j < 11; j++) X[j] = Y[j] = Z[j] = 0.0f;
-    const vf8 x0 = vf8_load(X), x1 = vf8_load(X + 1), x2 = vf8_load(X + 2);
-    const vf8 y0 = vf8_load(Y), y1 = vf8_load(Y + 1), y2 = vf8_load(Y + 2);
-    float S[16], C[8];
-    const vf8 side = x0 * y1 - y0 * x1, diag = x0 * y2 - y0 * x2;
-    memcpy(S, &side, sizeof side);
-    memcpy(C, &diag, sizeof diag);
-    S[8] = X[8] * Y[9] - Y[8] * X[9];
-    const vf8 zero = vf8_set1(0.0f);
-    const int lanes = (1 << count) - 1;
-    int zs = (vi8_mask(side == zero) | (S[8] == 0.0f) << 8) & ((2 << count) - 1), zc = vi8_mask(diag == zero) & lanes;
-    if (PRT_UNLIKELY(zs | zc)) {
-        rs_fix_zero_edges(zs, S, X, Y, 1);
-        rs_fix_zero_edges(zc, C, X, Y, 2);
-    }
-    const vf8 s0 = vf8_load(S), s1 = vf8_load(S + 1), c = vf8_load(C);
-    const vf8 eu = -s1, ev = c, ew = -s0;
-    const vi8 mixed = (vf8_min(vf8_min(eu, ev), ew) < zero) & (vf8_max(vf8_max(eu, ev), ew) > zero);
-    const vf8 det = eu + ev + ew;
-    const vi8 inside = ~mixed & (det != zero);
-    if (!(vi8_mask(inside) & lanes)) return 0;
-    const vf8 T = eu * vf8_load(Z) + ev * vf8_load(Z + 1) + ew * vf8_load(Z + 2);
-    const vf8 t = T / det;
-    const vi8 valid = (vf8){0, 1, 2, 3, 4, 5, 6, 7} < vf8_set1((float)count);
-    const vi8 ok = inside & valid & (t >= vf8_set1(r->tnear)) & (t <= vf8_set1(tfar));
-    int mask = vi8_mask(ok);
-    /* The turns' zero-area triangles never pass the test above; their ids are checked too,
-     * so no file can make one name a triangle. */
-    for (int at = mask; at; at &= at - 1)
-        if (id[first + (uint32_t)__builtin_ctz((unsigned)at)] == RS_DEAD) mask &= ~(at & -at);
-    if (!mask || any) return mask;
-    /* The nearest; equal distances go to the smallest mesh triangle id, here and against
-     * the best so far. */
-    int lane = -1;
-    float tmin = INFINITY;
-    for (int at = mask; at; at &= at - 1) {
-        const int i = __builtin_ctz((unsigned)at);
-        if (lane < 0 || t[i] < tmin || (t[i] == tmin && id[first + (uint32_t)i] < id[first + (uint32_t)lane]))
-            lane = i, tmin = t[i];
-    }
-    if (tmin == best->t && best->rec && best->id < id[first + (uint32_t)lane]) return mask;
-    best->t = tmin;
-    best->id = id[first + (uint32_t)lane];
-    best->b[0] = eu[lane] / det[lane], best->b[1] = ev[lane] / det[lane], best->b[2] = ew[lane] / det[lane];
-    best->rec = rec;
-    best->tri = first + (uint32_t)lane;
-    return mask;
+    return count <= 3 ? rs_group4(r, vertices, index, id, count, tfar, any, first, rec, best)
+                      : rs_group8(r, vertices, index, id, count, tfar, any, first, rec, best);
 }
 
 /* Strip traversal state. */

@@ -1,6 +1,7 @@
 /* The Ray-Strips family behind prt_accel_ops (Lauterbach, Yoon, Manocha 2007): parses
- * "raystrips[,chunk=N,leaf=N,split=f32|q16,strip=meshopt|rt]", builds chunks, strips, the
- * records and the top-level BVH, and saves them as sections META, NODE, STRP and VERT. */
+ * "raystrips[,chunk=N,leaf=1|2|4|8,split=f32|q16,strip=meshopt|rt,packet=2x2|none]", builds
+ * chunks, strips, the records and the top-level BVH, and saves them as sections META, NODE,
+ * STRP and VERT. */
 #include "bvh/layouts/quad_plan.h"
 #include "strips/strips.h"
 
@@ -18,8 +19,10 @@ _Static_assert(sizeof(rs_meta) == 64, "META section is 64 bytes");
 
 static const char *const g_split_names[] = {"f32", "q16"};
 static const char *const g_strip_names[] = {"meshopt", "rt"};
+/* packet=none leaves prt_intersect_packet to the API's single-ray loop (to measure both). */
+static const char *const g_packet_names[] = {"2x2", "none"};
 
-extern const prt_accel_ops prt__raystrips_ops;
+extern const prt_accel_ops prt__raystrips_ops, prt__raystrips_ops_single;
 
 static bool rs_accepts(const prt_spec *s) { return !strcmp(s->structure, "raystrips") && !s->codec[0]; }
 
@@ -159,18 +162,52 @@ done:
     return s;
 }
 
+/* The vertices the strips use, numbered in the order the records (in top-level leaf order)
+ * first use them: a strip's vertices then sit together in memory, as a BVH leaf's inline
+ * triangles do, instead of wherever the mesh had them. Unused vertices are dropped. */
+static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
+    uint32_t *map = prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, sizeof(uint32_t)));
+    float *v = prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 3 * sizeof(float)));
+    if (!map || !v) {
+        prt__free(map), prt__free(v);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for vertices");
+    }
+    memset(map, 0xFF, m->vertex_count * sizeof *map);
+    uint32_t *rec = a->owned[1];
+    size_t count = 0;
+    for (size_t w = 0; w < a->strip_words;) {
+        const rs_strip st = rs_strip_at(rec + w, a->leaf, a->q16);
+        uint32_t *index = (uint32_t *)st.index;
+        for (uint32_t j = 0; j < st.n + 2; j++) {
+            if (map[index[j]] == UINT32_MAX) {
+                memcpy(v + 3 * count, m->vertices + 3 * (size_t)index[j], 3 * sizeof(float));
+                map[index[j]] = (uint32_t)count++;
+            }
+            index[j] = map[index[j]];
+        }
+        w += rs_record_words(st.n, a->leaf, a->q16);
+    }
+    prt__free(map);
+    float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
+    if (shrunk) v = shrunk;
+    a->owned[2] = v, a->vertices = v, a->vertex_count = count;
+    return PRT_OK;
+}
+
 static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
-    int chunk, leaf, split, strip;
+    int chunk, leaf, split, strip, packet;
     prt_status s;
     if ((s = prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 2, 1, 8, &leaf)) ||
         (s = prt__spec_enum(spec, "split", g_split_names, 2, 0, &split)) ||
         (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_MESHOPT, &strip)) ||
-        (s = prt__spec_check_unused(spec)))
+        (s = prt__spec_enum(spec, "packet", g_packet_names, 2, 0, &packet)) || (s = prt__spec_check_unused(spec)))
         return s;
     if (leaf & (leaf - 1)) return prt__fail(PRT_ERROR_ARGUMENT, "raystrips: leaf=%d: 1, 2, 4 or 8 triangles", leaf);
     if (m->triangle_count >= RS_MAX_TRIANGLES)
         return prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu triangles; ids hold at most %u", m->triangle_count,
                          RS_MAX_TRIANGLES - 1);
+    /* The canonical spec names every option in one order, whatever order the user gave. */
+    spec->count = 0;
     char num[16];
     snprintf(num, sizeof num, "%d", chunk);
     prt__spec_set(spec, "chunk", num);
@@ -178,6 +215,7 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     prt__spec_set(spec, "leaf", num);
     prt__spec_set(spec, "split", g_split_names[split]);
     prt__spec_set(spec, "strip", g_strip_names[strip]);
+    prt__spec_set(spec, "packet", g_packet_names[packet]);
 
     const int threads = o ? o->threads : 0;
     uint32_t *tris, *first;
@@ -193,14 +231,11 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
         s = encode(a, m, &strips, threads);
     }
     rs_strip_list_free(&strips);
-    float *v = s ? NULL : prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 3 * sizeof(float)));
-    if (!s && !v) s = prt__fail(PRT_ERROR_NOMEM, "out of memory for vertices");
+    if (!s) s = reorder_vertices(a, m);
     if (s) {
         if (a) rs_destroy(&a->base);
         return s;
     }
-    memcpy(v, m->vertices, m->vertex_count * 3 * sizeof(float));
-    a->owned[2] = v, a->vertices = v, a->vertex_count = m->vertex_count;
     for (int k = 0; k < 3; k++) {
         a->base.bounds[k] = INFINITY, a->base.bounds[3 + k] = -INFINITY;
         for (int i = 0; i < 4; i++) {
@@ -208,7 +243,7 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
             a->base.bounds[3 + k] = fmaxf(a->base.bounds[3 + k], a->nodes[0].box[8 * k + 4 + i]);
         }
     }
-    a->base.ops = &prt__raystrips_ops;
+    a->base.ops = packet ? &prt__raystrips_ops_single : &prt__raystrips_ops;
     a->base.triangles_built = n;
     *out = &a->base;
     return PRT_OK;
@@ -237,10 +272,11 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     rs_meta meta;
     memcpy(&meta, mp, sizeof meta);
     /* The spec string names the options; META must agree with it. */
-    int chunk, leaf, split, strip;
+    int chunk, leaf, split, strip, packet;
     if (prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 2, 1, 8, &leaf) ||
         prt__spec_enum(spec, "split", g_split_names, 2, 0, &split) ||
-        prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, 0, &strip) || prt__spec_check_unused(spec))
+        prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, 0, &strip) ||
+        prt__spec_enum(spec, "packet", g_packet_names, 2, 0, &packet) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
     if (meta.leaf != leaf || meta.q16 != split || meta.reserved[0] || meta.reserved[1] ||
         nsize != meta.node_count * sizeof(rs_node) || meta.node_count == 0 || meta.node_count >= RS_LEAF ||
@@ -259,13 +295,17 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         prt__free(a);
         return s;
     }
-    a->base.ops = &prt__raystrips_ops;
+    a->base.ops = packet ? &prt__raystrips_ops_single : &prt__raystrips_ops;
     *out = &a->base;
     return PRT_OK;
 }
 
 const prt_accel_ops prt__raystrips_ops = {
     "raystrips", rs_build, rs_intersect1, rs_occluded1, rs_intersect_packet, rs_stats, rs_save, rs_load, rs_destroy,
+};
+
+const prt_accel_ops prt__raystrips_ops_single = {
+    "raystrips", rs_build, rs_intersect1, rs_occluded1, NULL, rs_stats, rs_save, rs_load, rs_destroy,
 };
 
 const prt_repr_family prt__raystrips_family = {&prt__raystrips_ops, rs_accepts, rs_name_at};
