@@ -268,6 +268,8 @@ typedef struct bench_row {
     size_t triangles;
     double build_s;
     double bytes_per_tri_tree, bytes_per_tri_geometry, bytes_per_tri_total;
+    double vertex_error;            /* lossy representations: the stated bound, else 0 */
+    char detail[256];               /* prt_stats.detail */
     double random_us_per_1024;      /* warm, one thread, minimum */
     double random_us_per_1024_cold; /* cold, one thread, median */
     bench_figures w[BENCH_WORKLOAD_COUNT];

@@ -14,6 +14,8 @@ void bench_row_set_stats(bench_row *row, const prt_stats *s, size_t triangles) {
     row->bytes_per_tri_tree = (double)s->bytes_tree / t;
     row->bytes_per_tri_geometry = (double)s->bytes_geometry / t;
     row->bytes_per_tri_total = (double)(s->bytes_tree + s->bytes_geometry + s->bytes_other) / t;
+    row->vertex_error = s->vertex_error;
+    snprintf(row->detail, sizeof row->detail, "%s", s->detail);
 }
 
 void bench_machine_string(char *buf, size_t size) {
@@ -221,6 +223,11 @@ void bench_report_json(FILE *f, const bench_report *r) {
         json_number(f, "bytes_per_tri_tree", row->bytes_per_tri_tree, true);
         json_number(f, "bytes_per_tri_geometry", row->bytes_per_tri_geometry, true);
         json_number(f, "bytes_per_tri_total", row->bytes_per_tri_total, true);
+        if (row->vertex_error > 0) json_number(f, "vertex_error", row->vertex_error, true);
+        if (row->detail[0]) {
+            fprintf(f, ", \"detail\": ");
+            json_string(f, row->detail);
+        }
         json_number(f, "random_us_per_1024", row->random_us_per_1024, row->random_us_per_1024 > 0);
         json_number(f, "random_us_per_1024_cold", row->random_us_per_1024_cold, row->random_us_per_1024_cold > 0);
         json_number(f, "random_us_per_ray_cold", row->random_us_per_1024_cold / 1024.0,
