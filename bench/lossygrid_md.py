@@ -15,7 +15,8 @@ TRIANGLE_BVHS = ["wide8:float3-soa8", "quad:idx32-soa4", "wide8:idx8-bitpack-soa
 
 DETAIL = re.compile(r"(?P<sub>\d+) sub-grids hold (?P<share>[\d.]+)% of the triangles, (?P<per>[\d.]+) per sub-grid; "
                     r"vertex error max (?P<max>[\d.e+-]+), RMS (?P<rms>[\d.e+-]+)"
-                    r"(; per sub-grid / its diagonal: avg (?P<ravg>[\d.e+-]+)%, max (?P<rmax>[\d.e+-]+)%; (?P<grids>\d+) grids)?")
+                    r"(; per sub-grid / its diagonal: avg (?P<ravg>[\d.e+-]+)%, max (?P<rmax>[\d.e+-]+)%; (?P<grids>\d+) grids)?"
+                    r"(; shared corners would save (?P<share_save>[\d.e+-]+) B/tri)?")
 
 
 def rows(run):
@@ -54,8 +55,9 @@ def main(paths):
 
     w("## Table 1: memory\n")
     w("| mesh | triangles | sub-grids | in grids | tri/sub-grid | tree B/tri | geometry B/tri | total B/tri | total MB "
-      "| ids=mesh B/tri | Embree B/tri | reduction vs Embree | vs quad:idx32-soa4 | vs wide8:idx8-bitpack-soa4 | load |")
-    w("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+      "| ids=mesh B/tri | Embree B/tri | reduction vs Embree | vs quad:idx32-soa4 | vs wide8:idx8-bitpack-soa4 "
+      "| §9 shared corners would save | load |")
+    w("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for run in runs:
         r = rows(run)
         g = r.get(OURS)
@@ -73,7 +75,8 @@ def main(paths):
           f"{fmt(withids['bytes_per_tri_total']) if withids else '-'} | {fmt(e['bytes_per_tri_total']) if e else '-'} | "
           f"{fmt(ratio(e and e['bytes_per_tri_total'], g['bytes_per_tri_total']), 1)}x | "
           f"{fmt(ratio(idx and idx['bytes_per_tri_total'], g['bytes_per_tri_total']), 1)}x | "
-          f"{fmt(ratio(small and small['bytes_per_tri_total'], g['bytes_per_tri_total']), 1)}x | {run.get('load_average', -1):.1f} |")
+          f"{fmt(ratio(small and small['bytes_per_tri_total'], g['bytes_per_tri_total']), 1)}x | "
+          f"{d['share_save'] + ' B/tri' if d and d['share_save'] else '-'} | {run.get('load_average', -1):.1f} |")
     w("")
 
     w("## Table 2: speed relative to Embree (same rays, one thread; > 1 is faster than Embree)\n")

@@ -8,6 +8,7 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdlib.h>
 
 typedef struct packer {
     const lg_grid_rec *grids;
@@ -43,6 +44,27 @@ static void rec_encode(const void *ctx, uint8_t *dst, const uint32_t *prims, uin
             memcpy(dst, &tr, sizeof tr);
         }
     }
+}
+
+static int cmp_u32(const void *a, const void *b) {
+    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Benthin's §9: how many distinct vertices the sub-grids' corners are, what a shared corner
+ * table would hold instead of four corners in every record. */
+static size_t distinct_corners(const lg_source *s, size_t n) {
+    uint32_t *ids = prt__alloc(prt__mul_size(4 * n + 1, sizeof *ids));
+    if (!ids) return 0;
+    for (size_t i = 0; i < n; i++) {
+        const int rx = s[i].rx, ry = s[i].ry;
+        ids[4 * i] = s[i].v[0], ids[4 * i + 1] = s[i].v[rx], ids[4 * i + 2] = s[i].v[5 * ry], ids[4 * i + 3] = s[i].v[5 * ry + rx];
+    }
+    qsort(ids, 4 * n, sizeof *ids, cmp_u32);
+    size_t d = 0;
+    for (size_t i = 0; i < 4 * n; i++) d += i == 0 || ids[i] != ids[i - 1];
+    prt__free(ids);
+    return d;
 }
 
 static void set_prim(bvh_prim *p, const prt_aabb *b, size_t id) {
@@ -124,6 +146,7 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
         rep->rel_error_avg = ng ? rel / (double)ng : 0;
         rep->grids = ex.grid_count, rep->subgrids = ng, rep->grid_triangles = ex.grid_triangles;
         rep->tri_records = ntri_rec, rep->loose_triangles = ex.loose_count;
+        rep->distinct_corners = distinct_corners(ex.subgrids, ng);
     }
     if (s) {
         prt__free(own_order);

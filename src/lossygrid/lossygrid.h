@@ -22,6 +22,7 @@ typedef struct lg_build_report {
     double vertex_error;   /* largest distance of a decoded grid vertex from the mesh's */
     double rms_error;      /* over every sub-grid vertex */
     double rel_error_avg, rel_error_max; /* per sub-grid: its largest error / its box diagonal */
+    size_t distinct_corners; /* mesh vertices that are some sub-grid's corner (§9's sharing) */
     float bounds[6];
 } lg_build_report;
 
