@@ -50,6 +50,18 @@ void prt_accel_free(prt_accel *a) {
     else if (map) prt__unmap(map, size);
 }
 
+prt_status prt_accel_update(prt_accel *a, const float *vertices) {
+    if (!a || !vertices) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_update: NULL argument");
+    if (!a->ops->update)
+        return prt__fail(PRT_ERROR_UNSUPPORTED,
+                         "prt_accel_update: representation '%s' cannot be updated in place; build it again from the moved mesh",
+                         a->spec);
+    double t0 = prt__now();
+    prt_status s = a->ops->update(a, vertices);
+    if (!s) a->build_seconds = prt__now() - t0;
+    return s;
+}
+
 const char *prt_accel_spec(const prt_accel *a) { return a->spec; }
 
 void prt_accel_bounds(const prt_accel *a, float lo[3], float hi[3]) {

@@ -21,6 +21,10 @@ typedef struct prt_accel_ops {
     /* Load from a checked container; sections point into memory that outlives the accel. */
     prt_status (*load)(prt_reader *r, prt_spec *spec, prt_accel **out);
     void (*destroy)(prt_accel *a);
+    /* Rebuild in place from new positions of the same vertices (prt_accel_update): the
+     * array holds 3 floats per vertex of the mesh the accel was built from. NULL: the
+     * representation cannot update; prt_accel_update says so. */
+    prt_status (*update)(prt_accel *a, const float *vertices);
 } prt_accel_ops;
 
 struct prt_accel {

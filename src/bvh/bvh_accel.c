@@ -320,7 +320,7 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
 }
 
 const prt_accel_ops prt__bvh_ops = {
-    "bvh", bvh_build_accel, bvh_intersect1, bvh_occluded1, NULL, bvh_stats, bvh_save, bvh_load, bvh_destroy,
+    "bvh", bvh_build_accel, bvh_intersect1, bvh_occluded1, NULL, bvh_stats, bvh_save, bvh_load, bvh_destroy, NULL, /* update: not yet (rebuild) */
 };
 
 const prt_repr_family prt__bvh_family = {&prt__bvh_ops, bvh_accepts, bvh_name_at};

@@ -106,7 +106,7 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
         memcpy(prims[i].hi, b.hi, sizeof b.hi);
         prims[i].id = (uint32_t)i, prims[i].pad = 0;
         const uint32_t n = l->first[i + 1] - l->first[i] - 2;
-        words += rs_record_words(n, a->leaf, a->q16);
+        words += rs_record_words(n, rs_live(l->id + l->first[i] - 2 * i, n), a->leaf, a->q16);
         a->strip_triangles += n;
     }
     if (words >= RS_LEAF) {
@@ -144,11 +144,12 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
                 continue;
             }
             const uint32_t st = tree.prims[b->index], f = l->first[st], nt = l->first[st + 1] - f - 2;
-            const prt_aabb box = rs_encode_strip(m, l->index + f, l->id + f - 2 * (size_t)st, nt, a->leaf, a->q16, rec + w);
+            const uint32_t *ids = l->id + f - 2 * (size_t)st;
+            const prt_aabb box = rs_encode_strip(m, l->index + f, ids, nt, a->leaf, a->q16, rec + w);
             for (int k = 0; k < 3; k++) n->box[8 * k + i] = box.lo[k], n->box[8 * k + 4 + i] = box.hi[k];
             n->child[i] = RS_LEAF | (uint32_t)w;
             a->bytes_strip_tree += 4 * rs_tree_words(nt, a->leaf, a->q16);
-            w += rs_record_words(nt, a->leaf, a->q16);
+            w += rs_record_words(nt, rs_live(ids, nt), a->leaf, a->q16);
         }
     }
     a->nodes = nodes, a->node_count = count;
@@ -185,7 +186,7 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
             }
             index[j] = map[index[j]];
         }
-        w += rs_record_words(st.n, a->leaf, a->q16);
+        w += rs_record_words(st.n, st.live, a->leaf, a->q16);
     }
     prt__free(map);
     float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
@@ -300,12 +301,28 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     return PRT_OK;
 }
 
+/* Designated initializers: fields added to prt_accel_ops later (update) stay NULL here. */
 const prt_accel_ops prt__raystrips_ops = {
-    "raystrips", rs_build, rs_intersect1, rs_occluded1, rs_intersect_packet, rs_stats, rs_save, rs_load, rs_destroy,
+    .name = "raystrips",
+    .build = rs_build,
+    .intersect1 = rs_intersect1,
+    .occluded1 = rs_occluded1,
+    .intersect_packet = rs_intersect_packet,
+    .stats = rs_stats,
+    .save = rs_save,
+    .load = rs_load,
+    .destroy = rs_destroy,
 };
 
 const prt_accel_ops prt__raystrips_ops_single = {
-    "raystrips", rs_build, rs_intersect1, rs_occluded1, NULL, rs_stats, rs_save, rs_load, rs_destroy,
+    .name = "raystrips",
+    .build = rs_build,
+    .intersect1 = rs_intersect1,
+    .occluded1 = rs_occluded1,
+    .stats = rs_stats,
+    .save = rs_save,
+    .load = rs_load,
+    .destroy = rs_destroy,
 };
 
 const prt_repr_family prt__raystrips_family = {&prt__raystrips_ops, rs_accepts, rs_name_at};

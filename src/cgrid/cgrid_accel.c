@@ -1,0 +1,215 @@
+/* The cgrid family behind prt_accel_ops:
+ *   "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on"
+ * lambda: cells per triangle (§3); macro: macrocell size M, 0 for none (§2.4); packet: 0
+ * traces the caller's packets as given, 1 every ray by the single-ray DDA, N = 2, 4, 8, 16
+ * cuts the caller's packets into N x N sub-packets; mailbox and cull switch the two
+ * per-packet optimisations of §2.3 (for the paper's Table 1).
+ * update() rebuilds the grid in place from new vertex positions (same triangles).
+ * Saved as sections CGHD (grid header), CGCS (cell starts), CGRF (references), CGTR
+ * (triangle vertices of the saved frame) and CGIX (triangle indices, for update after a
+ * load); the macrocell flags are recomputed on load. */
+#include "cgrid/cgrid.h"
+
+#include <math.h>
+#include <stdio.h>
+
+extern const prt_accel_ops prt__cgrid_ops;
+
+_Static_assert(sizeof(cg_file_header) == 80, "CGHD section is 80 bytes");
+
+#define TAG_HEAD PRT_FOURCC('C', 'G', 'H', 'D')
+#define TAG_CELLS PRT_FOURCC('C', 'G', 'C', 'S')
+#define TAG_REFS PRT_FOURCC('C', 'G', 'R', 'F')
+#define TAG_TRIS PRT_FOURCC('C', 'G', 'T', 'R')
+#define TAG_INDICES PRT_FOURCC('C', 'G', 'I', 'X')
+
+static const char *const g_onoff[] = {"off", "on"};
+
+/* Read the options of spec (and spell them all out in it). */
+static prt_status parse_options(prt_spec *spec, cg_options *o) {
+    prt_status s;
+    if ((s = prt__spec_int(spec, "lambda", 6, 1, 64, &o->lambda)) || (s = prt__spec_int(spec, "macro", 6, 0, 32, &o->macro)) ||
+        (s = prt__spec_int(spec, "packet", 0, 0, 16, &o->packet)) ||
+        (s = prt__spec_enum(spec, "mailbox", g_onoff, 2, 1, &o->mailbox)) ||
+        (s = prt__spec_enum(spec, "cull", g_onoff, 2, 1, &o->cull)) || (s = prt__spec_check_unused(spec)))
+        return s;
+    if (o->packet & (o->packet - 1))
+        return prt__fail(PRT_ERROR_ARGUMENT, "option packet=%d: expected 0 (as given), 1 (single rays), 2, 4, 8 or 16",
+                         o->packet);
+    char num[16];
+    snprintf(num, sizeof num, "%d", o->lambda);
+    prt__spec_set(spec, "lambda", num);
+    snprintf(num, sizeof num, "%d", o->macro);
+    prt__spec_set(spec, "macro", num);
+    snprintf(num, sizeof num, "%d", o->packet);
+    prt__spec_set(spec, "packet", num);
+    prt__spec_set(spec, "mailbox", g_onoff[o->mailbox]);
+    prt__spec_set(spec, "cull", g_onoff[o->cull]);
+    return PRT_OK;
+}
+
+static void cg_destroy(prt_accel *a) {
+    cg_accel *c = (cg_accel *)a;
+    prt__free(c->pool.cell_start);
+    prt__free(c->pool.refs);
+    prt__free(c->pool.mflags);
+    prt__free(c->pool.tris);
+    prt__free(c->indices_owned);
+    prt__free(c);
+}
+
+static prt_status cg_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
+    cg_options opt;
+    prt_status s = parse_options(spec, &opt);
+    if (s) return s;
+    if (m->triangle_count > UINT32_MAX - 1 || m->vertex_count > UINT32_MAX)
+        return prt__fail(PRT_ERROR_LIMIT, "cgrid: %zu triangles / %zu vertices exceed its 32-bit ids", m->triangle_count,
+                         m->vertex_count);
+    cg_accel *c = prt__calloc(1, sizeof *c);
+    if (!c) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    c->base.ops = &prt__cgrid_ops;
+    c->opt = opt;
+    c->ntris = m->triangle_count;
+    c->nverts = m->vertex_count;
+    c->threads = o ? o->threads : 0;
+    c->indices_owned = prt__alloc(prt__mul_size(3 * sizeof(uint32_t), c->ntris));
+    if (!c->indices_owned) {
+        cg_destroy(&c->base);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu triangle indices", c->ntris);
+    }
+    memcpy(c->indices_owned, m->triangles, 3 * sizeof(uint32_t) * c->ntris);
+    c->indices = c->indices_owned;
+    if ((s = cg_rebuild(c, m->vertices, c->threads))) {
+        cg_destroy(&c->base);
+        return s;
+    }
+    *out = &c->base;
+    return PRT_OK;
+}
+
+static prt_status cg_update(prt_accel *a, const float *vertices) {
+    cg_accel *c = (cg_accel *)a;
+    for (size_t i = 0; i < 3 * c->nverts; i++)
+        if (!(fabsf(vertices[i]) <= PRT_MAX_COORDINATE))
+            return prt__fail(isfinite(vertices[i]) ? PRT_ERROR_LIMIT : PRT_ERROR_MESH,
+                             "prt_accel_update: vertex %zu has coordinate %g (finite, within +-%g expected)", i / 3,
+                             (double)vertices[i], (double)PRT_MAX_COORDINATE);
+    return cg_rebuild(c, vertices, c->threads);
+}
+
+static void cg_stats(const prt_accel *a, prt_stats *s) {
+    const cg_accel *c = (const cg_accel *)a;
+    const cg_grid *g = &c->g;
+    s->bytes_tree = 4 * (g->ncells + 1) + g->nmacro;
+    s->bytes_geometry = 4 * g->nrefs + 36 * c->ntris;
+    s->bytes_other = 12 * c->ntris + sizeof(cg_accel);
+    s->nodes = g->ncells + g->nmacro;
+    size_t occupied = 0;
+    for (size_t i = 0; i < g->ncells; i++) occupied += g->cell_start[i + 1] != g->cell_start[i];
+    s->leaves = occupied;
+    s->depth = g->macro ? 2 : 1;
+    snprintf(s->detail, sizeof s->detail,
+             "grid %ux%ux%u (%zu cells, %.1f%% occupied), %.2f references per triangle, macrocells %u^3 (%ux%ux%u)",
+             g->res[0], g->res[1], g->res[2], g->ncells, 100.0 * (double)occupied / (double)(g->ncells ? g->ncells : 1),
+             (double)g->nrefs / (double)(a->triangles_built ? a->triangles_built : 1), g->macro, g->mres[0], g->mres[1],
+             g->mres[2]);
+}
+
+static void fill_header(const cg_accel *c, cg_file_header *h) {
+    const cg_grid *g = &c->g;
+    memset(h, 0, sizeof *h);
+    memcpy(h->lo, g->lo, sizeof h->lo);
+    h->cell = g->cell, h->inv_cell = g->inv_cell;
+    memcpy(h->res, g->res, sizeof h->res);
+    h->macro = g->macro;
+    h->ncells = g->ncells, h->nrefs = g->nrefs, h->ntris = c->ntris, h->nverts = c->nverts;
+}
+
+static prt_status cg_save(const prt_accel *a, prt_writer *w) {
+    cg_accel *c = (cg_accel *)a; /* the header must outlive this call: it lives in the accel */
+    const cg_grid *g = &c->g;
+    fill_header(c, &c->header);
+    static const uint32_t zero = 0;
+    prt_status s;
+    if ((s = prt__writer_section(w, TAG_HEAD, &c->header, sizeof c->header)) ||
+        (s = prt__writer_section(w, TAG_CELLS, g->cell_start, 4 * (g->ncells + 1))) ||
+        (s = prt__writer_section(w, TAG_REFS, g->nrefs ? (const void *)g->refs : &zero, g->nrefs ? 4 * g->nrefs : 4)) ||
+        (s = prt__writer_section(w, TAG_TRIS, g->tris, 36 * c->ntris)) ||
+        (s = prt__writer_section(w, TAG_INDICES, c->indices, 12 * c->ntris)))
+        return s;
+    return PRT_OK;
+}
+
+static prt_status corrupt(const char *what) { return prt__fail(PRT_ERROR_CORRUPT, "cgrid: %s", what); }
+
+static prt_status cg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
+    cg_options opt;
+    if (parse_options(spec, &opt)) return prt__fail(PRT_ERROR_CORRUPT, "cgrid: the file's spec has bad options: %s", prt_last_error());
+    const void *hp, *cells, *refs, *tris, *indices;
+    size_t hs, cs, rs, ts, is;
+    prt_status s;
+    if ((s = prt__reader_section(r, TAG_HEAD, sizeof(cg_file_header), &hp, &hs)) ||
+        (s = prt__reader_section(r, TAG_CELLS, 8, &cells, &cs)) || (s = prt__reader_section(r, TAG_REFS, 4, &refs, &rs)) ||
+        (s = prt__reader_section(r, TAG_TRIS, 36, &tris, &ts)) || (s = prt__reader_section(r, TAG_INDICES, 12, &indices, &is)))
+        return s;
+    cg_file_header h;
+    memcpy(&h, hp, sizeof h);
+    uint64_t ncells = 1;
+    for (int k = 0; k < 3; k++) {
+        if (h.res[k] < 1 || h.res[k] > CG_MAX_RES) return corrupt("grid resolution out of range");
+        if (!isfinite(h.lo[k])) return corrupt("grid corner is not finite");
+        ncells *= h.res[k];
+    }
+    if (ncells > CG_MAX_CELLS || h.ncells != ncells) return corrupt("cell count disagrees with the resolution");
+    if (!(h.cell > 0 && isfinite(h.cell) && h.inv_cell > 0 && isfinite(h.inv_cell)))
+        return corrupt("cell size is not a positive finite number");
+    if (h.macro != (uint32_t)opt.macro) return corrupt("macrocell size disagrees with the spec");
+    if (h.ntris == 0 || h.ntris > UINT32_MAX - 1 || h.nverts == 0 || h.nverts > UINT32_MAX || h.nrefs > UINT32_MAX - 1)
+        return corrupt("triangle, vertex or reference count out of range");
+    if (hs != sizeof h || cs != 4 * (ncells + 1) || rs != (h.nrefs ? 4 * h.nrefs : 4) || ts != 36 * h.ntris ||
+        is != 12 * h.ntris)
+        return corrupt("a section's size disagrees with the header");
+    const uint32_t *cst = cells, *rf = refs, *ix = indices;
+    if (cst[0] != 0 || cst[ncells] != h.nrefs) return corrupt("cell starts do not span the references");
+    for (uint64_t i = 0; i < ncells; i++)
+        if (cst[i + 1] < cst[i]) return corrupt("cell starts decrease");
+    for (uint64_t i = 0; i < h.nrefs; i++)
+        if (rf[i] >= h.ntris) return corrupt("a cell references a triangle past the end");
+    for (uint64_t i = 0; i < 3 * h.ntris; i++)
+        if (ix[i] >= h.nverts) return corrupt("a triangle index is past the vertex count");
+
+    cg_accel *c = prt__calloc(1, sizeof *c);
+    if (!c) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    c->base.ops = &prt__cgrid_ops;
+    c->opt = opt;
+    c->ntris = (size_t)h.ntris, c->nverts = (size_t)h.nverts;
+    c->indices = ix;
+    cg_grid *g = &c->g;
+    memcpy(g->lo, h.lo, sizeof g->lo);
+    g->cell = h.cell, g->inv_cell = h.inv_cell;
+    memcpy(g->res, h.res, sizeof g->res);
+    g->ncells = (size_t)ncells, g->nrefs = (size_t)h.nrefs;
+    g->cell_start = cst, g->refs = rf, g->tris = tris;
+    if ((s = cg_macro_flags(c, 0))) {
+        cg_destroy(&c->base);
+        return s;
+    }
+    *out = &c->base;
+    return PRT_OK;
+}
+
+static bool cg_accepts(const prt_spec *s) { return !strcmp(s->structure, "cgrid") && !s->codec[0]; }
+
+static bool cg_name_at(size_t i, const char **name, const char **desc) {
+    if (i) return false;
+    *name = "cgrid";
+    *desc = "Coherent grid (Wald et al. 2006): uniform grid of ~lambda*N cubic cells rebuilt per frame (prt_accel_update), "
+            "macrocells, slice-by-slice frustum packets with mailboxing and culling, 3D-DDA for single rays";
+    return true;
+}
+
+const prt_accel_ops prt__cgrid_ops = {
+    "cgrid", cg_build, cg_intersect1, cg_occluded1, cg_intersect_packet, cg_stats, cg_save, cg_load, cg_destroy, cg_update,
+};
+
+const prt_repr_family prt__cgrid_family = {&prt__cgrid_ops, cg_accepts, cg_name_at};

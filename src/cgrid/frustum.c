@@ -1,0 +1,360 @@
+/* Slice-by-slice frustum packet traversal (Wald et al. 2006 §2.2-2.4).
+ *
+ * The packet's rays are taken to grid coordinates (a cell is a unit cube; t is unchanged).
+ * The major axis K is the dominant axis of the rays' summed direction. Rays whose
+ * direction along K has the packet's sign and whose slopes dU/dK, dV/dK stay within
+ * CG_MAX_SLOPE take the frustum path; the others (opposite or zero K sign, grazing rays)
+ * are traced alone by the DDA, so a packet whose rays disagree in sign is handled exactly.
+ *
+ * From the first slice any ray needs, the frustum is bounded by four planes: each ray's
+ * u and v at the entry plane (min and max over rays) plus the smallest and largest slope.
+ * Each slice's overlap box is the entry box plus a constant (one 4-wide add), the cells it
+ * covers one 4-wide truncation. Every ray's line lies inside the frustum for every later
+ * slice, so every cell a ray passes is visited (rays with different origins included).
+ * Before a slice of fine cells, the slab of macrocells it belongs to is tested and
+ * skipped whole when empty (§2.4).
+ *
+ * In a slice, each referenced triangle is checked against the packet's mailbox (skipped
+ * when already seen by this packet) and against the four frustum planes (culled when all
+ * three vertices lie outside one plane: no ray of the packet can hit it; §2.3). The
+ * survivors are gathered in blocks of 8 and every live ray tests them with the repo's
+ * watertight 8-wide test. A ray is finished once its closest hit (or the end of its
+ * segment) lies before the exit plane of the slice; the packet stops when all are. */
+#include "cgrid/cgrid.h"
+#include "geom/triangle.h"
+
+#include <math.h>
+
+#define CG_MAX_SLOPE 8.0f
+#define CG_CHUNK 64 /* candidate triangles gathered before testing */
+#define CG_MAILBOX 1024
+
+static _Thread_local uint32_t mb_tri[CG_MAILBOX], mb_stamp[CG_MAILBOX], mb_epoch;
+
+static inline uint32_t mailbox_begin(void) {
+    if (++mb_epoch == 0) {
+        memset(mb_stamp, 0, sizeof mb_stamp);
+        mb_epoch = 1;
+    }
+    return mb_epoch;
+}
+
+/* True when tri was already seen by the packet with this epoch; marks it seen. */
+static inline bool mailbox_seen(uint32_t epoch, uint32_t tri) {
+    uint32_t h = (tri * 2654435761u) >> 22; /* 10 bits */
+    if (mb_stamp[h] == epoch && mb_tri[h] == tri) return true;
+    mb_stamp[h] = epoch, mb_tri[h] = tri;
+    return false;
+}
+
+typedef struct pray {
+    prt__rayx rx;
+    float ogK, invK; /* grid K coordinate of the origin, 1 / direction along K */
+    float t1;        /* end of the segment inside the grid */
+    float t, u, v;   /* closest hit so far; t starts at tfar */
+    uint32_t prim, index;
+} pray;
+
+typedef struct frustum {
+    pray *rays;
+    uint32_t n;         /* rays in the frustum set */
+    uint32_t live[PRT_PACKET_MAX], nlive;
+    vf4 plane_u, plane_v, plane_k, plane_c; /* four culling planes over grid coordinates */
+    float cull_eps;
+    const cg_grid *g;
+    int K, U, V;
+    uint64_t tests;
+} frustum;
+
+/* Test the live rays against up to CG_CHUNK candidate triangles. */
+static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
+    if (!nc) return;
+    float blocks[CG_CHUNK / 8][72];
+    const uint32_t nb = (nc + 7) / 8;
+    for (uint32_t b = 0; b < nb; b++)
+        for (uint32_t l = 0; l < 8; l++) {
+            uint32_t i = b * 8 + l;
+            if (i < nc) {
+                const float *p = f->g->tris + 9 * (size_t)cand[i];
+                for (int c = 0; c < 9; c++) blocks[b][c * 8 + l] = p[c];
+            } else
+                for (int c = 0; c < 9; c++) blocks[b][c * 8 + l] = NAN;
+        }
+    f->tests += (uint64_t)nc * f->nlive;
+    for (uint32_t li = 0; li < f->nlive; li++) {
+        pray *r = &f->rays[f->live[li]];
+        prt__rayx8t r8;
+        prt__rayx8t_init(&r8, &r->rx);
+        for (uint32_t b = 0; b < nb; b++) {
+            vf8 t, u, v;
+            int mask = prt__tri8_hit(&r->rx, &r8, blocks[b], vf8_set1(r->t), &t, &u, &v);
+            while (mask) {
+                int l = __builtin_ctz((unsigned)mask);
+                mask &= mask - 1;
+                uint32_t tri = cand[b * 8 + (uint32_t)l];
+                if (t[l] < r->t || (t[l] == r->t && tri < r->prim)) r->t = t[l], r->u = u[l], r->v = v[l], r->prim = tri;
+            }
+        }
+    }
+}
+
+/* True when all three vertices lie outside one of the four frustum planes. */
+static inline bool frustum_culls(const frustum *f, const float *p) {
+    const cg_grid *g = f->g;
+    int out = 0xf;
+    for (int v = 0; v < 3 && out; v++) {
+        const float *q = p + 3 * v;
+        float gu = (q[f->U] - g->lo[f->U]) * g->inv_cell, gv = (q[f->V] - g->lo[f->V]) * g->inv_cell,
+              gk = (q[f->K] - g->lo[f->K]) * g->inv_cell;
+        vf4 d = f->plane_u * vf4_set1(gu) + f->plane_v * vf4_set1(gv) + f->plane_k * vf4_set1(gk) + f->plane_c;
+        out &= vi4_mask(d < vf4_set1(-f->cull_eps));
+    }
+    return out != 0;
+}
+
+/* floor(x) for the 4 lanes, clamped to [-1, top + 1] first so the conversion is defined. */
+static inline vi4 floor4_clamped(vf4 x, vf4 top) {
+    x = vf4_min(vf4_max(x, vf4_set1(-1.0f)), top + vf4_set1(1.0f));
+    return __builtin_convertvector(x + vf4_set1(1.0f), vi4) - (vi4){1, 1, 1, 1};
+}
+
+/* Trace rays idx[0..n) of the packet: frustum set through slices, the rest by DDA. */
+static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const uint32_t *idx, uint32_t n) {
+    const cg_grid *g = &c->g;
+    cg_counters *cnt = &prt__cg_counters;
+    /* Major axis and sign from the summed normalised directions. */
+    float sum[3] = {0, 0, 0};
+    for (uint32_t i = 0; i < n; i++) {
+        const float *d = rays[idx[i]].dir;
+        float l = 1.0f / sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (!(l < INFINITY)) continue;
+        for (int k = 0; k < 3; k++) sum[k] += d[k] * l;
+    }
+    const int K = fabsf(sum[0]) > fabsf(sum[1]) ? (fabsf(sum[0]) > fabsf(sum[2]) ? 0 : 2) : (fabsf(sum[1]) > fabsf(sum[2]) ? 1 : 2);
+    const int U = (K + 1) % 3, V = (K + 2) % 3;
+    const int sgn = sum[K] >= 0.0f ? 1 : -1;
+
+    pray pr[PRT_PACKET_MAX];
+    frustum f = {pr, 0, {0}, 0, {0}, {0}, {0}, {0}, 0, g, K, U, V, 0};
+    uint32_t single[PRT_PACKET_MAX], nsingle = 0;
+    int k_first = sgn > 0 ? INT32_MAX : INT32_MIN, k_last = sgn > 0 ? INT32_MIN : INT32_MAX;
+    const int topK = (int)g->res[K] - 1;
+    for (uint32_t i = 0; i < n; i++) {
+        const prt_ray *r = &rays[idx[i]];
+        float dg[3], og[3];
+        for (int k = 0; k < 3; k++) dg[k] = r->dir[k] * g->inv_cell, og[k] = (r->org[k] - g->lo[k]) * g->inv_cell;
+        float aK = dg[K] * (float)sgn;
+        if (!(aK > 0.0f) || fabsf(dg[U]) > CG_MAX_SLOPE * aK || fabsf(dg[V]) > CG_MAX_SLOPE * aK) {
+            single[nsingle++] = idx[i];
+            continue;
+        }
+        /* Segment inside the (slightly grown) grid box. */
+        float t0 = r->tnear, t1 = r->tfar;
+        bool miss = false;
+        for (int k = 0; k < 3 && !miss; k++) {
+            const float lo = -CG_TRAVERSE_MARGIN, hi = (float)g->res[k] + CG_TRAVERSE_MARGIN;
+            if (dg[k] == 0.0f) {
+                miss = !(og[k] >= lo && og[k] <= hi);
+                continue;
+            }
+            float inv = 1.0f / dg[k];
+            float a = (lo - og[k]) * inv, b = (hi - og[k]) * inv;
+            if (a > b) {
+                float x = a;
+                a = b, b = x;
+            }
+            t0 = a > t0 ? a : t0;
+            t1 = b < t1 ? b : t1;
+        }
+        if (miss || !(t0 <= t1)) continue; /* misses the grid: stays a miss */
+        pray *p = &pr[f.n++];
+        prt__rayx_init(&p->rx, r);
+        p->ogK = og[K], p->invK = 1.0f / dg[K];
+        p->t1 = t1, p->t = r->tfar, p->u = p->v = 0, p->prim = PRT_INVALID, p->index = idx[i];
+        float kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
+        int sin = (int)floorf(fminf(fmaxf(kin, 0.0f), (float)topK));
+        int sout = (int)floorf(fminf(fmaxf(kout, 0.0f), (float)topK));
+        if (sgn > 0) k_first = PRT_MIN(k_first, sin), k_last = PRT_MAX(k_last, sout);
+        else k_first = PRT_MAX(k_first, sin), k_last = PRT_MIN(k_last, sout);
+    }
+    for (uint32_t i = 0; i < nsingle; i++) {
+        prt__hitx h = {rays[single[i]].tfar, 0, 0, PRT_INVALID};
+        cg_dda_closest(g, &rays[single[i]], &h);
+        if (h.prim != PRT_INVALID) {
+            hits[single[i]] = (prt_hit){h.t, h.u, h.v, h.prim, 0};
+            rays[single[i]].tfar = h.t;
+        }
+    }
+    if (!f.n) return;
+
+    /* Frustum at the entry plane of the first slice. */
+    const float P0 = (float)(sgn > 0 ? k_first : k_first + 1);
+    float Lu = INFINITY, Hu = -INFINITY, Lv = INFINITY, Hv = -INFINITY;
+    float su0 = INFINITY, su1 = -INFINITY, sv0 = INFINITY, sv1 = -INFINITY;
+    for (uint32_t i = 0; i < f.n; i++) {
+        const prt__rayx *x = &pr[i].rx;
+        float ou = (x->org[U] - g->lo[U]) * g->inv_cell, ov = (x->org[V] - g->lo[V]) * g->inv_cell;
+        float su = x->dir[U] / fabsf(x->dir[K]), sv = x->dir[V] / fabsf(x->dir[K]); /* per slice */
+        float dist = (P0 - pr[i].ogK) * (float)sgn;
+        float u = ou + dist * su, v = ov + dist * sv;
+        /* Conservative against the rounding of these few operations. */
+        float mu = CG_TRAVERSE_MARGIN + 4e-7f * (fabsf(ou) + fabsf(dist * su)),
+              mv = CG_TRAVERSE_MARGIN + 4e-7f * (fabsf(ov) + fabsf(dist * sv));
+        Lu = fminf(Lu, u - mu), Hu = fmaxf(Hu, u + mu), Lv = fminf(Lv, v - mv), Hv = fmaxf(Hv, v + mv);
+        su0 = fminf(su0, su - 4e-7f * fabsf(su)), su1 = fmaxf(su1, su + 4e-7f * fabsf(su));
+        sv0 = fminf(sv0, sv - 4e-7f * fabsf(sv)), sv1 = fmaxf(sv1, sv + 4e-7f * fabsf(sv));
+    }
+    const int nslices = (k_last - k_first) * sgn + 1;
+    if (nslices <= 0) return; /* cannot happen: every frustum ray enters and leaves in order */
+
+    /* Incoherent groups (frustum far wider than its rays): single rays are cheaper. */
+    {
+        float w0 = fminf(Hu - Lu, (float)g->res[U]) + 1, h0 = fminf(Hv - Lv, (float)g->res[V]) + 1;
+        float w1 = fminf(Hu - Lu + (su1 - su0) * (float)nslices, (float)g->res[U]) + 1;
+        float h1 = fminf(Hv - Lv + (sv1 - sv0) * (float)nslices, (float)g->res[V]) + 1;
+        if (0.5f * (w0 * h0 + w1 * h1) > 4.0f * (float)f.n + 16.0f) {
+            for (uint32_t i = 0; i < f.n; i++) {
+                prt__hitx h = {pr[i].t, 0, 0, PRT_INVALID};
+                cg_dda_closest(g, &rays[pr[i].index], &h);
+                if (h.prim != PRT_INVALID) {
+                    hits[pr[i].index] = (prt_hit){h.t, h.u, h.v, h.prim, 0};
+                    rays[pr[i].index].tfar = h.t;
+                }
+            }
+            return;
+        }
+    }
+    cnt->packets++;
+
+    /* Culling planes in grid coordinates, w = (k - P0) * sgn slices from the entry plane:
+     * u - su0 w - Lu >= 0, Hu + su1 w - u >= 0, likewise v. */
+    const float fs = (float)sgn;
+    f.plane_u = (vf4){1, -1, 0, 0};
+    f.plane_v = (vf4){0, 0, 1, -1};
+    f.plane_k = (vf4){-su0 * fs, su1 * fs, -sv0 * fs, sv1 * fs};
+    f.plane_c = (vf4){su0 * fs * P0 - Lu, Hu - su1 * fs * P0, sv0 * fs * P0 - Lv, Hv - sv1 * fs * P0};
+    {
+        float big = 0;
+        for (int i = 0; i < 4; i++) big = fmaxf(big, fabsf(f.plane_c[i]) + fabsf(f.plane_k[i]) * (float)g->res[K]);
+        f.cull_eps = 2.0f * CG_TRAVERSE_MARGIN * (2.0f * CG_MAX_SLOPE + 1.0f) + 1e-6f * (big + (float)PRT_MAX(g->res[U], g->res[V]));
+    }
+
+    const size_t stride[3] = {1, g->res[0], (size_t)g->res[0] * g->res[1]};
+    const size_t sK = stride[K], sU = stride[U], sV = stride[V];
+    const vf4 top = {(float)g->res[U] - 1, (float)g->res[U] - 1, (float)g->res[V] - 1, (float)g->res[V] - 1};
+    const uint32_t M = g->macro;
+    size_t mstride[3] = {1, g->mres[0], (size_t)g->mres[0] * g->mres[1]};
+    const vf4 mtop = {(float)g->mres[U] - 1, (float)g->mres[U] - 1, (float)g->mres[V] - 1, (float)g->mres[V] - 1};
+    const vf4 delta = {su0, su1, sv0, sv1};
+    const vf4 grow = {fminf(0, su0), fmaxf(0, su1), fminf(0, sv0), fmaxf(0, sv1)};
+    vf4 entry = {Lu, Hu, Lv, Hv};
+    for (uint32_t i = 0; i < f.n; i++) f.live[i] = i;
+    f.nlive = f.n;
+    const uint32_t epoch = c->opt.mailbox ? mailbox_begin() : 0;
+    uint32_t cand[CG_CHUNK], nc = 0;
+    uint64_t cells = 0, culled = 0, mailboxed = 0;
+
+    int k = k_first;
+    for (int s = 0; s < nslices && f.nlive;) {
+        if (M && (s == 0 || (sgn > 0 ? k % (int)M == 0 : k % (int)M == (int)M - 1))) {
+            int km = k / (int)M;
+            int rem = sgn > 0 ? (km + 1) * (int)M - k : k - km * (int)M + 1;
+            rem = PRT_MIN(rem, nslices - s);
+            const float fr = (float)rem;
+            vf4 mb = entry + (vf4){fminf(0, su0 * fr), fmaxf(0, su1 * fr), fminf(0, sv0 * fr), fmaxf(0, sv1 * fr)};
+            vi4 mc = floor4_clamped(mb * vf4_set1(1.0f / (float)M), mtop);
+            bool empty = true;
+            if (mc[1] >= 0 && mc[3] >= 0 && mc[0] <= (int)mtop[0] && mc[2] <= (int)mtop[2]) {
+                int mu0 = PRT_MAX(mc[0], 0), mu1 = PRT_MIN(mc[1], (int)mtop[1]);
+                int mv0 = PRT_MAX(mc[2], 0), mv1 = PRT_MIN(mc[3], (int)mtop[3]);
+                for (int jv = mv0; jv <= mv1 && empty; jv++)
+                    for (int iu = mu0; iu <= mu1 && empty; iu++)
+                        empty = !g->mflags[(size_t)km * mstride[K] + (size_t)iu * mstride[U] + (size_t)jv * mstride[V]];
+            }
+            if (empty) {
+                entry += delta * vf4_set1(fr);
+                k += sgn * rem;
+                s += rem;
+                continue;
+            }
+        }
+        vi4 cb = floor4_clamped(entry + grow, top);
+        if (cb[1] >= 0 && cb[3] >= 0 && cb[0] <= (int)top[0] && cb[2] <= (int)top[2]) {
+            int u0 = PRT_MAX(cb[0], 0), u1 = PRT_MIN(cb[1], (int)top[1]);
+            int v0 = PRT_MAX(cb[2], 0), v1 = PRT_MIN(cb[3], (int)top[3]);
+            for (int jv = v0; jv <= v1; jv++)
+                for (int iu = u0; iu <= u1; iu++) {
+                    size_t ci = (size_t)k * sK + (size_t)iu * sU + (size_t)jv * sV;
+                    cells++;
+                    for (uint32_t ri = g->cell_start[ci], re = g->cell_start[ci + 1]; ri < re; ri++) {
+                        uint32_t tri = g->refs[ri];
+                        if (epoch && mailbox_seen(epoch, tri)) {
+                            mailboxed++;
+                            continue;
+                        }
+                        if (c->opt.cull && frustum_culls(&f, g->tris + 9 * (size_t)tri)) {
+                            culled++;
+                            continue;
+                        }
+                        cand[nc++] = tri;
+                        if (nc == CG_CHUNK) test_candidates(&f, cand, nc), nc = 0;
+                    }
+                }
+            test_candidates(&f, cand, nc), nc = 0;
+        }
+        /* Retire rays whose hit (or segment end) lies before this slice's exit plane. */
+        const float exit_plane = (float)(sgn > 0 ? k + 1 : k);
+        uint32_t w = 0;
+        for (uint32_t li = 0; li < f.nlive; li++) {
+            pray *r = &pr[f.live[li]];
+            float t_exit = (exit_plane - r->ogK) * r->invK;
+            bool done = (r->prim != PRT_INVALID && r->t <= t_exit) || r->t1 <= t_exit;
+            if (!done) f.live[w++] = f.live[li];
+        }
+        f.nlive = w;
+        entry += delta;
+        k += sgn;
+        s++;
+    }
+    cnt->cells += cells;
+    cnt->tests += f.tests;
+    cnt->culled += culled;
+    cnt->mailboxed += mailboxed;
+    for (uint32_t i = 0; i < f.n; i++) {
+        if (pr[i].prim == PRT_INVALID) continue;
+        hits[pr[i].index] = (prt_hit){pr[i].t, pr[i].u, pr[i].v, pr[i].prim, 0};
+        rays[pr[i].index].tfar = pr[i].t;
+    }
+}
+
+void cg_intersect_packet(const prt_accel *a, prt_packet *p) {
+    const cg_accel *c = (const cg_accel *)a;
+    const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
+    uint32_t idx[PRT_PACKET_MAX];
+    for (uint32_t i = 0; i < n; i++) p->hits[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
+    if (c->opt.packet == 1) { /* single-ray mode: the DDA for every ray */
+        for (uint32_t i = 0; i < n; i++)
+            if (prt__ray_valid(&p->rays[i])) cg_intersect1(a, &p->rays[i], &p->hits[i]);
+        return;
+    }
+    uint32_t W = p->width && p->width <= n ? p->width : n;
+    uint32_t rows = (n + W - 1) / W;
+    uint32_t N = (uint32_t)c->opt.packet;
+    if (N == 0 || (N >= W && N >= rows)) {
+        uint32_t m = 0;
+        for (uint32_t i = 0; i < n; i++)
+            if (prt__ray_valid(&p->rays[i])) idx[m++] = i;
+        if (m) trace_group(c, p->rays, p->hits, idx, m);
+        return;
+    }
+    for (uint32_t ty = 0; ty < rows; ty += N)
+        for (uint32_t tx = 0; tx < W; tx += N) {
+            uint32_t m = 0;
+            for (uint32_t y = ty; y < ty + N && y < rows; y++)
+                for (uint32_t x = tx; x < tx + N && x < W; x++) {
+                    uint32_t i = y * W + x;
+                    if (i < n && prt__ray_valid(&p->rays[i])) idx[m++] = i;
+                }
+            if (m) trace_group(c, p->rays, p->hits, idx, m);
+        }
+}
