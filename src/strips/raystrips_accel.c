@@ -106,7 +106,7 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
         memcpy(prims[i].hi, b.hi, sizeof b.hi);
         prims[i].id = (uint32_t)i, prims[i].pad = 0;
         const uint32_t n = l->first[i + 1] - l->first[i] - 2;
-        words += rs_record_words(n, rs_live(l->id + l->first[i] - 2 * i, n), a->leaf, a->q16);
+        words += rs_record_words(n, a->leaf, a->q16);
         a->strip_triangles += n;
     }
     if (words >= RS_LEAF) {
@@ -144,12 +144,11 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
                 continue;
             }
             const uint32_t st = tree.prims[b->index], f = l->first[st], nt = l->first[st + 1] - f - 2;
-            const uint32_t *ids = l->id + f - 2 * (size_t)st;
-            const prt_aabb box = rs_encode_strip(m, l->index + f, ids, nt, a->leaf, a->q16, rec + w);
+            const prt_aabb box = rs_encode_strip(m, l->index + f, l->id + f - 2 * (size_t)st, nt, a->leaf, a->q16, rec + w);
             for (int k = 0; k < 3; k++) n->box[8 * k + i] = box.lo[k], n->box[8 * k + 4 + i] = box.hi[k];
             n->child[i] = RS_LEAF | (uint32_t)w;
             a->bytes_strip_tree += 4 * rs_tree_words(nt, a->leaf, a->q16);
-            w += rs_record_words(nt, rs_live(ids, nt), a->leaf, a->q16);
+            w += rs_record_words(nt, a->leaf, a->q16);
         }
     }
     a->nodes = nodes, a->node_count = count;
@@ -186,7 +185,7 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
             }
             index[j] = map[index[j]];
         }
-        w += rs_record_words(st.n, st.live, a->leaf, a->q16);
+        w += rs_record_words(st.n, a->leaf, a->q16);
     }
     prt__free(map);
     float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
