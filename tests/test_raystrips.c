@@ -18,6 +18,7 @@
 
 static const char *const g_specs[] = {
     "raystrips",
+    "raystrips,leaf=2,split=f32,strip=meshopt",
     "raystrips,leaf=1",
     "raystrips,leaf=4,split=q16",
     "raystrips,leaf=8",
@@ -85,7 +86,7 @@ TEST(test_bunny_matches_brute_force) {
     CHECK_OK(s);
     if (s) return;
     prt_ray *rays = rays_random(m, 1500, 4);
-    const char *specs[] = {"raystrips", "raystrips,leaf=8,split=q16", "raystrips,strip=rt"};
+    const char *specs[] = {"raystrips", "raystrips,leaf=2,split=f32,strip=meshopt", "raystrips,leaf=4,split=f32"};
     for (size_t i = 0; i < COUNT_OF(specs); i++) expect_matches_reference(m, specs[i], rays, 1500);
     free(rays);
     prt_mesh_free(m);
@@ -108,8 +109,8 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
     for (size_t w = 0, s = 0; s < a->strip_count; s++) {
         const rs_strip st = rs_strip_at(a->strips + w, a->leaf, a->q16);
         for (uint32_t k = 0; k < st.n; k++) {
-            if (st.id[k] == RS_DEAD) continue;
-            const uint32_t prim = st.id[k] >> RS_ID_SHIFT, code = st.id[k] & 7;
+            if (rs_dead(&st, k)) continue;
+            const uint32_t id = rs_id(&st, k), prim = id >> RS_ID_SHIFT, code = id & 7;
             const uint32_t *t = m->triangles + 3 * (size_t)prim, *p = st.index + k;
             live++;
             twice += seen[prim]++ > 0;
@@ -153,7 +154,7 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
             todo[top++] = (visit){v.node + 1, v.first, nl};
             todo[top++] = (visit){v.node + lg, v.first + nl, v.count - nl};
         }
-        w += rs_record_words(st.n, a->leaf, a->q16);
+        w += rs_record_words(st.n, st.live, a->leaf, a->q16);
     }
     size_t missing = 0;
     for (size_t t = 0; t < m->triangle_count; t++) missing += !seen[t] && !prt__mesh_triangle_degenerate(m, t);
@@ -246,7 +247,7 @@ static uint8_t *saved_image(const prt_mesh *m, const char *spec, size_t *size) {
 
 TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
     prt_mesh *m = mesh_grid(12);
-    const char *specs[] = {"raystrips", "raystrips,split=q16,leaf=4"};
+    const char *specs[] = {"raystrips", "raystrips,split=f32,leaf=2,strip=meshopt"};
     for (size_t sp = 0; sp < COUNT_OF(specs); sp++) {
         size_t size;
         uint8_t *img = saved_image(m, specs[sp], &size);
@@ -351,7 +352,7 @@ TEST(test_single_triangle_and_bad_options) {
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "raystrips", NULL, &a));
     if (a) {
-        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=128,leaf=2,split=f32,strip=meshopt,packet=2x2"));
+        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=128,leaf=8,split=q16,strip=rt,packet=2x2"));
         prt_ray r = {{0.25f, 0.5f, 1}, 0, {0, 0, -1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);

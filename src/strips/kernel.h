@@ -67,13 +67,13 @@ PRT_NOINLINE static void rs_fix_zero_edges(int zero, float *e, const float *X, c
 #include "strips/group.inc"
 #undef RG_W
 
-/* Triangles [first, first + count) of a strip (vertex indices index, ids id; count <= 8)
+/* Triangles [first, first + count) of strip s (count <= 8)
  * against ray r within [tnear, tfar]. any: return at the first hit (mask only). Otherwise
  * the nearest hit goes to *best (ties to the smallest id) and the mask of hits is returned. */
-static inline int rs_group(const prt__rayx *r, const float *vertices, const uint32_t *index, const uint32_t *id,
-                           uint32_t count, float tfar, bool any, uint32_t first, const uint32_t *rec, rs_best *best) {
-    return count <= 3 ? rs_group4(r, vertices, index, id, count, tfar, any, first, rec, best)
-                      : rs_group8(r, vertices, index, id, count, tfar, any, first, rec, best);
+static inline int rs_group(const prt__rayx *r, const float *vertices, const rs_strip *s, uint32_t count, float tfar,
+                           bool any, uint32_t first, const uint32_t *rec, rs_best *best) {
+    return count <= 3 ? rs_group4(r, vertices, s, count, tfar, any, first, rec, best)
+                      : rs_group8(r, vertices, s, count, tfar, any, first, rec, best);
 }
 
 /* Strip traversal state. */
@@ -137,7 +137,7 @@ static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const u
                 goto pop;
             }
         }
-        if (rs_group(r, a->vertices, s.index, s.id, count, best->t, any, first, rec, best)) {
+        if (rs_group(r, a->vertices, &s, count, best->t, any, first, rec, best)) {
             if (any) return true;
             found = true;
         }

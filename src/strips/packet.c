@@ -95,7 +95,7 @@ static void strip_packet(const rs_accel *a, rs_pk *p, const uint32_t *rec, const
         }
         for (int m = mask; m; m &= m - 1) {
             const int j = __builtin_ctz((unsigned)m);
-            rs_group(&p->r[j], a->vertices, s.index, s.id, count, p->best[j].t, false, first, rec, &p->best[j]);
+            rs_group(&p->r[j], a->vertices, &s, count, p->best[j].t, false, first, rec, &p->best[j]);
         }
     pop:
         for (;;) {

@@ -106,7 +106,7 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
         memcpy(prims[i].hi, b.hi, sizeof b.hi);
         prims[i].id = (uint32_t)i, prims[i].pad = 0;
         const uint32_t n = l->first[i + 1] - l->first[i] - 2;
-        words += rs_record_words(n, a->leaf, a->q16);
+        words += rs_record_words(n, rs_live(l->id + l->first[i] - 2 * i, n), a->leaf, a->q16);
         a->strip_triangles += n;
     }
     if (words >= RS_LEAF) {
@@ -144,11 +144,12 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
                 continue;
             }
             const uint32_t st = tree.prims[b->index], f = l->first[st], nt = l->first[st + 1] - f - 2;
-            const prt_aabb box = rs_encode_strip(m, l->index + f, l->id + f - 2 * (size_t)st, nt, a->leaf, a->q16, rec + w);
+            const uint32_t *ids = l->id + f - 2 * (size_t)st;
+            const prt_aabb box = rs_encode_strip(m, l->index + f, ids, nt, a->leaf, a->q16, rec + w);
             for (int k = 0; k < 3; k++) n->box[8 * k + i] = box.lo[k], n->box[8 * k + 4 + i] = box.hi[k];
             n->child[i] = RS_LEAF | (uint32_t)w;
             a->bytes_strip_tree += 4 * rs_tree_words(nt, a->leaf, a->q16);
-            w += rs_record_words(nt, a->leaf, a->q16);
+            w += rs_record_words(nt, rs_live(ids, nt), a->leaf, a->q16);
         }
     }
     a->nodes = nodes, a->node_count = count;
@@ -185,7 +186,7 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
             }
             index[j] = map[index[j]];
         }
-        w += rs_record_words(st.n, a->leaf, a->q16);
+        w += rs_record_words(st.n, st.live, a->leaf, a->q16);
     }
     prt__free(map);
     float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
@@ -197,9 +198,11 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
 static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
     int chunk, leaf, split, strip, packet;
     prt_status s;
-    if ((s = prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 2, 1, 8, &leaf)) ||
-        (s = prt__spec_enum(spec, "split", g_split_names, 2, 0, &split)) ||
-        (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_MESHOPT, &strip)) ||
+    /* Defaults: the smallest and (docs/results/raystrips.md) fastest of the options; the
+     * paper's own are leaf=2,split=f32,strip=meshopt (Stripe's algorithm). */
+    if ((s = prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 8, 1, 8, &leaf)) ||
+        (s = prt__spec_enum(spec, "split", g_split_names, 2, 1, &split)) ||
+        (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip)) ||
         (s = prt__spec_enum(spec, "packet", g_packet_names, 2, 0, &packet)) || (s = prt__spec_check_unused(spec)))
         return s;
     if (leaf & (leaf - 1)) return prt__fail(PRT_ERROR_ARGUMENT, "raystrips: leaf=%d: 1, 2, 4 or 8 triangles", leaf);
@@ -273,9 +276,9 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     memcpy(&meta, mp, sizeof meta);
     /* The spec string names the options; META must agree with it. */
     int chunk, leaf, split, strip, packet;
-    if (prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 2, 1, 8, &leaf) ||
-        prt__spec_enum(spec, "split", g_split_names, 2, 0, &split) ||
-        prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, 0, &strip) ||
+    if (prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 8, 1, 8, &leaf) ||
+        prt__spec_enum(spec, "split", g_split_names, 2, 1, &split) ||
+        prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip) ||
         prt__spec_enum(spec, "packet", g_packet_names, 2, 0, &packet) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
     if (meta.leaf != leaf || meta.q16 != split || meta.reserved[0] || meta.reserved[1] ||

@@ -30,14 +30,17 @@ _Static_assert(sizeof(rs_node) == 128, "a top-level node is two cache lines");
 
 /* --- a Ray-Strip record ------------------------------------------------------------- */
 
-/* Word 0: the triangle count n (1..RS_MAX_STRIP) in bits 0..15, the rest 0. Then the
- * ceil(n / leaf) - 1 s-kd nodes: one flag byte each (bits 0..1 the axis, bit 2 the reverse
- * flag), padded to a word; their two split planes each (float32, or uint16 quantized in the
- * strip's box with split=q16, padded to a word); the n + 2 vertex indices; the n ids. */
+/* Word 0: the triangle count n (1..RS_MAX_STRIP) in bits 0..15, the live (not zero-area
+ * turn) ones in bits 16..31. Then the ceil(n / leaf) - 1 s-kd nodes: one flag byte each
+ * (bits 0..1 the axis, bit 2 the reverse flag), padded to a word; their two split planes
+ * each (float32, or uint16 quantized in the strip's box with split=q16, padded to a word);
+ * the n + 2 vertex indices; the ids of the live triangles in strip order; a bit per
+ * triangle, set for the turns, padded to a word. */
 #define RS_MAX_STRIP 65535u
 #define RS_FLAG_REVERSE 4u
 /* Id of a strip triangle: the mesh triangle << 3 | the code of the strip positions of its
- * vertices 1 and 2 (rs_perm); RS_DEAD for the zero-area triangles a strip makes to turn. */
+ * vertices 1 and 2 (rs_perm); RS_DEAD for the zero-area triangles a strip makes to turn
+ * (while building; records store ids for live triangles only). */
 #define RS_DEAD 0xFFFFFFFFu
 #define RS_ID_SHIFT 3
 #define RS_MAX_TRIANGLES (1u << (32 - RS_ID_SHIFT))
@@ -55,27 +58,39 @@ static inline size_t rs_tree_words(uint32_t n, uint32_t leaf, bool q16) {
     size_t nodes = rs_groups(n, leaf) - 1;
     return 1 + rs_words(nodes) + rs_words(nodes * (q16 ? 4 : 8));
 }
-static inline size_t rs_record_words(uint32_t n, uint32_t leaf, bool q16) {
-    return rs_tree_words(n, leaf, q16) + (size_t)n + 2 + n;
+static inline size_t rs_record_words(uint32_t n, uint32_t live, uint32_t leaf, bool q16) {
+    return rs_tree_words(n, leaf, q16) + (size_t)n + 2 + live + rs_words((n + 7) / 8);
 }
 
 /* The parts of the record at rec (rec[0] is the head). */
 typedef struct rs_strip {
-    uint32_t n;
+    uint32_t n, live;
     const uint8_t *flags;
     const void *splits; /* float[2 * nodes] or uint16_t[2 * nodes] */
     const uint32_t *index, *id;
+    const uint8_t *dead; /* bit k: strip triangle k is a turn */
 } rs_strip;
 
 static inline rs_strip rs_strip_at(const uint32_t *rec, uint32_t leaf, bool q16) {
     rs_strip s;
-    s.n = rec[0] & 0xFFFFu;
+    s.n = rec[0] & 0xFFFFu, s.live = rec[0] >> 16;
     size_t nodes = rs_groups(s.n, leaf) - 1;
     s.flags = (const uint8_t *)(rec + 1);
     s.splits = rec + 1 + rs_words(nodes);
     s.index = rec + rs_tree_words(s.n, leaf, q16);
     s.id = s.index + s.n + 2;
+    s.dead = (const uint8_t *)(s.id + s.live);
     return s;
+}
+
+static inline bool rs_dead(const rs_strip *s, uint32_t k) { return s->dead[k >> 3] >> (k & 7) & 1; }
+
+/* The id of live strip triangle k: the live ones before it index the ids. */
+static inline uint32_t rs_id(const rs_strip *s, uint32_t k) {
+    uint32_t dead = 0;
+    for (uint32_t i = 0; i < k >> 3; i++) dead += (uint32_t)__builtin_popcount(s->dead[i]);
+    dead += (uint32_t)__builtin_popcount(s->dead[k >> 3] & ((1u << (k & 7)) - 1));
+    return s->id[k - dead];
 }
 
 /* --- the accel ------------------------------------------------------------------------ */
@@ -138,8 +153,15 @@ size_t rs_stripify_rt(const uint32_t *local_tris, size_t count, size_t local_ver
                       const uint32_t *global, uint32_t *out);
 size_t rs_stripify_bound(size_t count);
 
-/* Encode one strip (skd_build.c): n triangles over vertex indices index[0..n+2), ids id[0..n),
- * into rec (rs_record_words words); returns its box. */
+/* Live (not RS_DEAD) ids among id[0..n). */
+static inline uint32_t rs_live(const uint32_t *id, uint32_t n) {
+    uint32_t live = 0;
+    for (uint32_t i = 0; i < n; i++) live += id[i] != RS_DEAD;
+    return live;
+}
+
+/* Encode one strip (skd_build.c): n triangles over vertex indices index[0..n+2), ids id[0..n)
+ * (RS_DEAD for turns), into rec (rs_record_words words); returns its box. */
 prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, uint32_t leaf,
                          bool q16, uint32_t *rec);
 

@@ -48,6 +48,9 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
                 for (; mask; mask &= mask - 1) {
                     const int i = __builtin_ctz((unsigned)mask);
                     const rs_entry x = {n->child[i], ref * 4 + (uint32_t)i, en[i], ex[i]};
+                    /* Memory latency dominates on large meshes: start every child's load now. */
+                    if (x.ref & RS_LEAF) __builtin_prefetch(a->strips + (x.ref & ~RS_LEAF));
+                    else __builtin_prefetch(&a->nodes[x.ref]), __builtin_prefetch((const char *)&a->nodes[x.ref] + 64);
                     int j = c++;
                     while (j > 0 && e[j - 1].tn < x.tn) e[j] = e[j - 1], j--;
                     e[j] = x;

@@ -15,9 +15,9 @@ static prt_status check_records(const rs_accel *a, size_t mesh_triangles, uint8_
     size_t w = 0, triangles = 0, tree_bytes = 0;
     for (size_t s = 0; s < a->strip_count; s++) {
         if (w >= a->strip_words) return corrupt("strip records end early", s);
-        const uint32_t head = a->strips[w], n = head & 0xFFFFu;
-        if (head >> 16 || n == 0) return corrupt("strip head", w);
-        const size_t size = rs_record_words(n, a->leaf, a->q16);
+        const uint32_t head = a->strips[w], n = head & 0xFFFFu, live = head >> 16;
+        if (n == 0 || live > n) return corrupt("strip head", w);
+        const size_t size = rs_record_words(n, live, a->leaf, a->q16);
         if (size > a->strip_words - w) return corrupt("strip record past the end", w);
         const rs_strip st = rs_strip_at(a->strips + w, a->leaf, a->q16);
         const size_t nodes = rs_groups(n, a->leaf) - 1;
@@ -25,11 +25,15 @@ static prt_status check_records(const rs_accel *a, size_t mesh_triangles, uint8_
             if ((st.flags[i] & 3u) == 3u || st.flags[i] & ~7u) return corrupt("s-kd node flags", w);
         for (size_t i = 0; i < (size_t)n + 2; i++)
             if (st.index[i] >= a->vertex_count) return corrupt("strip vertex index", w);
-        for (size_t i = 0; i < n; i++) {
+        for (size_t i = 0; i < live; i++) {
             const uint32_t id = st.id[i];
-            if (id != RS_DEAD && ((id >> RS_ID_SHIFT) >= mesh_triangles || (id & 7u) >= 6))
-                return corrupt("strip triangle id", w);
+            if ((id >> RS_ID_SHIFT) >= mesh_triangles || (id & 7u) >= 6) return corrupt("strip triangle id", w);
         }
+        /* The turn bits: n - live of them, none past n (so rs_id stays within the ids). */
+        uint32_t dead = 0;
+        for (uint32_t k = 0; k < (n + 7) / 8 * 8; k++)
+            if (st.dead[k >> 3] >> (k & 7) & 1) dead += k < n ? 1 : 0x10000;
+        if (dead != n - live) return corrupt("strip turn bits", w);
         start[w / 8] |= (uint8_t)(1u << (w % 8));
         triangles += n;
         tree_bytes += 4 * rs_tree_words(n, a->leaf, a->q16);
