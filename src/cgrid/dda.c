@@ -82,6 +82,7 @@ static inline bool mailbox_seen(uint32_t *box, uint32_t tri) {
 
 void cg_dda_closest(const cg_grid *g, const prt_ray *r, prt__hitx *hit) {
     dda d;
+    prt__cg_counters.dda_rays++;
     if (!dda_init(g, r, hit->t, &d)) return;
     prt__rayx rx;
     prt__rayx_init(&rx, r);
@@ -103,7 +104,6 @@ void cg_dda_closest(const cg_grid *g, const prt_ray *r, prt__hitx *hit) {
     })
     prt__cg_counters.cells += cells;
     prt__cg_counters.tests += tests;
-    prt__cg_counters.dda_rays++;
 }
 
 void cg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
