@@ -88,7 +88,11 @@ static void length_codes(float len, uint32_t em[2]) {
 }
 
 uint8_t lg_fix_exponent(float m) {
-    int e = 1;
+    if (!(m > 0)) return 1;
+    int x;
+    frexpf(m / 127.0f, &x); /* m / 127 <= 2^x: start there, then settle on the smallest */
+    int e = x + 127 < 1 ? 1 : x + 127 > 254 ? 254 : x + 127;
+    while (e > 1 && 127.0f * lg_fix_scale((uint8_t)(e - 1)) >= m) e--;
     while (e < 254 && 127.0f * lg_fix_scale((uint8_t)e) < m) e++;
     return (uint8_t)e;
 }

@@ -116,6 +116,13 @@ static inline void lg_grid_decode(const lg_grid_rec *g, lg_grid_vertices *out) {
     const lg_res_tables *t = &lg_res[g->res & 15];
     const int rows = lg_ry(g) + 1;
     const uint8_t inner_scale = lg_inner_scale(g);
+    /* The patch's bottom and top edges at each column: the same for every row. */
+    const vf8 u1 = vf8_load(&t->u1[0]), u = vf8_load(&t->u[0]);
+    vf8 a[3], b[3];
+    for (int k = 0; k < 3; k++) {
+        a[k] = vf8_set1(g->corner[0][k]) * u1 + vf8_set1(g->corner[1][k]) * u;
+        b[k] = vf8_set1(g->corner[2][k]) * u1 + vf8_set1(g->corner[3][k]) * u;
+    }
     for (int j = 0; j < 5; j++) {
         if (j >= rows) {
             for (int k = 0; k < 3; k++) out->w[k][j] = vf8_set1(NAN);
@@ -125,13 +132,8 @@ static inline void lg_grid_decode(const lg_grid_rec *g, lg_grid_vertices *out) {
         vi8 inner;
         memcpy(&inner, &t->inner[8 * j], sizeof inner);
         lg_disp_decode8(g->kind, lg_codes(g, t, j), g->scale, inner_scale, inner, d);
-        const vf8 u1 = vf8_load(&t->u1[8 * j]), u = vf8_load(&t->u[8 * j]);
         const vf8 v1 = vf8_load(&t->v1[8 * j]), v = vf8_load(&t->v[8 * j]);
-        for (int k = 0; k < 3; k++) {
-            const vf8 a = vf8_set1(g->corner[0][k]) * u1 + vf8_set1(g->corner[1][k]) * u;
-            const vf8 b = vf8_set1(g->corner[2][k]) * u1 + vf8_set1(g->corner[3][k]) * u;
-            out->w[k][j] = (a * v1 + b * v) + d[k];
-        }
+        for (int k = 0; k < 3; k++) out->w[k][j] = (a[k] * v1 + b[k] * v) + d[k];
     }
 }
 
