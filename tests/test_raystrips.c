@@ -92,9 +92,12 @@ TEST(test_bunny_matches_brute_force) {
     prt_mesh_free(m);
 }
 
-/* Whether the accel's vertex i is the mesh's vertex j (the accel renumbers its vertices). */
+/* Whether the accel's vertex i is where the mesh's vertex j is (the accel renumbers its
+ * vertices and merges those at one position). */
 static bool same_vertex(const rs_accel *a, uint32_t i, const prt_mesh *m, uint32_t j) {
-    return i < a->vertex_count && !memcmp(a->vertices + 3 * (size_t)i, m->vertices + 3 * (size_t)j, 3 * sizeof(float));
+    if (i >= a->vertex_count) return false;
+    const float *p = a->vertices + 3 * (size_t)i, *q = m->vertices + 3 * (size_t)j;
+    return p[0] == q[0] && p[1] == q[1] && p[2] == q[2];
 }
 
 /* Walks the records: every hittable mesh triangle appears once, each strip triangle has

@@ -62,8 +62,8 @@ static prt_status stripify_all(const prt_mesh *m, rs_stripifier which, const uin
 #pragma omp parallel num_threads(t)
     {
         const int me = omp_get_thread_num(), nt = omp_get_num_threads();
-        rs_scratch sc;
-        prt_status s = rs_scratch_init(&sc, m->vertex_count) ? PRT_OK : prt__fail(PRT_ERROR_NOMEM, "out of memory");
+        rs_scratch sc = {0};
+        prt_status s = PRT_OK;
         for (size_t c = chunks * (size_t)me / (size_t)nt; !s && c < chunks * (size_t)(me + 1) / (size_t)nt; c++)
             s = rs_stripify(which, m, tris + first[c], first[c + 1] - first[c], &sc, &part[me]);
         rs_scratch_free(&sc);

@@ -22,16 +22,7 @@ size_t rs_stripify_meshopt(const uint32_t *local_tris, size_t count, size_t loca
     return meshopt_stripify(out, ordered, 3 * count, local_vertices, ~0u);
 }
 
-bool rs_scratch_init(rs_scratch *s, size_t vertex_count) {
-    memset(s, 0, sizeof *s);
-    s->local = prt__alloc(prt__mul_size(vertex_count, sizeof(uint32_t)));
-    s->stamp = prt__calloc(vertex_count ? vertex_count : 1, sizeof(uint32_t));
-    return s->local && s->stamp;
-}
-
 void rs_scratch_free(rs_scratch *s) {
-    prt__free(s->local);
-    prt__free(s->stamp);
     prt__free(s->global);
     prt__free(s->buf);
     memset(s, 0, sizeof *s);
@@ -62,21 +53,39 @@ prt_status rs_stripify(rs_stripifier which, const prt_mesh *m, const uint32_t *t
      * strip ids; all in sc->buf. */
     size_t bound = rs_stripify_bound(count), slots = 4;
     while (slots < 2 * count) slots *= 2;
-    size_t need = 3 * count + (bound + 3 * count) + 3 * slots + bound;
+    size_t vslots = 16;
+    while (vslots < 6 * count) vslots *= 2;
+    size_t need = 3 * count + (bound + 3 * count) + 3 * slots + bound + vslots;
     if (!grow(&sc->buf, &sc->buf_cap, need)) return prt__fail(PRT_ERROR_NOMEM, "out of memory stripifying");
     uint32_t *global = prt__realloc(sc->global, prt__mul_size(3 * count, sizeof(uint32_t)));
     if (!global) return prt__fail(PRT_ERROR_NOMEM, "out of memory stripifying");
     sc->global = global;
     uint32_t *local_tris = sc->buf, *strip = local_tris + 3 * count, *table = strip + bound + 3 * count,
-             *ids = table + 3 * slots;
-    /* Local numbering: a vertex met for the first time in this chunk (stamp differs) gets
-     * the next local number. */
-    if (++sc->generation == 0) return prt__fail(PRT_ERROR_LIMIT, "stripifier scratch generation wrapped");
+             *ids = table + 3 * slots, *welded = ids + bound;
+    /* Local numbering by position: vertices at one place get one number (the first mesh
+     * vertex met there stands for all), so strips also run across the seams of meshes that
+     * repeat vertices per face or part (CAD exports, the BART scenes). Hits are unchanged:
+     * the positions are the same. */
+    memset(welded, 0, vslots * sizeof *welded);
     size_t nv = 0;
     for (size_t i = 0; i < 3 * count; i++) {
-        uint32_t v = m->triangles[3 * (size_t)tris[i / 3] + i % 3];
-        if (sc->stamp[v] != sc->generation) sc->stamp[v] = sc->generation, sc->local[v] = (uint32_t)nv, global[nv++] = v;
-        local_tris[i] = sc->local[v];
+        const uint32_t v = m->triangles[3 * (size_t)tris[i / 3] + i % 3];
+        const float *p = m->vertices + 3 * (size_t)v;
+        uint32_t bits[3];
+        for (int k = 0; k < 3; k++) {
+            const float c = p[k] + 0.0f; /* -0 and +0 alike */
+            memcpy(&bits[k], &c, 4);
+        }
+        size_t h = (size_t)(((bits[0] * 0x9E3779B1u) ^ (bits[1] * 0x85EBCA77u) ^ (bits[2] * 0xC2B2AE3Du)) * 0x9E3779B97F4A7C15ull >> 24) & (vslots - 1);
+        for (;; h = (h + 1) & (vslots - 1)) {
+            if (!welded[h]) {
+                welded[h] = (uint32_t)nv + 1, global[nv++] = v;
+                break;
+            }
+            const float *q = m->vertices + 3 * (size_t)global[welded[h] - 1];
+            if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) break;
+        }
+        local_tris[i] = welded[h] - 1;
     }
     if (nv >= (1u << 21)) return prt__fail(PRT_ERROR_LIMIT, "a chunk of %zu vertices: at most 2^21", nv);
     size_t len = which == RS_STRIP_RT ? rs_stripify_rt(local_tris, count, nv, m->vertices, global, strip)

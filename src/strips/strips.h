@@ -131,15 +131,14 @@ bool rs_strip_list_push(rs_strip_list *l, const uint32_t *index, const uint32_t 
 prt_status rs_chunks(const prt_mesh *m, uint32_t max_chunk, int threads, uint32_t **tris, size_t *tri_count,
                      uint32_t **first, size_t *chunk_count);
 
-/* Per-thread scratch of the stripifiers: a global-to-local vertex map. */
+/* Per-thread scratch of the stripifiers (zero-initialized): the local-to-mesh vertex map
+ * and the working buffers. */
 typedef struct rs_scratch {
-    uint32_t *local, *stamp, *global;
-    uint32_t generation;
-    uint32_t *buf; /* stripifier output and local indices */
+    uint32_t *global;
+    uint32_t *buf;
     size_t buf_cap;
 } rs_scratch;
 
-bool rs_scratch_init(rs_scratch *s, size_t vertex_count);
 void rs_scratch_free(rs_scratch *s);
 
 /* Stripify chunk tris[0..count) of m into strips appended to out (stripify.c with
