@@ -175,7 +175,14 @@ static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
 }
 
 const prt_accel_ops prt__lossygrid_ops = {
-    "lossygrid", lg_build, lg_intersect1, lg_occluded1, NULL, lg_stats, lg_save, lg_load, lg_destroy, NULL,
+    .name = "lossygrid",
+    .build = lg_build,
+    .intersect1 = lg_intersect1,
+    .occluded1 = lg_occluded1,
+    .stats = lg_stats,
+    .save = lg_save,
+    .load = lg_load,
+    .destroy = lg_destroy,
 };
 
 const prt_repr_family prt__lossygrid_family = {&prt__lossygrid_ops, lg_accepts, lg_name_at};
