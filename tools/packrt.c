@@ -12,6 +12,7 @@ static const struct {
     {"build", cmd_build, "build MESH -r SPEC -o out.prt       preprocess and save"},
     {"cast", cmd_cast, "cast FILE -r SPEC --rays in.rays -o out.hits [--occluded] [--threads N]"},
     {"render", cmd_render, "render MESH|FILE.prt [-r SPEC] -o img.png [--shade MODE] [--size WxH] [--spp N] [--compare A,B]"},
+    {"animate", cmd_animate, "animate DIR|SCENE [-r SPEC] [-o frames/] [--bench] [--vs embree] [--json]   animated meshes, frame by frame"},
     {"bench", cmd_bench, "bench [MESH] [-r SPEC|all] [--workload W] [--vs embree] [--json]"},
     {"gen", cmd_gen, "gen KIND [--tris N] [--seed S] -o out.ply   (sphere, terrain, mandelbulb, cad)"},
     {"list", cmd_list, "list                               all representation names, name first"},

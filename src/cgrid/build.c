@@ -12,6 +12,12 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdlib.h>
+
+static int cmp_u32(const void *a, const void *b) {
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
 
 static prt_status grow(void **p, size_t *cap, size_t need, size_t elem) {
     if (need <= *cap) return PRT_OK;
@@ -24,23 +30,11 @@ static prt_status grow(void **p, size_t *cap, size_t need, size_t elem) {
     return PRT_OK;
 }
 
-/* Cell range [c0, c1] per axis of a box lo..hi (world), grown by the insertion margin. */
-static inline void cell_range(const cg_grid *g, const float *blo, const float *bhi, uint32_t c0[3], uint32_t c1[3]) {
-    for (int k = 0; k < 3; k++) {
-        float a = (blo[k] - g->lo[k]) * g->inv_cell - CG_INSERT_MARGIN;
-        float b = (bhi[k] - g->lo[k]) * g->inv_cell + CG_INSERT_MARGIN;
-        float top = (float)(g->res[k] - 1);
-        a = a < 0.0f ? 0.0f : (a > top ? top : a);
-        b = b < 0.0f ? 0.0f : (b > top ? top : b);
-        c0[k] = (uint32_t)a, c1[k] = (uint32_t)b;
-    }
-}
-
 static inline void tri_box(const float *t, float lo[3], float hi[3]) {
     for (int k = 0; k < 3; k++) {
         float a = t[k], b = t[3 + k], c = t[6 + k];
-        lo[k] = fminf(a, fminf(b, c));
-        hi[k] = fmaxf(a, fmaxf(b, c));
+        lo[k] = cg_min(a, cg_min(b, c));
+        hi[k] = cg_max(a, cg_max(b, c));
     }
 }
 
@@ -143,12 +137,12 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
             cnt++;
             float a[3], b[3];
             tri_box(d, a, b);
-            for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], a[k]), hi[k] = fmaxf(hi[k], b[k]);
+            for (int k = 0; k < 3; k++) lo[k] = cg_min(lo[k], a[k]), hi[k] = cg_max(hi[k], b[k]);
         }
 #pragma omp critical(cgrid_bounds)
         {
             built += cnt;
-            for (int k = 0; k < 3; k++) blo[k] = fminf(blo[k], lo[k]), bhi[k] = fmaxf(bhi[k], hi[k]);
+            for (int k = 0; k < 3; k++) blo[k] = cg_min(blo[k], lo[k]), bhi[k] = cg_max(bhi[k], hi[k]);
         }
     }
     if (!built)
@@ -157,25 +151,45 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     /* 2. Resolution. */
     choose_resolution(g, blo, bhi, built, c->opt.lambda);
 
-    /* 3. Count, prefix sum, scatter. */
-    if ((s = grow((void **)&pl->cell_start, &pl->cap_cells, g->ncells + 1, sizeof(uint32_t)))) return s;
+    /* 3. Count, prefix sum, scatter. Cell ranges are computed once into the pool (6 x 16
+     * bits a triangle; CG_MAX_RES fits) and read back by the scatter; grid constants are
+     * copied to locals so the stores into start[] cannot make the compiler reload them. */
+    if ((s = grow((void **)&pl->cell_start, &pl->cap_cells, g->ncells + 1, sizeof(uint32_t))) ||
+        (s = grow((void **)&pl->ranges, &pl->cap_ranges, 6 * n, sizeof(uint16_t))))
+        return s;
     uint32_t *start = pl->cell_start;
+    uint16_t *ranges = pl->ranges;
     memset(start, 0, (g->ncells + 1) * sizeof(uint32_t));
     uint64_t total = 0;
+    const float glo[3] = {g->lo[0], g->lo[1], g->lo[2]}, ginv = g->inv_cell;
+    const float gtop[3] = {(float)(g->res[0] - 1), (float)(g->res[1] - 1), (float)(g->res[2] - 1)};
+    const size_t rx = g->res[0], rxy = (size_t)g->res[0] * g->res[1];
 #pragma omp parallel for num_threads(nt) schedule(static) reduction(+ : total)
     for (size_t t = 0; t < n; t++) {
         const float *d = tris + 9 * t;
-        if (isnan(d[0])) continue;
-        float a[3], b[3];
+        uint16_t *rg = ranges + 6 * t;
+        if (isnan(d[0])) {
+            rg[0] = 1, rg[3] = 0; /* empty range: never inserted */
+            continue;
+        }
         uint32_t c0[3], c1[3];
-        tri_box(d, a, b);
-        cell_range(g, a, b, c0, c1);
+        for (int k = 0; k < 3; k++) {
+            float lo = cg_min(d[k], cg_min(d[3 + k], d[6 + k])), hi = cg_max(d[k], cg_max(d[3 + k], d[6 + k]));
+            float a = (lo - glo[k]) * ginv - CG_INSERT_MARGIN, b = (hi - glo[k]) * ginv + CG_INSERT_MARGIN;
+            a = cg_min(cg_max(a, 0.0f), gtop[k]);
+            b = cg_min(cg_max(b, 0.0f), gtop[k]);
+            c0[k] = (uint32_t)a, c1[k] = (uint32_t)b;
+            rg[k] = (uint16_t)c0[k], rg[3 + k] = (uint16_t)c1[k];
+        }
         total += (uint64_t)(c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1);
         if (total > UINT32_MAX) continue; /* reported below; stop writing counts that wrap */
         for (uint32_t z = c0[2]; z <= c1[2]; z++)
             for (uint32_t y = c0[1]; y <= c1[1]; y++) {
-                size_t row = ((size_t)z * g->res[1] + y) * g->res[0];
-                for (uint32_t x = c0[0]; x <= c1[0]; x++) __atomic_fetch_add(&start[row + x], 1u, __ATOMIC_RELAXED);
+                uint32_t *row = start + z * rxy + y * rx;
+                if (nt == 1)
+                    for (uint32_t x = c0[0]; x <= c1[0]; x++) row[x]++;
+                else
+                    for (uint32_t x = c0[0]; x <= c1[0]; x++) __atomic_fetch_add(&row[x], 1u, __ATOMIC_RELAXED);
             }
     }
     if (total > UINT32_MAX - 1)
@@ -190,26 +204,27 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     uint32_t *refs = pl->refs;
 #pragma omp parallel for num_threads(nt) schedule(static)
     for (size_t t = 0; t < n; t++) {
-        const float *d = tris + 9 * t;
-        if (isnan(d[0])) continue;
-        float a[3], b[3];
-        uint32_t c0[3], c1[3];
-        tri_box(d, a, b);
-        cell_range(g, a, b, c0, c1);
-        for (uint32_t z = c0[2]; z <= c1[2]; z++)
-            for (uint32_t y = c0[1]; y <= c1[1]; y++) {
-                size_t row = ((size_t)z * g->res[1] + y) * g->res[0];
-                for (uint32_t x = c0[0]; x <= c1[0]; x++)
-                    refs[__atomic_sub_fetch(&start[row + x], 1u, __ATOMIC_RELAXED)] = (uint32_t)t;
+        const uint16_t *rg = ranges + 6 * t;
+        for (uint32_t z = rg[2]; z <= rg[5]; z++)
+            for (uint32_t y = rg[1]; y <= rg[4]; y++) {
+                uint32_t *row = start + z * rxy + y * rx;
+                if (nt == 1)
+                    for (uint32_t x = rg[0]; x <= rg[3]; x++) refs[--row[x]] = (uint32_t)t;
+                else
+                    for (uint32_t x = rg[0]; x <= rg[3]; x++) refs[__atomic_sub_fetch(&row[x], 1u, __ATOMIC_RELAXED)] = (uint32_t)t;
             }
     }
     /* With several threads the order inside a cell depends on scheduling; sort each cell so
      * that a grid (and its .prt file) is a function of the input alone. Cells are short. */
     if (nt > 1) {
-#pragma omp parallel for num_threads(nt) schedule(static, 4096)
+#pragma omp parallel for num_threads(nt) schedule(dynamic, 4096)
         for (size_t i = 0; i < g->ncells; i++) {
             uint32_t *r = refs + start[i];
             uint32_t len = start[i + 1] - start[i];
+            if (len > 16) {
+                qsort(r, len, sizeof *r, cmp_u32);
+                continue;
+            }
             for (uint32_t j = 1; j < len; j++) {
                 uint32_t v = r[j], k = j;
                 while (k > 0 && r[k - 1] > v) r[k] = r[k - 1], k--;
@@ -217,7 +232,6 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
             }
         }
     }
-
     g->cell_start = start;
     g->refs = refs;
     g->tris = tris;

@@ -19,6 +19,11 @@
 #define CG_MAX_CELLS (1u << 26)
 #define CG_MAX_RES 4096u
 
+/* min / max that compile to one instruction (fminf / fmaxf are library calls unless NaNs
+ * are ruled out by flags); a NaN in a gives b. */
+static inline float cg_min(float a, float b) { return a < b ? a : b; }
+static inline float cg_max(float a, float b) { return a > b ? a : b; }
+
 /* One frame's grid. Arrays are owned by the accel's pool (built or updated) or point into
  * a loaded file. */
 typedef struct cg_grid {
@@ -57,7 +62,8 @@ typedef struct cg_pool {
     uint32_t *refs;
     uint8_t *mflags;
     float *tris;
-    size_t cap_cells, cap_refs, cap_macro, cap_tris;
+    uint16_t *ranges; /* build scratch: each triangle's cell range */
+    size_t cap_cells, cap_refs, cap_macro, cap_tris, cap_ranges;
 } cg_pool;
 
 typedef struct cg_accel {

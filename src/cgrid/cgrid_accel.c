@@ -54,6 +54,7 @@ static void cg_destroy(prt_accel *a) {
     prt__free(c->pool.refs);
     prt__free(c->pool.mflags);
     prt__free(c->pool.tris);
+    prt__free(c->pool.ranges);
     prt__free(c->indices_owned);
     prt__free(c);
 }

@@ -45,7 +45,7 @@ static bool dda_init(const cg_grid *g, const prt_ray *r, float tfar, dda *d) {
     d->t0 = t0, d->t1 = t1;
     for (int k = 0; k < 3; k++) {
         const float top = (float)g->res[k] - 1;
-        float p = fminf(fmaxf(d->og[k] + d->dg[k] * t0, 0.0f), top); /* NaN -> 0 */
+        float p = cg_min(cg_max(d->og[k] + d->dg[k] * t0, 0.0f), top); /* NaN -> 0 */
         d->cell[k] = (int)p;
         d->step[k] = d->dg[k] > 0.0f ? 1 : (d->dg[k] < 0.0f ? -1 : 0);
         d->end[k] = d->step[k] > 0 ? (int)g->res[k] : -1;

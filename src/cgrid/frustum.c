@@ -172,8 +172,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         p->ogK = og[K], p->invK = 1.0f / dg[K];
         p->t1 = t1, p->t = r->tfar, p->u = p->v = 0, p->prim = PRT_INVALID, p->index = idx[i];
         float kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
-        int sin = (int)floorf(fminf(fmaxf(kin, 0.0f), (float)topK));
-        int sout = (int)floorf(fminf(fmaxf(kout, 0.0f), (float)topK));
+        int sin = (int)floorf(cg_min(cg_max(kin, 0.0f), (float)topK));
+        int sout = (int)floorf(cg_min(cg_max(kout, 0.0f), (float)topK));
         if (sgn > 0) k_first = PRT_MIN(k_first, sin), k_last = PRT_MAX(k_last, sout);
         else k_first = PRT_MAX(k_first, sin), k_last = PRT_MIN(k_last, sout);
     }
@@ -200,18 +200,18 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         /* Conservative against the rounding of these few operations. */
         float mu = CG_TRAVERSE_MARGIN + 4e-7f * (fabsf(ou) + fabsf(dist * su)),
               mv = CG_TRAVERSE_MARGIN + 4e-7f * (fabsf(ov) + fabsf(dist * sv));
-        Lu = fminf(Lu, u - mu), Hu = fmaxf(Hu, u + mu), Lv = fminf(Lv, v - mv), Hv = fmaxf(Hv, v + mv);
-        su0 = fminf(su0, su - 4e-7f * fabsf(su)), su1 = fmaxf(su1, su + 4e-7f * fabsf(su));
-        sv0 = fminf(sv0, sv - 4e-7f * fabsf(sv)), sv1 = fmaxf(sv1, sv + 4e-7f * fabsf(sv));
+        Lu = cg_min(Lu, u - mu), Hu = cg_max(Hu, u + mu), Lv = cg_min(Lv, v - mv), Hv = cg_max(Hv, v + mv);
+        su0 = cg_min(su0, su - 4e-7f * fabsf(su)), su1 = cg_max(su1, su + 4e-7f * fabsf(su));
+        sv0 = cg_min(sv0, sv - 4e-7f * fabsf(sv)), sv1 = cg_max(sv1, sv + 4e-7f * fabsf(sv));
     }
     const int nslices = (k_last - k_first) * sgn + 1;
     if (nslices <= 0) return; /* cannot happen: every frustum ray enters and leaves in order */
 
     /* Incoherent groups (frustum far wider than its rays): single rays are cheaper. */
     {
-        float w0 = fminf(Hu - Lu, (float)g->res[U]) + 1, h0 = fminf(Hv - Lv, (float)g->res[V]) + 1;
-        float w1 = fminf(Hu - Lu + (su1 - su0) * (float)nslices, (float)g->res[U]) + 1;
-        float h1 = fminf(Hv - Lv + (sv1 - sv0) * (float)nslices, (float)g->res[V]) + 1;
+        float w0 = cg_min(Hu - Lu, (float)g->res[U]) + 1, h0 = cg_min(Hv - Lv, (float)g->res[V]) + 1;
+        float w1 = cg_min(Hu - Lu + (su1 - su0) * (float)nslices, (float)g->res[U]) + 1;
+        float h1 = cg_min(Hv - Lv + (sv1 - sv0) * (float)nslices, (float)g->res[V]) + 1;
         if (0.5f * (w0 * h0 + w1 * h1) > 4.0f * (float)f.n + 16.0f) {
             for (uint32_t i = 0; i < f.n; i++) {
                 prt__hitx h = {pr[i].t, 0, 0, PRT_INVALID};
@@ -235,7 +235,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     f.plane_c = (vf4){su0 * fs * P0 - Lu, Hu - su1 * fs * P0, sv0 * fs * P0 - Lv, Hv - sv1 * fs * P0};
     {
         float big = 0;
-        for (int i = 0; i < 4; i++) big = fmaxf(big, fabsf(f.plane_c[i]) + fabsf(f.plane_k[i]) * (float)g->res[K]);
+        for (int i = 0; i < 4; i++) big = cg_max(big, fabsf(f.plane_c[i]) + fabsf(f.plane_k[i]) * (float)g->res[K]);
         f.cull_eps = 2.0f * CG_TRAVERSE_MARGIN * (2.0f * CG_MAX_SLOPE + 1.0f) + 1e-6f * (big + (float)PRT_MAX(g->res[U], g->res[V]));
     }
 
@@ -246,7 +246,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     size_t mstride[3] = {1, g->mres[0], (size_t)g->mres[0] * g->mres[1]};
     const vf4 mtop = {(float)g->mres[U] - 1, (float)g->mres[U] - 1, (float)g->mres[V] - 1, (float)g->mres[V] - 1};
     const vf4 delta = {su0, su1, sv0, sv1};
-    const vf4 grow = {fminf(0, su0), fmaxf(0, su1), fminf(0, sv0), fmaxf(0, sv1)};
+    const vf4 grow = {cg_min(0, su0), cg_max(0, su1), cg_min(0, sv0), cg_max(0, sv1)};
     vf4 entry = {Lu, Hu, Lv, Hv};
     for (uint32_t i = 0; i < f.n; i++) f.live[i] = i;
     f.nlive = f.n;
@@ -261,7 +261,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             int rem = sgn > 0 ? (km + 1) * (int)M - k : k - km * (int)M + 1;
             rem = PRT_MIN(rem, nslices - s);
             const float fr = (float)rem;
-            vf4 mb = entry + (vf4){fminf(0, su0 * fr), fmaxf(0, su1 * fr), fminf(0, sv0 * fr), fmaxf(0, sv1 * fr)};
+            vf4 mb = entry + (vf4){cg_min(0, su0 * fr), cg_max(0, su1 * fr), cg_min(0, sv0 * fr), cg_max(0, sv1 * fr)};
             vi4 mc = floor4_clamped(mb * vf4_set1(1.0f / (float)M), mtop);
             bool empty = true;
             if (mc[1] >= 0 && mc[3] >= 0 && mc[0] <= (int)mtop[0] && mc[2] <= (int)mtop[2]) {

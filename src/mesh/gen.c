@@ -20,10 +20,12 @@ static const struct {
     {"level", gen_level},
     {"canyon", gen_canyon},
     {"torus", gen_torus},
+    {"twist", gen_twist},
+    {"marbles", gen_marbles},
 };
 
 const char *prt_gen_kinds(void) {
-    return "sphere terrain mandelbulb cad level canyon torus";
+    return "sphere terrain mandelbulb cad level canyon torus twist marbles";
 }
 
 prt_status prt_mesh_generate(const char *kind, size_t triangles, uint64_t seed, prt_mesh **out) {

@@ -14,6 +14,13 @@ prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_canyon(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_torus(size_t triangles, uint64_t seed, prt_mesh **out);
 
+/* Animated kinds (gen_anim_*.c): the generator gives frame 0; the frame function writes
+ * the vertices at time t in [0, 1] of that frame-0 mesh (same triangles, same seed). */
+prt_status gen_twist(size_t triangles, uint64_t seed, prt_mesh **out);
+void gen_twist_frame(const prt_mesh *base, float time, float *vertices);
+prt_status gen_marbles(size_t triangles, uint64_t seed, prt_mesh **out);
+void gen_marbles_frame(const prt_mesh *base, uint64_t seed, float time, float *vertices);
+
 /* Grid surfaces (gen_grid.c): the two triangles of each of nu x nv cells over vertices
  * laid out row by row (nu + 1 a row, or nu when wrap_u; likewise rows), split along the
  * shorter diagonal; and a grid size near a triangle count at a given nu / nv. */
