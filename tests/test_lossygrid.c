@@ -37,7 +37,7 @@ static size_t wrong_hits(const prt_mesh *m, const char *spec, size_t n, uint64_t
 }
 
 TEST(test_lossygrid_puts_a_regular_mesh_into_sub_grids) {
-    prt_mesh *m = mesh_grid(30); /* 30 x 30 quads: 8 x 8 sub-grids, partial ones of 2 quads a side */
+    prt_mesh *m = mesh_grid(31); /* 31 x 31 quads: 8 x 8 sub-grids, partial ones of 3 quads a side */
     uint32_t *canon;
     lg_extraction ex;
     CHECK_OK(prt__mesh_weld(m, &canon));
