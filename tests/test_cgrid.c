@@ -389,6 +389,66 @@ TEST(test_bart_frame_update) {
     prt_mesh_free(m10);
 }
 
+/* Damage behind the checksums (verify_crc off): every damaged file is an error or a grid
+ * that answers rays without a crash (the sanitizer build checks the memory). */
+TEST(test_damaged_files_are_errors_never_crashes) {
+    prt_mesh *m = mesh_random_soup(300, 9);
+    prt_accel *a;
+    CHECK_OK(prt_build(m, "cgrid,lambda=2", NULL, &a));
+    if (!a) return;
+    char path[] = "/tmp/test_cgrid_dmg_XXXXXX";
+    int fd = mkstemp(path);
+    if (fd >= 0) close(fd);
+    CHECK_OK(prt_accel_save(a, path));
+    prt_accel_free(a);
+    FILE *f = fopen(path, "rb");
+    CHECK(f != NULL);
+    if (!f) return;
+    fseek(f, 0, SEEK_END);
+    size_t size = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *orig = malloc(size), *buf = aligned_alloc(64, (size + 63) / 64 * 64);
+    CHECK(fread(orig, 1, size, f) == size);
+    fclose(f);
+    unlink(path);
+    prt_ray *rays = rays_random(m, 64, 5);
+    uint64_t s = 12345;
+    size_t opened = 0, refused = 0;
+    for (int it = 0; it < 400; it++) {
+        memcpy(buf, orig, size);
+        int flips = 1 + it % 4;
+        for (int k = 0; k < flips; k++) {
+            s = s * 6364136223846793005ull + 1442695040888963407ull;
+            size_t at = 256 + (size_t)(s >> 33) % (size - 256);
+            buf[at] ^= (uint8_t)(1u << ((s >> 20) & 7));
+            if (it % 7 == 0) buf[at] = 0xff;
+        }
+        prt_accel *b = NULL;
+        if (prt__accel_open(buf, size, false, &b) != PRT_OK) {
+            refused++;
+            continue;
+        }
+        opened++;
+        for (int i = 0; i < 64; i++) {
+            prt_ray r = rays[i];
+            prt_hit h;
+            prt_intersect1(b, &r, &h);
+            (void)prt_occluded1(b, &rays[i]);
+        }
+        prt_ray pr[64];
+        prt_hit ph[64];
+        memcpy(pr, rays, sizeof pr);
+        prt_packet p = {pr, ph, 64, 8};
+        prt_intersect_packet(b, &p);
+        prt_accel_free(b);
+    }
+    CHECK_MSG(refused > 0 && opened > 0, "opened %zu refused %zu", opened, refused);
+    free(rays);
+    free(orig);
+    free(buf);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_every_option_matches_brute_force);
     RUN(test_canonical_spec_spells_every_option_and_bad_options_fail);
@@ -398,5 +458,6 @@ int main(void) {
     RUN(test_degenerate_triangles_never_hit);
     RUN(test_counters_follow_the_paper);
     RUN(test_bart_frame_update);
+    RUN(test_damaged_files_are_errors_never_crashes);
     TEST_END();
 }
