@@ -105,9 +105,11 @@ prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name,
 /* Write a binary little-endian PLY (float xyz, uchar/int triangle lists). */
 prt_status prt_mesh_save_ply(const prt_mesh *m, const char *path);
 
-/* Largest coordinate magnitude prt_build accepts (PRT_ERROR_LIMIT beyond): past it, sums
- * of coordinates (centroids, extents, ray distances) overflow single precision. */
-#define PRT_MAX_COORDINATE 1e30f
+/* Largest coordinate magnitude prt_build accepts (PRT_ERROR_LIMIT beyond). The watertight
+ * ray/triangle test computes a product of three coordinate differences before dividing
+ * (Woop et al.'s T = U az + V bz + W cz), which overflows single precision near 7e12: past
+ * this limit (or for rays starting farther than about that), rays would miss triangles. */
+#define PRT_MAX_COORDINATE 1e12f
 
 /* Check a mesh: at least one triangle, every vertex finite, every index < vertex_count.
  * Returns PRT_ERROR_MESH with the first offending element in prt_last_error(). */

@@ -302,7 +302,7 @@ TEST(test_save_then_load_gives_identical_arrays) {
     prt_mesh *g = make_grid(37);
     CHECK(g != NULL);
     if (!g) return;
-    g->vertices[5] = -0x1.fffffep96f; /* extreme values survive (below PRT_MAX_COORDINATE) */
+    g->vertices[5] = -0x1.fffffep96f; /* extreme values survive the round trip */
     g->vertices[7] = 0x1p-149f;
     const char *path = PRT_BINARY_DIR "/test_mesh_ply_roundtrip.ply";
     CHECK_OK(prt_mesh_save_ply(g, path));

@@ -324,9 +324,22 @@ TEST(test_equal_t_ties_pick_the_smallest_triangle_id) {
     prt_mesh_free(m);
 }
 
+/* Up to the coordinate limit every representation still answers as brute force: a soup
+ * scaled to 0.9 PRT_MAX_COORDINATE, rays from around it (their t near 1e12 too). */
+TEST(test_meshes_at_the_coordinate_limit_match_brute_force) {
+    prt_mesh *soup = mesh_random_soup(300, 4), *m = mesh_transformed(soup, 0.9f * PRT_MAX_COORDINATE, 0.0f);
+    prt_ray *rays = rays_random(m, 300, 8);
+    reference ref = reference_of(m, rays, 300);
+    for (size_t i = 0; i < prt_repr_count(); i++)
+        if (repr_in_cover(prt_repr_name(i))) compare_with_reference(m, prt_repr_name(i), rays, 300, &ref);
+    reference_free(&ref);
+    free(rays);
+    prt_mesh_free(soup), prt_mesh_free(m);
+}
+
 TEST(test_coordinates_beyond_the_limit_are_rejected) {
     prt_mesh *m = mesh_random_soup(4, 1);
-    m->vertices[4] = 3e37f;
+    m->vertices[4] = 2.0f * PRT_MAX_COORDINATE;
     prt_accel *a = NULL;
     CHECK(prt_build(m, "quad:float3-soa4", NULL, &a) == PRT_ERROR_LIMIT && a == NULL);
     CHECK(strstr(prt_last_error(), "magnitude") != NULL);
@@ -387,6 +400,7 @@ int main(void) {
     RUN(test_axis_aligned_ray_in_a_face_plane_hits);
     RUN(test_negative_tnear_finds_hits_behind_the_origin);
     RUN(test_equal_t_ties_pick_the_smallest_triangle_id);
+    RUN(test_meshes_at_the_coordinate_limit_match_brute_force);
     RUN(test_coordinates_beyond_the_limit_are_rejected);
     RUN(test_ids_none_hits_map_through_the_triangle_order);
     TEST_END();

@@ -12,7 +12,7 @@ prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_o
     *out = NULL;
     prt_status s = prt_mesh_validate(m);
     if (s) return s;
-    /* Beyond this, centroids, box extents and ray distances overflow to infinity. */
+    /* Beyond this, the triangle test's numerator overflows (PRT_MAX_COORDINATE). */
     for (size_t i = 0; i < 3 * m->vertex_count; i++)
         if (fabsf(m->vertices[i]) > PRT_MAX_COORDINATE)
             return prt__fail(PRT_ERROR_LIMIT, "vertex %zu has a coordinate of magnitude %g; packrt builds meshes within +-%g",

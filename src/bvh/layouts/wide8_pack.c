@@ -51,6 +51,7 @@ static bool subtree_ranges(collapse *c) {
 /* Best split of `slots` slots between the two children of inner node n. */
 static float share(const collapse *c, const bvh_node *n, int slots, int8_t *j_best) {
     float best = INFINITY;
+    *j_best = 1; /* even when every split costs infinity */
     for (int j = 1; j < slots; j++) {
         float x = c->cost[n->index][j - 1] + c->cost[n->index + 1][slots - j - 1];
         if (x < best) best = x, *j_best = (int8_t)j;
@@ -58,17 +59,30 @@ static float share(const collapse *c, const bvh_node *n, int slots, int8_t *j_be
     return best;
 }
 
+/* A box's half area relative to the root's, in double: costs stay finite for boxes whose
+ * area would overflow a float (coordinates near PRT_MAX_COORDINATE). */
+static float relative_area(const prt_aabb *b, double root) {
+    double x = (double)b->hi[0] - b->lo[0], y = (double)b->hi[1] - b->lo[1], z = (double)b->hi[2] - b->lo[2];
+    return (float)((x * y + y * z + z * x) / root);
+}
+
 static void collapse_costs(collapse *c) {
     const bvh_tree *t = c->t;
+    const prt_aabb *rb = &t->nodes[0].box;
+    double root = ((double)rb->hi[0] - rb->lo[0]) * ((double)rb->hi[1] - rb->lo[1]) +
+                  ((double)rb->hi[1] - rb->lo[1]) * ((double)rb->hi[2] - rb->lo[2]) +
+                  ((double)rb->hi[2] - rb->lo[2]) * ((double)rb->hi[0] - rb->lo[0]);
+    if (!(root > 0) || !isfinite(root)) root = 1.0;
     for (size_t i = t->node_count; i-- > 0;) {
         const bvh_node *n = &t->nodes[i];
-        const float area = prt_aabb_half_area(&n->box);
+        const float area = relative_area(&n->box, root);
         float as_leaf = INFINITY, as_node = INFINITY;
         const uint32_t block = (uint32_t)c->lv->block;
-        if (c->total[i] <= (uint32_t)c->max_leaf)
-            as_leaf = area * WIDE8_COST_BLOCK * (float)((c->total[i] + block - 1) / block);
+        const bool fits = c->total[i] <= (uint32_t)c->max_leaf;
+        if (fits) as_leaf = area * WIDE8_COST_BLOCK * (float)((c->total[i] + block - 1) / block);
         if (!n->count) as_node = area * WIDE8_COST_NODE + share(c, n, 8, &c->split[i]);
-        c->leaf[i] = as_leaf <= as_node;
+        /* Never a leaf past the leaf size, whatever the costs say (they tie at infinity). */
+        c->leaf[i] = n->count || (fits && as_leaf <= as_node);
         const float one = PRT_MIN(as_leaf, as_node);
         for (int slots = 1; slots <= 8; slots++) {
             c->cost[i][slots - 1] = one, c->pick[i][slots - 1] = 0;
