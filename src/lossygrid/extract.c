@@ -1,11 +1,14 @@
 /* Grid extraction (Benthin et al., §3), in four passes over the mesh's connectivity:
- * half-edge twins from a vertex-to-triangle incidence list; triangles paired into quads
- * across an edge that is the longest of both (the diagonal of a regular grid's cells);
+ * half-edge twins from a vertex-to-triangle incidence list; triangles paired into quads,
+ * consecutive ones first, then the most rectangular quads first (a grid's cells);
  * quads grown from seeds into rectangles one whole row or column at a time; rectangles cut
  * into sub-grids of at most 4x4 quads. Topology is by welded vertex, so grids follow the
  * surface whether or not the file shares its vertices. */
 #include "lossygrid/extract.h"
 #include "mesh/mesh.h"
+
+#include <math.h>
+#include <stdlib.h>
 
 #define NONE UINT32_MAX
 #define GRID_CAP 256 /* quads along a grid side: keeps the growth scratch at 512 x 512 cells */
@@ -73,18 +76,6 @@ static prt_status find_twins(extractor *x) {
     return PRT_OK;
 }
 
-static double edge_len2(const extractor *x, size_t t, int k) {
-    const float *a = &x->m->vertices[3 * (size_t)vtx(x, t, k)], *b = &x->m->vertices[3 * (size_t)vtx(x, t, (k + 1) % 3)];
-    double s = 0;
-    for (int c = 0; c < 3; c++) s += ((double)a[c] - b[c]) * ((double)a[c] - b[c]);
-    return s;
-}
-
-static int longest_edge(const extractor *x, size_t t) {
-    double l0 = edge_len2(x, t, 0), l1 = edge_len2(x, t, 1), l2 = edge_len2(x, t, 2);
-    return l0 >= l1 && l0 >= l2 ? 0 : l1 >= l2 ? 1 : 2;
-}
-
 /* Merge t and its twin across half-edge k into a quad, unless the two triangles share all
  * three vertices' positions' worth of corners (q1 == q3: a folded pair). */
 static bool make_quad(extractor *x, uint32_t t, int k) {
@@ -111,30 +102,62 @@ static int shared_edge(const extractor *x, uint32_t t, uint32_t u) {
     return -1;
 }
 
+/* How far from a rectangle the quad of t and its twin across half-edge k would be: the
+ * largest |cos| of its four corner angles (0 for a rectangle; a pair joined across a leg of
+ * a grid cell instead of its diagonal makes a rhombus-like quad, far from 0). */
+static float quad_skew(const extractor *x, uint32_t t, int k) {
+    const uint32_t o = x->opp[3 * (size_t)t + (size_t)k], t2 = o / 3;
+    const uint32_t q[4] = {vtx(x, t, (k + 1) % 3), vtx(x, t, (k + 2) % 3), vtx(x, t, k), vtx(x, t2, (int)(o % 3 + 2) % 3)};
+    float worst = 0;
+    for (int i = 0; i < 4; i++) {
+        const float *p = &x->m->vertices[3 * (size_t)q[i]], *a = &x->m->vertices[3 * (size_t)q[(i + 3) % 4]],
+                    *b = &x->m->vertices[3 * (size_t)q[(i + 1) % 4]];
+        double u[3], v[3], uu = 0, vv = 0, uv = 0;
+        for (int c = 0; c < 3; c++) u[c] = (double)a[c] - p[c], v[c] = (double)b[c] - p[c];
+        for (int c = 0; c < 3; c++) uu += u[c] * u[c], vv += v[c] * v[c], uv += u[c] * v[c];
+        const double cosine = uu > 0 && vv > 0 ? fabs(uv) / sqrt(uu * vv) : 1.0;
+        worst = fmaxf(worst, (float)cosine);
+    }
+    return worst;
+}
+
+typedef struct candidate {
+    float skew;
+    uint32_t h; /* half-edge 3 t + k */
+} candidate;
+
+static int by_skew(const void *a, const void *b) {
+    const candidate *p = a, *q = b;
+    return p->skew < q->skew ? -1 : p->skew > q->skew ? 1 : (p->h > q->h) - (p->h < q->h);
+}
+
 /* Pairs in three passes: triangles stored one after the other (a triangulated quad
- * mesh's two halves), then across an edge that is the longest of both (a regular grid's
- * diagonals), then across any remaining edge, longest first. */
-static void pair_quads(extractor *x) {
+ * mesh's two halves); then, most rectangular quad first, every other pair of neighbours
+ * (a displaced grid's cells, whatever the order of its triangles); what is left stays
+ * loose. */
+static prt_status pair_quads(extractor *x) {
     for (size_t t = 0; t + 1 < x->nt; t++) {
         if (!x->valid[t] || x->quad_of[t] != NONE || !x->valid[t + 1] || x->quad_of[t + 1] != NONE) continue;
         const int k = shared_edge(x, (uint32_t)t, (uint32_t)t + 1);
         if (k >= 0) make_quad(x, (uint32_t)t, k);
     }
-    for (int pass = 0; pass < 2; pass++) {
-        for (size_t t = 0; t < x->nt; t++) {
-            if (!x->valid[t] || x->quad_of[t] != NONE) continue;
-            const int kl = longest_edge(x, t);
-            int order[3] = {kl, (kl + 1) % 3, (kl + 2) % 3};
-            if (pass == 1 && edge_len2(x, t, order[2]) > edge_len2(x, t, order[1]))
-                order[1] = (kl + 2) % 3, order[2] = (kl + 1) % 3;
-            for (int i = 0; i < (pass ? 3 : 1); i++) {
-                const uint32_t o = x->opp[3 * t + (size_t)order[i]];
-                if (o == NONE || x->quad_of[o / 3] != NONE) continue;
-                if (pass == 0 && longest_edge(x, o / 3) != (int)(o % 3)) continue;
-                if (make_quad(x, (uint32_t)t, order[i])) break;
-            }
-        }
+    size_t n = 0;
+    for (size_t h = 0; h < 3 * x->nt; h++)
+        n += x->opp[h] != NONE && x->opp[h] > h && x->quad_of[h / 3] == NONE && x->quad_of[x->opp[h] / 3] == NONE;
+    if (!n) return PRT_OK;
+    candidate *c = prt__alloc(prt__mul_size(n, sizeof *c));
+    if (!c) return prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory pairing %zu triangle pairs", n);
+    n = 0;
+    for (size_t h = 0; h < 3 * x->nt; h++)
+        if (x->opp[h] != NONE && x->opp[h] > h && x->quad_of[h / 3] == NONE && x->quad_of[x->opp[h] / 3] == NONE)
+            c[n++] = (candidate){quad_skew(x, (uint32_t)(h / 3), (int)(h % 3)), (uint32_t)h};
+    qsort(c, n, sizeof *c, by_skew);
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t t = c[i].h / 3, o = x->opp[c[i].h];
+        if (x->quad_of[t] == NONE && x->quad_of[o / 3] == NONE) make_quad(x, t, (int)(c[i].h % 3));
     }
+    prt__free(c);
+    return PRT_OK;
 }
 
 /* The cell across side s (0 bottom, 1 right, 2 top, 3 left) of cell (qi, r): false when
@@ -305,10 +328,8 @@ prt_status lg_extract(const prt_mesh *m, const uint32_t *canon, lg_extraction *o
         memset(x.hside, 4, 3 * nt + 1);
         s = find_twins(&x);
     }
-    if (!s) {
-        pair_quads(&x);
-        s = grow_grids(&x, out);
-    }
+    if (!s) s = pair_quads(&x);
+    if (!s) s = grow_grids(&x, out);
     if (!s) { /* loose: hittable triangles whose quad is not in a kept sub-grid */
         size_t n = 0;
         for (size_t t = 0; t < nt; t++) n += x.valid[t] && (x.quad_of[t] == NONE || x.used[x.quad_of[t]] != 2);
