@@ -373,6 +373,11 @@ int cmd_animate(int argc, char **argv) {
                     trace_image(&t, &rcam, packet, 1);
                     cg_counters c = prt__cgrid_counters_get();
                     r->cells += c.cells, r->tests += c.tests;
+                    if (getenv("PRT_CGRID_COUNTERS"))
+                        fprintf(stderr, "packets %llu slices %llu macro skips %llu cells %llu tests %llu culled %llu mailboxed %llu dda rays %llu\n",
+                                (unsigned long long)c.packets, (unsigned long long)c.slices, (unsigned long long)c.macro_skips,
+                                (unsigned long long)c.cells, (unsigned long long)c.tests, (unsigned long long)c.culled,
+                                (unsigned long long)c.mailboxed, (unsigned long long)c.dda_rays);
                 }
                 if (i > 0)
                     for (size_t p = 0; p < (size_t)W * H; p++) r->agree += r->prims[p] == ser[0].prims[p];

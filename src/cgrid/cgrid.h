@@ -82,7 +82,7 @@ typedef struct cg_accel {
  * another thread's): cells visited, ray-triangle tests, packets traced, rays traced by
  * the single-ray DDA. */
 typedef struct cg_counters {
-    uint64_t cells, tests, packets, dda_rays, culled, mailboxed;
+    uint64_t cells, tests, packets, dda_rays, culled, mailboxed, slices, macro_skips;
 } cg_counters;
 extern _Thread_local cg_counters prt__cg_counters;
 

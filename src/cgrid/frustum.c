@@ -48,17 +48,71 @@ static inline bool mailbox_seen(uint32_t epoch, uint32_t tri) {
 }
 
 typedef struct pray {
-    prt__rayx rx;
     float ogK, invK; /* grid K coordinate of the origin, 1 / direction along K */
     float t1;        /* end of the segment inside the grid */
     float t, u, v;   /* closest hit so far; t starts at tfar */
     uint32_t prim, index;
+    int send;        /* slice where the segment ends (an index along K) */
+    uint16_t block, lane; /* its place in the ray blocks */
 } pray;
+
+/* Eight rays of one axis permutation (same kx, ky, kz) in SOA form, for the triangle test
+ * over rays: one triangle against 8 rays with the same operations, in the same order, as
+ * prt__tri_hit does for each (so packets give the single rays' bits). */
+typedef struct rblock {
+    vf8 org[3], sx, sy, sz, tnear;
+    vf8 t; /* each lane's closest hit so far: the test's tfar */
+    int kx, ky, kz;
+    uint32_t live; /* lanes still traced */
+    uint16_t ray[8]; /* lane -> index into the frustum's rays */
+} rblock;
+
+PRT_NOINLINE static void rblock_fix_edges(vi8 zero, const vf8 *ax, const vf8 *ay, const vf8 *bx, const vf8 *by,
+                                          const vf8 *cx, const vf8 *cy, vf8 *u, vf8 *v, vf8 *w) {
+    for (int i = 0; i < 8; i++)
+        if (zero[i]) {
+            float uu, vv, ww;
+            prt__tri_edges_double((*ax)[i], (*ay)[i], (*bx)[i], (*by)[i], (*cx)[i], (*cy)[i], &uu, &vv, &ww);
+            (*u)[i] = uu, (*v)[i] = vv, (*w)[i] = ww;
+        }
+}
+
+/* Watertight test of triangle p against the block's rays; mask of lanes hit in
+ * [tnear, t]. Mirrors prt__tri_hit operation by operation. */
+static inline int rblock_hit(const rblock *B, const float *p, vf8 *t_out, vf8 *u_out, vf8 *v_out) {
+    const int kx = B->kx, ky = B->ky, kz = B->kz;
+    const vf8 az0 = vf8_set1(p[kz]) - B->org[kz], bz0 = vf8_set1(p[3 + kz]) - B->org[kz],
+              cz0 = vf8_set1(p[6 + kz]) - B->org[kz];
+    const vf8 ax = (vf8_set1(p[kx]) - B->org[kx]) - B->sx * az0, ay = (vf8_set1(p[ky]) - B->org[ky]) - B->sy * az0;
+    const vf8 bx = (vf8_set1(p[3 + kx]) - B->org[kx]) - B->sx * bz0, by = (vf8_set1(p[3 + ky]) - B->org[ky]) - B->sy * bz0;
+    const vf8 cx = (vf8_set1(p[6 + kx]) - B->org[kx]) - B->sx * cz0, cy = (vf8_set1(p[6 + ky]) - B->org[ky]) - B->sy * cz0;
+    vf8 u = cx * by - cy * bx;
+    vf8 v = ax * cy - ay * cx;
+    vf8 w = bx * ay - by * ax;
+    const vf8 zero = vf8_set1(0.0f);
+    const vi8 any_zero = (u == zero) | (v == zero) | (w == zero);
+    if (PRT_UNLIKELY(vi8_mask(any_zero))) rblock_fix_edges(any_zero, &ax, &ay, &bx, &by, &cx, &cy, &u, &v, &w);
+    const vi8 mixed = (vf8_min(vf8_min(u, v), w) < zero) & (vf8_max(vf8_max(u, v), w) > zero);
+    const vf8 det = u + v + w;
+    const vi8 inside = ~mixed & (det != zero);
+    if (!(vi8_mask(inside) & (int)B->live)) return 0;
+    const vf8 T = u * (B->sz * az0) + v * (B->sz * bz0) + w * (B->sz * cz0);
+    const vf8 t = T / det;
+    const int mask = vi8_mask(inside & (t >= B->tnear) & (t <= B->t)) & (int)B->live;
+    if (mask) {
+        *t_out = t;
+        *u_out = v / det;
+        *v_out = w / det;
+    }
+    return mask;
+}
 
 typedef struct frustum {
     pray *rays;
     uint32_t n;         /* rays in the frustum set */
     uint32_t live[PRT_PACKET_MAX], nlive;
+    rblock *blocks;
+    uint32_t nblocks;
     vf4 plane_u, plane_v, plane_k, plane_c; /* four culling planes over grid coordinates */
     float cull_eps;
     const cg_grid *g;
@@ -66,33 +120,24 @@ typedef struct frustum {
     uint64_t tests;
 } frustum;
 
-/* Test the live rays against up to CG_CHUNK candidate triangles. */
+/* Test the live rays against up to CG_CHUNK candidate triangles: each triangle against
+ * each block of 8 rays at once. */
 static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
     if (!nc) return;
-    float blocks[CG_CHUNK / 8][72];
-    const uint32_t nb = (nc + 7) / 8;
-    for (uint32_t b = 0; b < nb; b++)
-        for (uint32_t l = 0; l < 8; l++) {
-            uint32_t i = b * 8 + l;
-            if (i < nc) {
-                const float *p = f->g->tris + 9 * (size_t)cand[i];
-                for (int c = 0; c < 9; c++) blocks[b][c * 8 + l] = p[c];
-            } else
-                for (int c = 0; c < 9; c++) blocks[b][c * 8 + l] = NAN;
-        }
     f->tests += (uint64_t)nc * f->nlive;
-    for (uint32_t li = 0; li < f->nlive; li++) {
-        pray *r = &f->rays[f->live[li]];
-        prt__rayx8t r8;
-        prt__rayx8t_init(&r8, &r->rx);
-        for (uint32_t b = 0; b < nb; b++) {
+    for (uint32_t i = 0; i < nc; i++) {
+        const uint32_t tri = cand[i];
+        const float *p = f->g->tris + 9 * (size_t)tri;
+        for (uint32_t b = 0; b < f->nblocks; b++) {
+            rblock *B = &f->blocks[b];
+            if (!B->live) continue;
             vf8 t, u, v;
-            int mask = prt__tri8_hit(&r->rx, &r8, blocks[b], vf8_set1(r->t), &t, &u, &v);
+            int mask = rblock_hit(B, p, &t, &u, &v);
             while (mask) {
                 int l = __builtin_ctz((unsigned)mask);
                 mask &= mask - 1;
-                uint32_t tri = cand[b * 8 + (uint32_t)l];
-                if (t[l] < r->t || (t[l] == r->t && tri < r->prim)) r->t = t[l], r->u = u[l], r->v = v[l], r->prim = tri;
+                pray *r = &f->rays[B->ray[l]];
+                if (t[l] < r->t || tri < r->prim) r->t = t[l], r->u = u[l], r->v = v[l], r->prim = tri, B->t[l] = t[l];
             }
         }
     }
@@ -122,58 +167,95 @@ static inline vi4 floor4_clamped(vf4 x, vf4 top) {
 static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const uint32_t *idx, uint32_t n) {
     const cg_grid *g = &c->g;
     cg_counters *cnt = &prt__cg_counters;
-    /* Major axis and sign from the summed normalised directions. */
+    /* Major axis and sign from the summed directions (of the corners and the centre for
+     * a full square packet: what a camera or light packet spreads between). */
     float sum[3] = {0, 0, 0};
     for (uint32_t i = 0; i < n; i++) {
         const float *d = rays[idx[i]].dir;
-        float l = 1.0f / sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        if (!(l < INFINITY)) continue;
-        for (int k = 0; k < 3; k++) sum[k] += d[k] * l;
+        for (int k = 0; k < 3; k++) sum[k] += d[k];
     }
     const int K = fabsf(sum[0]) > fabsf(sum[1]) ? (fabsf(sum[0]) > fabsf(sum[2]) ? 0 : 2) : (fabsf(sum[1]) > fabsf(sum[2]) ? 1 : 2);
     const int U = (K + 1) % 3, V = (K + 2) % 3;
     const int sgn = sum[K] >= 0.0f ? 1 : -1;
 
     pray pr[PRT_PACKET_MAX];
-    frustum f = {pr, 0, {0}, 0, {0}, {0}, {0}, {0}, 0, g, K, U, V, 0};
+    frustum f = {.rays = pr, .g = g, .K = K, .U = U, .V = V};
     uint32_t single[PRT_PACKET_MAX], nsingle = 0;
     int k_first = sgn > 0 ? INT32_MAX : INT32_MIN, k_last = sgn > 0 ? INT32_MIN : INT32_MAX;
     const int topK = (int)g->res[K] - 1;
+    /* 8 rays at a time: eligibility for the frustum, the segment inside the (slightly
+     * grown) grid box, the grid-space quantities of the frustum set-up and the watertight
+     * test's axis permutation and shear (computed as prt__rayx_init does, so the test gives
+     * the single-ray bits). A zero direction component gives an infinite reciprocal; an
+     * origin exactly on that slab plane gives NaN, which the min/max order ignores. */
+    float seg0[PRT_PACKET_MAX + 8], seg1[PRT_PACKET_MAX + 8], a_ogK[PRT_PACKET_MAX + 8], a_invK[PRT_PACKET_MAX + 8];
+    float a_ou[PRT_PACKET_MAX + 8], a_ov[PRT_PACKET_MAX + 8], a_su[PRT_PACKET_MAX + 8], a_sv[PRT_PACKET_MAX + 8];
+    float a_kin[PRT_PACKET_MAX + 8], a_kout[PRT_PACKET_MAX + 8];
+    float a_sx[PRT_PACKET_MAX + 8], a_sy[PRT_PACKET_MAX + 8], a_sz[PRT_PACKET_MAX + 8];
+    uint8_t a_key[PRT_PACKET_MAX + 8];
+    uint32_t elig_bits[PRT_PACKET_MAX / 32 + 1] = {0}, enter_bits[PRT_PACKET_MAX / 32 + 1] = {0};
+    {
+        const vf8 inv_cell = vf8_set1(g->inv_cell), fsg = vf8_set1((float)sgn), slope = vf8_set1(CG_MAX_SLOPE);
+        const vf8 lo_m = vf8_set1(-CG_TRAVERSE_MARGIN), one = vf8_set1(1.0f);
+        for (uint32_t i0 = 0; i0 < n; i0 += 8) {
+            float ob[3][8], db[3][8], tnb[8], tfb[8], dkx[8], dky[8], dkz[8];
+            for (uint32_t l = 0; l < 8; l++) {
+                const prt_ray *r = &rays[idx[i0 + l < n ? i0 + l : i0]];
+                for (int k = 0; k < 3; k++) ob[k][l] = r->org[k], db[k][l] = r->dir[k];
+                tnb[l] = r->tnear, tfb[l] = r->tfar;
+                const float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
+                int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+                int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+                const int neg = r->dir[kz] < 0.0f;
+                if (neg) {
+                    int x = kx;
+                    kx = ky, ky = x;
+                }
+                dkx[l] = r->dir[kx], dky[l] = r->dir[ky], dkz[l] = r->dir[kz];
+                a_key[i0 + l] = (uint8_t)(kz * 2 + neg);
+            }
+            const vf8 o[3] = {vf8_load(ob[0]), vf8_load(ob[1]), vf8_load(ob[2])};
+            const vf8 d[3] = {vf8_load(db[0]), vf8_load(db[1]), vf8_load(db[2])};
+            const vf8 tn = vf8_load(tnb), tf = vf8_load(tfb);
+            vf8 og[3], dg[3];
+            for (int k = 0; k < 3; k++) og[k] = (o[k] - vf8_set1(g->lo[k])) * inv_cell, dg[k] = d[k] * inv_cell;
+            const vf8 aK = dg[K] * fsg;
+            const vf8 zero = vf8_set1(0.0f);
+            const vi8 elig = (aK > zero) & (vf8_max(dg[U], -dg[U]) <= slope * aK) & (vf8_max(dg[V], -dg[V]) <= slope * aK);
+            vf8 t0 = tn, t1 = tf;
+            for (int k = 0; k < 3; k++) {
+                const vf8 inv = one / dg[k];
+                const vf8 a = (lo_m - og[k]) * inv, b = (vf8_set1((float)g->res[k] + CG_TRAVERSE_MARGIN) - og[k]) * inv;
+                t0 = vf8_max(vf8_min(a, b), t0);
+                t1 = vf8_min(vf8_max(a, b), t1);
+            }
+            const vf8 absK = vf8_max(d[K], -d[K]), invK = one / dg[K];
+            const vf8 su = d[U] / absK, sv = d[V] / absK, kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
+            const vf8 vkz = vf8_load(dkz), sx = vf8_load(dkx) / vkz, sy = vf8_load(dky) / vkz, sz = one / vkz;
+            memcpy(seg0 + i0, &t0, sizeof t0), memcpy(seg1 + i0, &t1, sizeof t1);
+            memcpy(a_ogK + i0, &og[K], sizeof t0), memcpy(a_invK + i0, &invK, sizeof t0);
+            memcpy(a_ou + i0, &og[U], sizeof t0), memcpy(a_ov + i0, &og[V], sizeof t0);
+            memcpy(a_su + i0, &su, sizeof t0), memcpy(a_sv + i0, &sv, sizeof t0);
+            memcpy(a_kin + i0, &kin, sizeof t0), memcpy(a_kout + i0, &kout, sizeof t0);
+            memcpy(a_sx + i0, &sx, sizeof t0), memcpy(a_sy + i0, &sy, sizeof t0), memcpy(a_sz + i0, &sz, sizeof t0);
+            elig_bits[i0 / 32] |= (uint32_t)vi8_mask(elig) << (i0 % 32);
+            enter_bits[i0 / 32] |= (uint32_t)vi8_mask(t0 <= t1) << (i0 % 32);
+        }
+    }
+    uint16_t src_of[PRT_PACKET_MAX]; /* frustum ray -> position in idx */
     for (uint32_t i = 0; i < n; i++) {
-        const prt_ray *r = &rays[idx[i]];
-        float dg[3], og[3];
-        for (int k = 0; k < 3; k++) dg[k] = r->dir[k] * g->inv_cell, og[k] = (r->org[k] - g->lo[k]) * g->inv_cell;
-        float aK = dg[K] * (float)sgn;
-        if (!(aK > 0.0f) || fabsf(dg[U]) > CG_MAX_SLOPE * aK || fabsf(dg[V]) > CG_MAX_SLOPE * aK) {
+        if (!(elig_bits[i / 32] >> (i % 32) & 1)) {
             single[nsingle++] = idx[i];
             continue;
         }
-        /* Segment inside the (slightly grown) grid box. */
-        float t0 = r->tnear, t1 = r->tfar;
-        bool miss = false;
-        for (int k = 0; k < 3 && !miss; k++) {
-            const float lo = -CG_TRAVERSE_MARGIN, hi = (float)g->res[k] + CG_TRAVERSE_MARGIN;
-            if (dg[k] == 0.0f) {
-                miss = !(og[k] >= lo && og[k] <= hi);
-                continue;
-            }
-            float inv = 1.0f / dg[k];
-            float a = (lo - og[k]) * inv, b = (hi - og[k]) * inv;
-            if (a > b) {
-                float x = a;
-                a = b, b = x;
-            }
-            t0 = a > t0 ? a : t0;
-            t1 = b < t1 ? b : t1;
-        }
-        if (miss || !(t0 <= t1)) continue; /* misses the grid: stays a miss */
+        if (!(enter_bits[i / 32] >> (i % 32) & 1)) continue; /* misses the grid: stays a miss */
+        src_of[f.n] = (uint16_t)i;
         pray *p = &pr[f.n++];
-        prt__rayx_init(&p->rx, r);
-        p->ogK = og[K], p->invK = 1.0f / dg[K];
-        p->t1 = t1, p->t = r->tfar, p->u = p->v = 0, p->prim = PRT_INVALID, p->index = idx[i];
-        float kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
-        int sin = (int)floorf(cg_min(cg_max(kin, 0.0f), (float)topK));
-        int sout = (int)floorf(cg_min(cg_max(kout, 0.0f), (float)topK));
+        p->ogK = a_ogK[i], p->invK = a_invK[i];
+        p->t1 = seg1[i], p->t = rays[idx[i]].tfar, p->u = p->v = 0, p->prim = PRT_INVALID, p->index = idx[i];
+        int sin = (int)cg_min(cg_max(a_kin[i], 0.0f), (float)topK);
+        int sout = (int)cg_min(cg_max(a_kout[i], 0.0f), (float)topK);
+        p->send = sout;
         if (sgn > 0) k_first = PRT_MIN(k_first, sin), k_last = PRT_MAX(k_last, sout);
         else k_first = PRT_MAX(k_first, sin), k_last = PRT_MIN(k_last, sout);
     }
@@ -192,9 +274,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     float Lu = INFINITY, Hu = -INFINITY, Lv = INFINITY, Hv = -INFINITY;
     float su0 = INFINITY, su1 = -INFINITY, sv0 = INFINITY, sv1 = -INFINITY;
     for (uint32_t i = 0; i < f.n; i++) {
-        const prt__rayx *x = &pr[i].rx;
-        float ou = (x->org[U] - g->lo[U]) * g->inv_cell, ov = (x->org[V] - g->lo[V]) * g->inv_cell;
-        float su = x->dir[U] / fabsf(x->dir[K]), sv = x->dir[V] / fabsf(x->dir[K]); /* per slice */
+        const uint32_t j = src_of[i];
+        const float ou = a_ou[j], ov = a_ov[j], su = a_su[j], sv = a_sv[j]; /* slopes per slice */
         float dist = (P0 - pr[i].ogK) * (float)sgn;
         float u = ou + dist * su, v = ov + dist * sv;
         /* Conservative against the rounding of these few operations. */
@@ -250,10 +331,36 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     vf4 entry = {Lu, Hu, Lv, Hv};
     for (uint32_t i = 0; i < f.n; i++) f.live[i] = i;
     f.nlive = f.n;
+    /* Ray blocks: rays grouped by their axis permutation, 8 to a block. */
+    rblock blocks[PRT_PACKET_MAX / 8 + 6];
+    f.blocks = blocks, f.nblocks = 0;
+    for (int key = 0; key < 6; key++) {
+        rblock *B = NULL;
+        for (uint32_t i = 0; i < f.n; i++) {
+            const uint32_t j = src_of[i];
+            if (a_key[j] != key) continue;
+            if (!B || B->live == 0xffu) {
+                B = &blocks[f.nblocks++];
+                memset(B, 0, sizeof *B);
+                const int kz = key / 2, kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+                B->kz = kz, B->kx = key % 2 ? ky : kx, B->ky = key % 2 ? kx : ky;
+            }
+            int l = __builtin_popcount(B->live);
+            const prt_ray *r = &rays[pr[i].index];
+            for (int k = 0; k < 3; k++) B->org[k][l] = r->org[k];
+            B->sx[l] = a_sx[j], B->sy[l] = a_sy[j], B->sz[l] = a_sz[j], B->tnear[l] = r->tnear, B->t[l] = pr[i].t;
+            B->ray[l] = (uint16_t)i;
+            B->live |= 1u << l;
+            pr[i].block = (uint16_t)(B - blocks), pr[i].lane = (uint16_t)l;
+        }
+    }
     const uint32_t epoch = c->opt.mailbox ? mailbox_begin() : 0;
     uint32_t cand[CG_CHUNK], nc = 0;
     uint64_t cells = 0, culled = 0, mailboxed = 0;
 
+    /* Slices counted from k_first at which the next live ray's segment ends. */
+    int next_end = INT32_MAX;
+    for (uint32_t i = 0; i < f.n; i++) next_end = PRT_MIN(next_end, (pr[i].send - k_first) * sgn);
     int k = k_first;
     for (int s = 0; s < nslices && f.nlive;) {
         if (M && (s == 0 || (sgn > 0 ? k % (int)M == 0 : k % (int)M == (int)M - 1))) {
@@ -272,6 +379,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                         empty = !g->mflags[(size_t)km * mstride[K] + (size_t)iu * mstride[U] + (size_t)jv * mstride[V]];
             }
             if (empty) {
+                cnt->macro_skips++;
                 entry += delta * vf4_set1(fr);
                 k += sgn * rem;
                 s += rem;
@@ -279,6 +387,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             }
         }
         vi4 cb = floor4_clamped(entry + grow, top);
+        const uint64_t tests_before = f.tests;
+        cnt->slices++;
         if (cb[1] >= 0 && cb[3] >= 0 && cb[0] <= (int)top[0] && cb[2] <= (int)top[2]) {
             int u0 = PRT_MAX(cb[0], 0), u1 = PRT_MIN(cb[1], (int)top[1]);
             int v0 = PRT_MAX(cb[2], 0), v1 = PRT_MIN(cb[3], (int)top[3]);
@@ -302,16 +412,28 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                 }
             test_candidates(&f, cand, nc), nc = 0;
         }
-        /* Retire rays whose hit (or segment end) lies before this slice's exit plane. */
-        const float exit_plane = (float)(sgn > 0 ? k + 1 : k);
-        uint32_t w = 0;
-        for (uint32_t li = 0; li < f.nlive; li++) {
-            pray *r = &pr[f.live[li]];
-            float t_exit = (exit_plane - r->ogK) * r->invK;
-            bool done = (r->prim != PRT_INVALID && r->t <= t_exit) || r->t1 <= t_exit;
-            if (!done) f.live[w++] = f.live[li];
+        /* Retire rays whose hit (or segment end) lies before this slice's exit plane. Only
+         * tests change hits and segments end at known slices, so other slices skip this. */
+        if (f.tests != tests_before || s >= next_end) {
+            const float exit_plane = (float)(sgn > 0 ? k + 1 : k);
+            uint32_t w = 0;
+            next_end = INT32_MAX;
+            for (uint32_t li = 0; li < f.nlive; li++) {
+                pray *r = &pr[f.live[li]];
+                float t_exit = (exit_plane - r->ogK) * r->invK;
+                bool done = (r->prim != PRT_INVALID && r->t <= t_exit) || r->t1 <= t_exit;
+                if (done) {
+                    blocks[r->block].live &= ~(1u << r->lane);
+                    continue;
+                }
+                f.live[w++] = f.live[li];
+                int e = r->send;
+                if (r->prim != PRT_INVALID) /* the slice of the hit: the ray is done there */
+                    e = (int)cg_min(cg_max(r->ogK + r->t / r->invK, 0.0f), (float)topK);
+                next_end = PRT_MIN(next_end, (e - k_first) * sgn);
+            }
+            f.nlive = w;
         }
-        f.nlive = w;
         entry += delta;
         k += sgn;
         s++;
