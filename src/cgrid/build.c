@@ -112,7 +112,11 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     cg_grid *g = &c->g;
     cg_pool *pl = &c->pool;
     const size_t n = c->ntris;
-    const int nt = prt__threads(threads);
+    /* One thread per CG_BUILD_GRAIN triangles at most: below that, waking and joining a
+     * team cost more than the work on the shared 2-core machine we measured on (kitchen,
+     * 110k triangles: 3.9 ms on one thread, 12.6 ms on two; docs/results/cgrid.md). */
+    int nt = prt__threads(threads);
+    if ((size_t)nt > n / CG_BUILD_GRAIN + 1) nt = (int)(n / CG_BUILD_GRAIN + 1);
     prt_status s;
     if ((s = grow((void **)&pl->tris, &pl->cap_tris, 9 * n, sizeof(float)))) return s;
     float *tris = pl->tris;
@@ -235,7 +239,7 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     g->cell_start = start;
     g->refs = refs;
     g->tris = tris;
-    if ((s = cg_macro_flags(c, threads))) return s;
+    if ((s = cg_macro_flags(c, nt))) return s;
     c->base.triangles_built = built;
     memcpy(c->base.bounds, blo, sizeof blo);
     memcpy(c->base.bounds + 3, bhi, sizeof bhi);

@@ -18,6 +18,8 @@
 /* The build refuses grids beyond this many cells (the resolution is lowered instead). */
 #define CG_MAX_CELLS (1u << 26)
 #define CG_MAX_RES 4096u
+/* Triangles per build thread (build.c). */
+#define CG_BUILD_GRAIN 262144u
 
 /* min / max that compile to one instruction (fminf / fmaxf are library calls unless NaNs
  * are ruled out by flags); a NaN in a gives b. */

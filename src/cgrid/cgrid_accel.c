@@ -36,15 +36,20 @@ static prt_status parse_options(prt_spec *spec, cg_options *o) {
     if (o->packet & (o->packet - 1))
         return prt__fail(PRT_ERROR_ARGUMENT, "option packet=%d: expected 0 (as given), 1 (single rays), 2, 4, 8 or 16",
                          o->packet);
+    /* The canonical spec: every option, always in this order. */
+    prt_spec canon;
+    memset(&canon, 0, sizeof canon);
+    memcpy(canon.structure, spec->structure, sizeof canon.structure);
     char num[16];
     snprintf(num, sizeof num, "%d", o->lambda);
-    prt__spec_set(spec, "lambda", num);
+    prt__spec_set(&canon, "lambda", num);
     snprintf(num, sizeof num, "%d", o->macro);
-    prt__spec_set(spec, "macro", num);
+    prt__spec_set(&canon, "macro", num);
     snprintf(num, sizeof num, "%d", o->packet);
-    prt__spec_set(spec, "packet", num);
-    prt__spec_set(spec, "mailbox", g_onoff[o->mailbox]);
-    prt__spec_set(spec, "cull", g_onoff[o->cull]);
+    prt__spec_set(&canon, "packet", num);
+    prt__spec_set(&canon, "mailbox", g_onoff[o->mailbox]);
+    prt__spec_set(&canon, "cull", g_onoff[o->cull]);
+    *spec = canon;
     return PRT_OK;
 }
 
@@ -191,7 +196,7 @@ static prt_status cg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     memcpy(g->res, h.res, sizeof g->res);
     g->ncells = (size_t)ncells, g->nrefs = (size_t)h.nrefs;
     g->cell_start = cst, g->refs = rf, g->tris = tris;
-    if ((s = cg_macro_flags(c, 0))) {
+    if ((s = cg_macro_flags(c, 1))) {
         cg_destroy(&c->base);
         return s;
     }

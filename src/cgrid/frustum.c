@@ -334,25 +334,24 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     /* Ray blocks: rays grouped by their axis permutation, 8 to a block. */
     rblock blocks[PRT_PACKET_MAX / 8 + 6];
     f.blocks = blocks, f.nblocks = 0;
-    for (int key = 0; key < 6; key++) {
-        rblock *B = NULL;
-        for (uint32_t i = 0; i < f.n; i++) {
-            const uint32_t j = src_of[i];
-            if (a_key[j] != key) continue;
-            if (!B || B->live == 0xffu) {
-                B = &blocks[f.nblocks++];
-                memset(B, 0, sizeof *B);
-                const int kz = key / 2, kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
-                B->kz = kz, B->kx = key % 2 ? ky : kx, B->ky = key % 2 ? kx : ky;
-            }
-            int l = __builtin_popcount(B->live);
-            const prt_ray *r = &rays[pr[i].index];
-            for (int k = 0; k < 3; k++) B->org[k][l] = r->org[k];
-            B->sx[l] = a_sx[j], B->sy[l] = a_sy[j], B->sz[l] = a_sz[j], B->tnear[l] = r->tnear, B->t[l] = pr[i].t;
-            B->ray[l] = (uint16_t)i;
-            B->live |= 1u << l;
-            pr[i].block = (uint16_t)(B - blocks), pr[i].lane = (uint16_t)l;
+    rblock *open_block[6] = {NULL, NULL, NULL, NULL, NULL, NULL}; /* per permutation key */
+    for (uint32_t i = 0; i < f.n; i++) {
+        const uint32_t j = src_of[i];
+        const int key = a_key[j];
+        rblock *B = open_block[key];
+        if (!B || B->live == 0xffu) {
+            B = open_block[key] = &blocks[f.nblocks++];
+            memset(B, 0, sizeof *B);
+            const int kz = key / 2, kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+            B->kz = kz, B->kx = key % 2 ? ky : kx, B->ky = key % 2 ? kx : ky;
         }
+        int l = __builtin_popcount(B->live);
+        const prt_ray *r = &rays[pr[i].index];
+        for (int k = 0; k < 3; k++) B->org[k][l] = r->org[k];
+        B->sx[l] = a_sx[j], B->sy[l] = a_sy[j], B->sz[l] = a_sz[j], B->tnear[l] = r->tnear, B->t[l] = pr[i].t;
+        B->ray[l] = (uint16_t)i;
+        B->live |= 1u << l;
+        pr[i].block = (uint16_t)(B - blocks), pr[i].lane = (uint16_t)l;
     }
     const uint32_t epoch = c->opt.mailbox ? mailbox_begin() : 0;
     uint32_t cand[CG_CHUNK], nc = 0;

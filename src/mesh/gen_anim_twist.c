@@ -1,5 +1,6 @@
 /* Animated kind "twist" (after the deforming models of Wald et al. 2006 §4.5): a column
- * made from the cube sphere stretched 2.5x along y, which twists about y and waves along
+ * made from the cube sphere stretched 2.5x along y and flattened to half its depth (so the
+ * twist shows), which twists about y and waves along
  * x over time, every vertex moving differently (no rigid parts, no hierarchy to reuse).
  * gen_twist gives frame 0 (time 0, undeformed); gen_twist_frame moves its vertices to
  * any time in [0, 1] (one period), keeping the triangles. */
@@ -13,7 +14,7 @@ prt_status gen_twist(size_t triangles, uint64_t seed, prt_mesh **out) {
     prt_status st = gen_sphere(triangles, seed, out);
     if (st) return st;
     prt_mesh *m = *out;
-    for (size_t i = 0; i < m->vertex_count; i++) m->vertices[3 * i + 1] *= 2.5f;
+    for (size_t i = 0; i < m->vertex_count; i++) m->vertices[3 * i + 1] *= 2.5f, m->vertices[3 * i + 2] *= 0.5f;
     return PRT_OK;
 }
 
