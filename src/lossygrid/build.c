@@ -106,13 +106,15 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
     if (!s && bp->enc == LG_ENC_FIX && !(grid_max = prt__calloc(ex.grid_count + 1, sizeof *grid_max)))
         s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu grids", ex.grid_count);
     if (!s) {
+        /* Below a few thousand sub-grids the loops run on one thread: waking and joining the
+         * others cost more than the work (1 s for 300 triangles on a busy 2-core machine). */
         const int nth = bp->threads > 0 ? bp->threads : omp_get_max_threads();
         if (grid_max) {
-#pragma omp parallel for schedule(dynamic, 256) num_threads(nth)
+#pragma omp parallel for schedule(dynamic, 256) num_threads(nth) if (ng >= 4096)
             for (size_t i = 0; i < ng; i++) errs[i].max = lg_grid_max_displacement(m, &ex.subgrids[i]);
             for (size_t i = 0; i < ng; i++) grid_max[ex.subgrids[i].grid] = fmaxf(grid_max[ex.subgrids[i].grid], (float)errs[i].max);
         }
-#pragma omp parallel for schedule(dynamic, 256) num_threads(nth)
+#pragma omp parallel for schedule(dynamic, 256) num_threads(nth) if (ng >= 4096)
         for (size_t i = 0; i < ng; i++) {
             prt_aabb b;
             const uint8_t scale = grid_max ? lg_fix_exponent(grid_max[ex.subgrids[i].grid]) : 0;
