@@ -42,6 +42,19 @@ static void fill_tables(void) {
                 t->slot_lane[slot++] = (int8_t)l;
             }
     }
+    for (int r = 0; r < 16; r++) /* the codes of row j as bytes of one 16-byte load */
+        for (int j = 0; j < 5; j++) {
+            lg_res_tables *t = &lg_res[r];
+            int first = 128;
+            for (int i = 0; i < 8; i++)
+                if (t->code_at[8 * j + i] >= 0 && t->code_at[8 * j + i] < first) first = t->code_at[8 * j + i];
+            const int load = first > 128 - 16 ? 128 - 16 : first;
+            t->row_load[j] = first == 128 ? LG_DISP_OFFSET : load;
+            for (int i = 0; i < 8; i++)
+                for (int b = 0; b < 4; b++)
+                    t->row_shuffle[j][4 * i + b] =
+                        t->code_at[8 * j + i] < 0 || b == 3 ? 0x80 : (uint8_t)(t->code_at[8 * j + i] - load + b);
+        }
     for (int d = 0; d < 16; d++)
         for (int x = 0; x < 4; x++) {
             const bool odd = d >> x & 1; /* cell triangles as in extract.h */

@@ -34,6 +34,10 @@ extern float lg_dirs[LG_DIRS][4];
 typedef struct lg_res_tables {
     float u1[40], u[40], v1[40], v[40];
     int32_t code_at[40]; /* byte offset in the record of each lane's displacement code, -1: none */
+    /* The same as one 16-byte load per row (at row_load[j], inside the 128-byte record) and
+     * a byte shuffle of it into the eight lanes' codes (index 0x80: a zero byte). */
+    uint8_t row_shuffle[5][32];
+    int32_t row_load[5];
     int32_t inner[40];   /* -1 for a vertex inside the sub-grid (not on its border), else 0 */
     int8_t slot_lane[21];
 } lg_res_tables;

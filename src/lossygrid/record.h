@@ -97,17 +97,19 @@ static inline void lg_disp_decode8(int enc, vi8 c, uint8_t scale, uint8_t inner_
 }
 
 /* The 24-bit codes of the eight lanes of grid row j (0 where a lane has none: a corner,
- * or past the resolution): one gather of 4 bytes at each code's offset. */
+ * or past the resolution). A row's codes lie within 15 bytes: one 16-byte load, copied to
+ * both halves of a vector and shuffled into the lanes (a gather costs several times that). */
 static inline vi8 lg_codes(const lg_grid_rec *g, const lg_res_tables *t, int j) {
-    vi8 at;
-    memcpy(&at, &t->code_at[8 * j], sizeof at);
 #if defined(__AVX2__)
-    const __m256i c = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)(const void *)g, (__m256i)at,
-                                                  (__m256i)(at >= 0), 1);
-    return (vi8)c & 0xFFFFFF;
+    const __m128i row = _mm_loadu_si128((const __m128i *)(const void *)((const uint8_t *)g + t->row_load[j]));
+    const __m256i both = _mm256_broadcastsi128_si256(row);
+    return (vi8)_mm256_shuffle_epi8(both, _mm256_loadu_si256((const __m256i *)(const void *)t->row_shuffle[j]));
 #else
     vi8 c;
-    for (int i = 0; i < 8; i++) c[i] = at[i] < 0 ? 0 : (int32_t)lg_disp_load((const uint8_t *)g + at[i]);
+    for (int i = 0; i < 8; i++) {
+        const int32_t at = t->code_at[8 * j + i];
+        c[i] = at < 0 ? 0 : (int32_t)lg_disp_load((const uint8_t *)g + at);
+    }
     return c;
 #endif
 }
