@@ -19,6 +19,7 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #define MAX_SPECS 8
 
@@ -187,6 +188,14 @@ static double trace_image(const tracer *t, const render_camera *cam, uint32_t pa
     return prt__now() - t0;
 }
 
+/* CPU time of the calling thread: with --threads 1 every phase runs on it, and this time,
+ * unlike the wall clock, does not grow while other processes hold the cores. */
+static double thread_cpu(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
@@ -214,7 +223,7 @@ typedef struct series {
     prt_accel *accel;
     bench_embree_anim *embree;
     bool updates; /* prt_accel_update works */
-    double *rebuild, *trace;
+    double *rebuild, *trace, *rebuild_cpu, *trace_cpu;
     uint64_t cells, tests;
     size_t agree, compared;
     uint32_t *prims;
@@ -330,6 +339,8 @@ int cmd_animate(int argc, char **argv) {
     for (int i = 0; i < nser; i++) {
         ser[i].rebuild = calloc(an.nframes, sizeof(double));
         ser[i].trace = calloc(an.nframes, sizeof(double));
+        ser[i].rebuild_cpu = calloc(an.nframes, sizeof(double));
+        ser[i].trace_cpu = calloc(an.nframes, sizeof(double));
         ser[i].prims = bench ? malloc(sizeof(uint32_t) * W * H) : NULL;
         snprintf(ser[i].label, sizeof ser[i].label, "%s", i < nspecs ? specs[i] : "embree,dynamic,low,packet16");
     }
@@ -342,7 +353,7 @@ int cmd_animate(int argc, char **argv) {
         frame_vertices(&an, f, cur->vertices);
         for (int i = 0; i < nser && !rc; i++) {
             series *r = &ser[i];
-            double t0 = prt__now();
+            double t0 = prt__now(), c0 = thread_cpu();
             if (i >= nspecs) {
                 s = f == 0 ? bench_embree_anim_create(cur, threads, &r->embree) : bench_embree_anim_update(r->embree, cur->vertices);
             } else if (f > 0 && r->updates) {
@@ -354,10 +365,11 @@ int cmd_animate(int argc, char **argv) {
                 if (!s && f == 0) {
                     /* Probe update once: a representation without it says UNSUPPORTED. */
                     r->updates = prt_accel_update(r->accel, cur->vertices) == PRT_OK;
-                    if (r->updates) t0 = prt__now(); /* time the update, not build + update */
+                    if (r->updates) t0 = prt__now(), c0 = thread_cpu(); /* time the update, not build + update */
                 }
             }
             r->rebuild[f] = prt__now() - t0;
+            r->rebuild_cpu[f] = thread_cpu() - c0;
             if (s) {
                 rc = cli_fail("animate", r->label, s);
                 break;
@@ -365,9 +377,14 @@ int cmd_animate(int argc, char **argv) {
             if (i < nspecs && f == 0) snprintf(r->label, sizeof r->label, "%s", prt_accel_spec(r->accel));
             if (bench) {
                 tracer t = {r->accel, r->embree, r->prims};
-                double tt[64];
-                for (int k = 0; k < repeat; k++) tt[k] = trace_image(&t, &rcam, packet, threads);
+                double tt[64], tc[64];
+                for (int k = 0; k < repeat; k++) {
+                    double c1 = thread_cpu();
+                    tt[k] = trace_image(&t, &rcam, packet, threads);
+                    tc[k] = thread_cpu() - c1;
+                }
                 r->trace[f] = median(tt, (size_t)repeat);
+                r->trace_cpu[f] = median(tc, (size_t)repeat);
                 if (counters && r->accel && !strncmp(prt_accel_spec(r->accel), "cgrid", 5)) {
                     prt__cgrid_counters_reset();
                     trace_image(&t, &rcam, packet, 1);
@@ -422,16 +439,19 @@ int cmd_animate(int argc, char **argv) {
         for (int i = 0; i < nser; i++) {
             series *r = &ser[i];
             double rb = median(r->rebuild + first, n), tr = median(r->trace + first, n);
+            double rbc = median(r->rebuild_cpu + first, n), trc = median(r->trace_cpu + first, n);
             double agree = r->compared ? 100.0 * (double)r->agree / (double)r->compared : 100.0;
             if (json)
                 printf("%s{\"representation\": \"%s\", \"updates\": %s, \"rebuild_ms\": %.3f, \"trace_ms\": %.3f, "
                        "\"fps\": %.2f, \"build_mtris_per_s\": %.2f, \"same_prim_percent\": %.3f, \"cells\": %llu, "
-                       "\"tests\": %llu}",
+                       "\"tests\": %llu, \"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f}",
                        i ? ", " : "", r->label, r->updates ? "true" : "false", 1e3 * rb, 1e3 * tr, 1.0 / (rb + tr),
-                       ntri / rb * 1e-6, agree, (unsigned long long)r->cells, (unsigned long long)r->tests);
+                       ntri / rb * 1e-6, agree, (unsigned long long)r->cells, (unsigned long long)r->tests, 1e3 * rbc,
+                       1e3 * trc);
             else {
                 printf("%-52s %10.2f %10.2f %10.2f %8.2f %12.2f %12.3f", r->label, 1e3 * rb, 1e3 * tr, 1e3 * (rb + tr),
                        1.0 / (rb + tr), ntri / rb * 1e-6, agree);
+                if (threads == 1) printf("  cpu: rebuild %.2f trace %.2f ms", 1e3 * rbc, 1e3 * trc);
                 if (counters && r->cells) printf("  cells %.3fM tests %.3fM", (double)r->cells * 1e-6, (double)r->tests * 1e-6);
                 printf("\n");
             }
@@ -443,6 +463,7 @@ int cmd_animate(int argc, char **argv) {
         prt_accel_free(ser[i].accel);
         bench_embree_anim_free(ser[i].embree);
         free(ser[i].rebuild), free(ser[i].trace), free(ser[i].prims);
+        free(ser[i].rebuild_cpu), free(ser[i].trace_cpu);
     }
     prt_mesh_free(cur);
     anim_free(&an);

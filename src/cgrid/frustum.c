@@ -190,29 +190,24 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
      * origin exactly on that slab plane gives NaN, which the min/max order ignores. */
     float seg0[PRT_PACKET_MAX + 8], seg1[PRT_PACKET_MAX + 8], a_ogK[PRT_PACKET_MAX + 8], a_invK[PRT_PACKET_MAX + 8];
     float a_ou[PRT_PACKET_MAX + 8], a_ov[PRT_PACKET_MAX + 8], a_su[PRT_PACKET_MAX + 8], a_sv[PRT_PACKET_MAX + 8];
-    float a_kin[PRT_PACKET_MAX + 8], a_kout[PRT_PACKET_MAX + 8];
+    float a_sout[PRT_PACKET_MAX + 8];
+    float su0 = INFINITY, su1 = -INFINITY, sv0 = INFINITY, sv1 = -INFINITY;
     float a_sx[PRT_PACKET_MAX + 8], a_sy[PRT_PACKET_MAX + 8], a_sz[PRT_PACKET_MAX + 8];
     uint8_t a_key[PRT_PACKET_MAX + 8];
     uint32_t elig_bits[PRT_PACKET_MAX / 32 + 1] = {0}, enter_bits[PRT_PACKET_MAX / 32 + 1] = {0};
     {
         const vf8 inv_cell = vf8_set1(g->inv_cell), fsg = vf8_set1((float)sgn), slope = vf8_set1(CG_MAX_SLOPE);
         const vf8 lo_m = vf8_set1(-CG_TRAVERSE_MARGIN), one = vf8_set1(1.0f);
+        const vf8 pinf = vf8_set1(INFINITY), ninf = vf8_set1(-INFINITY), topKf = vf8_set1((float)topK);
+        const vf8 rel = vf8_set1(4e-7f);
+        vf8 kf_acc = sgn > 0 ? pinf : ninf, kl_acc = sgn > 0 ? ninf : pinf;
+        vf8 su0v = pinf, su1v = ninf, sv0v = pinf, sv1v = ninf;
         for (uint32_t i0 = 0; i0 < n; i0 += 8) {
             float ob[3][8], db[3][8], tnb[8], tfb[8], dkx[8], dky[8], dkz[8];
             for (uint32_t l = 0; l < 8; l++) {
                 const prt_ray *r = &rays[idx[i0 + l < n ? i0 + l : i0]];
                 for (int k = 0; k < 3; k++) ob[k][l] = r->org[k], db[k][l] = r->dir[k];
                 tnb[l] = r->tnear, tfb[l] = r->tfar;
-                const float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
-                int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-                int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
-                const int neg = r->dir[kz] < 0.0f;
-                if (neg) {
-                    int x = kx;
-                    kx = ky, ky = x;
-                }
-                dkx[l] = r->dir[kx], dky[l] = r->dir[ky], dkz[l] = r->dir[kz];
-                a_key[i0 + l] = (uint8_t)(kz * 2 + neg);
             }
             const vf8 o[3] = {vf8_load(ob[0]), vf8_load(ob[1]), vf8_load(ob[2])};
             const vf8 d[3] = {vf8_load(db[0]), vf8_load(db[1]), vf8_load(db[2])};
@@ -229,6 +224,24 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                 t0 = vf8_max(vf8_min(a, b), t0);
                 t1 = vf8_min(vf8_max(a, b), t1);
             }
+            elig_bits[i0 / 32] |= (uint32_t)vi8_mask(elig) << (i0 % 32);
+            enter_bits[i0 / 32] |= (uint32_t)vi8_mask(t0 <= t1) << (i0 % 32);
+            const vi8 mem = elig & (t0 <= t1);
+            if (!vi8_mask(mem)) continue; /* no frustum ray here: the rest is not needed */
+            /* The watertight test's permutation and shear, as prt__rayx_init computes them. */
+            for (uint32_t l = 0; l < 8; l++) {
+                const float dx = db[0][l], dy = db[1][l], dz = db[2][l];
+                const float ax = fabsf(dx), ay = fabsf(dy), az = fabsf(dz);
+                int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+                int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+                const int neg = db[kz][l] < 0.0f;
+                if (neg) {
+                    int x = kx;
+                    kx = ky, ky = x;
+                }
+                dkx[l] = db[kx][l], dky[l] = db[ky][l], dkz[l] = db[kz][l];
+                a_key[i0 + l] = (uint8_t)(kz * 2 + neg);
+            }
             const vf8 absK = vf8_max(d[K], -d[K]), invK = one / dg[K];
             const vf8 su = d[U] / absK, sv = d[V] / absK, kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
             const vf8 vkz = vf8_load(dkz), sx = vf8_load(dkx) / vkz, sy = vf8_load(dky) / vkz, sz = one / vkz;
@@ -236,11 +249,26 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             memcpy(a_ogK + i0, &og[K], sizeof t0), memcpy(a_invK + i0, &invK, sizeof t0);
             memcpy(a_ou + i0, &og[U], sizeof t0), memcpy(a_ov + i0, &og[V], sizeof t0);
             memcpy(a_su + i0, &su, sizeof t0), memcpy(a_sv + i0, &sv, sizeof t0);
-            memcpy(a_kin + i0, &kin, sizeof t0), memcpy(a_kout + i0, &kout, sizeof t0);
             memcpy(a_sx + i0, &sx, sizeof t0), memcpy(a_sy + i0, &sy, sizeof t0), memcpy(a_sz + i0, &sz, sizeof t0);
-            elig_bits[i0 / 32] |= (uint32_t)vi8_mask(elig) << (i0 % 32);
-            enter_bits[i0 / 32] |= (uint32_t)vi8_mask(t0 <= t1) << (i0 % 32);
+            /* Reductions over the frustum rays (eligible, entering; padding lanes repeat
+             * lane 0, which changes no minimum or maximum): first and last slice, slopes
+             * grown by their rounding. Slices are floor(k) of k clamped to the grid. */
+            const vf8 sin = vf8_min(vf8_max(kin, zero), topKf), sout = vf8_min(vf8_max(kout, zero), topKf);
+            memcpy(a_sout + i0, &sout, sizeof t0);
+            if (sgn > 0) {
+                kf_acc = vf8_min(kf_acc, vf8_select(mem, sin, pinf));
+                kl_acc = vf8_max(kl_acc, vf8_select(mem, sout, ninf));
+            } else {
+                kf_acc = vf8_max(kf_acc, vf8_select(mem, sin, ninf));
+                kl_acc = vf8_min(kl_acc, vf8_select(mem, sout, pinf));
+            }
+            const vf8 esu = rel * vf8_max(su, -su), esv = rel * vf8_max(sv, -sv);
+            su0v = vf8_min(su0v, vf8_select(mem, su - esu, pinf)), su1v = vf8_max(su1v, vf8_select(mem, su + esu, ninf));
+            sv0v = vf8_min(sv0v, vf8_select(mem, sv - esv, pinf)), sv1v = vf8_max(sv1v, vf8_select(mem, sv + esv, ninf));
         }
+        const float kf = sgn > 0 ? vf8_hmin(kf_acc) : -vf8_hmin(-kf_acc), kl = sgn > 0 ? -vf8_hmin(-kl_acc) : vf8_hmin(kl_acc);
+        if (kf < INFINITY && kf > -INFINITY) k_first = (int)kf, k_last = (int)kl;
+        su0 = vf8_hmin(su0v), su1 = -vf8_hmin(-su1v), sv0 = vf8_hmin(sv0v), sv1 = -vf8_hmin(-sv1v);
     }
     uint16_t src_of[PRT_PACKET_MAX]; /* frustum ray -> position in idx */
     for (uint32_t i = 0; i < n; i++) {
@@ -253,11 +281,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         pray *p = &pr[f.n++];
         p->ogK = a_ogK[i], p->invK = a_invK[i];
         p->t1 = seg1[i], p->t = rays[idx[i]].tfar, p->u = p->v = 0, p->prim = PRT_INVALID, p->index = idx[i];
-        int sin = (int)cg_min(cg_max(a_kin[i], 0.0f), (float)topK);
-        int sout = (int)cg_min(cg_max(a_kout[i], 0.0f), (float)topK);
-        p->send = sout;
-        if (sgn > 0) k_first = PRT_MIN(k_first, sin), k_last = PRT_MAX(k_last, sout);
-        else k_first = PRT_MAX(k_first, sin), k_last = PRT_MIN(k_last, sout);
+        p->send = (int)a_sout[i];
     }
     for (uint32_t i = 0; i < nsingle; i++) {
         prt__hitx h = {rays[single[i]].tfar, 0, 0, PRT_INVALID};
@@ -271,19 +295,27 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
 
     /* Frustum at the entry plane of the first slice. */
     const float P0 = (float)(sgn > 0 ? k_first : k_first + 1);
-    float Lu = INFINITY, Hu = -INFINITY, Lv = INFINITY, Hv = -INFINITY;
-    float su0 = INFINITY, su1 = -INFINITY, sv0 = INFINITY, sv1 = -INFINITY;
-    for (uint32_t i = 0; i < f.n; i++) {
-        const uint32_t j = src_of[i];
-        const float ou = a_ou[j], ov = a_ov[j], su = a_su[j], sv = a_sv[j]; /* slopes per slice */
-        float dist = (P0 - pr[i].ogK) * (float)sgn;
-        float u = ou + dist * su, v = ov + dist * sv;
-        /* Conservative against the rounding of these few operations. */
-        float mu = CG_TRAVERSE_MARGIN + 4e-7f * (fabsf(ou) + fabsf(dist * su)),
-              mv = CG_TRAVERSE_MARGIN + 4e-7f * (fabsf(ov) + fabsf(dist * sv));
-        Lu = cg_min(Lu, u - mu), Hu = cg_max(Hu, u + mu), Lv = cg_min(Lv, v - mv), Hv = cg_max(Hv, v + mv);
-        su0 = cg_min(su0, su - 4e-7f * fabsf(su)), su1 = cg_max(su1, su + 4e-7f * fabsf(su));
-        sv0 = cg_min(sv0, sv - 4e-7f * fabsf(sv)), sv1 = cg_max(sv1, sv + 4e-7f * fabsf(sv));
+    float Lu, Hu, Lv, Hv;
+    {
+        /* u and v of every frustum ray at the entry plane, grown by the rounding of these
+         * few operations; 8 rays at a time, others masked. */
+        const vf8 pinf = vf8_set1(INFINITY), ninf = vf8_set1(-INFINITY), rel = vf8_set1(4e-7f);
+        const vf8 vP0 = vf8_set1(P0), fs = vf8_set1((float)sgn), mg = vf8_set1(CG_TRAVERSE_MARGIN);
+        vf8 lu = pinf, hu = ninf, lv = pinf, hv = ninf;
+        for (uint32_t i0 = 0; i0 < n; i0 += 8) {
+            const uint32_t bits = (elig_bits[i0 / 32] & enter_bits[i0 / 32]) >> (i0 % 32) & 0xffu;
+            if (!bits) continue;
+            vi8 mem;
+            for (int l = 0; l < 8; l++) mem[l] = (bits >> l & 1) ? -1 : 0;
+            const vf8 ou = vf8_load(a_ou + i0), ov = vf8_load(a_ov + i0), su = vf8_load(a_su + i0), sv = vf8_load(a_sv + i0);
+            const vf8 dist = (vP0 - vf8_load(a_ogK + i0)) * fs;
+            const vf8 du = dist * su, dv = dist * sv;
+            const vf8 u = ou + du, v = ov + dv;
+            const vf8 mu = mg + rel * (vf8_max(ou, -ou) + vf8_max(du, -du)), mv = mg + rel * (vf8_max(ov, -ov) + vf8_max(dv, -dv));
+            lu = vf8_min(lu, vf8_select(mem, u - mu, pinf)), hu = vf8_max(hu, vf8_select(mem, u + mu, ninf));
+            lv = vf8_min(lv, vf8_select(mem, v - mv, pinf)), hv = vf8_max(hv, vf8_select(mem, v + mv, ninf));
+        }
+        Lu = vf8_hmin(lu), Hu = -vf8_hmin(-hu), Lv = vf8_hmin(lv), Hv = -vf8_hmin(-hv);
     }
     const int nslices = (k_last - k_first) * sgn + 1;
     if (nslices <= 0) return; /* cannot happen: every frustum ray enters and leaves in order */
