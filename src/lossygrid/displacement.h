@@ -44,8 +44,8 @@ typedef struct lg_res_tables {
 extern lg_res_tables lg_res[16];
 
 /* Triangle vertices of a row of cells by diagonal bits (4 per row, bit x for cell x): for
- * lane 2 x + h and vertex c, an index into the row below (0..4) or above (8..12), as
- * __builtin_shuffle takes them over the two rows' 8-lane vectors. */
+ * lane 2 x + h and vertex c, an index into the row below (0..4) or above (8..12). Vertex 0
+ * is always below, vertex 2 always above (record.h relies on it). */
 extern int32_t lg_row_index[16][3][8] __attribute__((aligned(32)));
 
 /* Fill the tables once (thread-safe); every build and load calls it before tracing. */

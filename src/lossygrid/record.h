@@ -174,15 +174,22 @@ static inline void lg_shear(const lg_grid_vertices *g, int rows, const prt__rayx
     }
 }
 
-/* Lane i of the row below (index i) or above (8 + i). */
-static inline vf8 lg_pick(vf8 lo, vf8 hi, vi8 idx) {
+/* Lanes of one row by index (the low 3 bits of idx). */
+static inline vf8 lg_permute(vf8 v, vi8 idx) {
 #if defined(__AVX2__)
-    const __m256 a = _mm256_permutevar8x32_ps((__m256)lo, (__m256i)idx);
-    const __m256 b = _mm256_permutevar8x32_ps((__m256)hi, (__m256i)idx);
-    return (vf8)_mm256_blendv_ps(a, b, (__m256)(idx << 28)); /* bit 3 of the index, moved to the sign */
+    return (vf8)_mm256_permutevar8x32_ps((__m256)v, (__m256i)idx);
 #else
-    return __builtin_shuffle(lo, hi, idx);
+    return __builtin_shuffle(v, idx & 7);
 #endif
+}
+
+/* A cell triangle's first vertex is always on the row below and its third on the row
+ * above (lg_row_index, extract.h); its second is (x + 1) below for h = 0 and above for
+ * h = 1, whatever the diagonal: one permute each for the first and third, a fixed
+ * permute and blend for the second. */
+static inline vf8 lg_second(vf8 below, vf8 above) {
+    const vi8 idx = {1, 1, 2, 2, 3, 3, 4, 4}, odd = {0, -1, 0, -1, 0, -1, 0, -1};
+    return vf8_select(odd, lg_permute(above, idx), lg_permute(below, idx));
 }
 
 /* The watertight test (geom/triangle_simd.inc, the same operations in the same order) on
@@ -190,11 +197,11 @@ static inline vf8 lg_pick(vf8 lo, vf8 hi, vi8 idx) {
  * [tnear, tfar], with t (+inf elsewhere), u and v set when non-zero. */
 static inline int lg_row_hit(const lg_sheared *s, int row, unsigned diag, const prt__rayx8t *rw, vf8 tfar, vf8 *t_out,
                              vf8 *u_out, vf8 *v_out) {
-    vi8 ia, ib, ic;
-    memcpy(&ia, lg_row_index[diag][0], 32), memcpy(&ib, lg_row_index[diag][1], 32), memcpy(&ic, lg_row_index[diag][2], 32);
-    const vf8 ax = lg_pick(s->x[row], s->x[row + 1], ia), ay = lg_pick(s->y[row], s->y[row + 1], ia);
-    const vf8 bx = lg_pick(s->x[row], s->x[row + 1], ib), by = lg_pick(s->y[row], s->y[row + 1], ib);
-    const vf8 cx = lg_pick(s->x[row], s->x[row + 1], ic), cy = lg_pick(s->y[row], s->y[row + 1], ic);
+    vi8 ia, ic;
+    memcpy(&ia, lg_row_index[diag][0], 32), memcpy(&ic, lg_row_index[diag][2], 32);
+    const vf8 ax = lg_permute(s->x[row], ia), ay = lg_permute(s->y[row], ia);
+    const vf8 bx = lg_second(s->x[row], s->x[row + 1]), by = lg_second(s->y[row], s->y[row + 1]);
+    const vf8 cx = lg_permute(s->x[row + 1], ic), cy = lg_permute(s->y[row + 1], ic);
     vf8 u = cx * by - cy * bx;
     vf8 v = ax * cy - ay * cx;
     vf8 w = bx * ay - by * ax;
@@ -205,8 +212,8 @@ static inline int lg_row_hit(const lg_sheared *s, int row, unsigned diag, const 
     const vf8 det = u + v + w;
     const vi8 inside = ~mixed & (det != zero);
     if (!vi8_mask(inside)) return 0;
-    const vf8 az = lg_pick(s->z[row], s->z[row + 1], ia), bz = lg_pick(s->z[row], s->z[row + 1], ib);
-    const vf8 cz = lg_pick(s->z[row], s->z[row + 1], ic);
+    const vf8 az = lg_permute(s->z[row], ia), bz = lg_second(s->z[row], s->z[row + 1]);
+    const vf8 cz = lg_permute(s->z[row + 1], ic);
     const vf8 T = u * az + v * bz + w * cz;
     const vf8 t = T / det;
     const vi8 ok = inside & (t >= rw->tnear) & (t <= tfar);
