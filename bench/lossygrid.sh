@@ -4,8 +4,10 @@
 # ../shared/data, lossygrid in its three encodings against Embree and packrt's triangle BVHs
 # on the same rays (random, primary, diffuse), plus each encoding's error statistics.
 # Usage: bench/lossygrid.sh [SIZES]   (default "1M 10M"; e.g. "1M 10M 40M")
-#   BUILD=dir (default build), OUT=dir to keep the meshes and JSON (default a temp dir),
-#   REPS=n (default 5), RESULTS=file (default docs/results/lossygrid.md)
+#   BUILD=dir (default build), OUT=dir to keep the meshes and JSON (default a temp dir; JSON
+#   files already there are reported too, so a 40M run can be added to a kept one),
+#   REPS=n (default 5), KINDS="terrain canyon torus", REAL=0 to skip ../shared/data,
+#   RESULTS=file (default docs/results/lossygrid.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${BUILD:-build}
@@ -22,19 +24,19 @@ specs=(-r lossygrid,ids=none -r lossygrid -r lossygrid,enc=oct,ids=none -r lossy
        -r wide8:float3-soa8 -r quad:idx32-soa4 -r wide8:idx8-bitpack-soa4,ids=none)
 meshes=()
 for n in $sizes; do
-  for k in terrain canyon torus; do
+  for k in ${KINDS:-terrain canyon torus}; do
     f="$out/$k-$n.ply"
     [ -f "$f" ] || "$build/packrt" gen "$k" --tris "$n" -o "$f" >/dev/null
     meshes+=("$f")
   done
 done
-for m in ../shared/data/bunny.ply ../shared/data/bart_kitchen/kitchen_000.ply.gz ../shared/data/bart_robots/robots_000.ply.gz; do
-  if [ -f "$m" ]; then meshes+=("$m"); fi
-done
-i=0
+if [ "${REAL:-1}" != 0 ]; then
+  for m in ../shared/data/bunny.ply ../shared/data/bart_kitchen/kitchen_000.ply.gz ../shared/data/bart_robots/robots_000.ply.gz; do
+    if [ -f "$m" ]; then meshes+=("$m"); fi
+  done
+fi
 for m in "${meshes[@]}"; do
-  i=$((i + 1))
-  j="$out/$(printf '%02d' $i)-$(basename "$m" | sed 's/\..*//').json"
+  j="$out/$(basename "$m" | sed 's/\..*//').json"
   echo "lossygrid.sh: $m" >&2
   "$build/packrt" bench "$m" "${specs[@]}" --workload random,primary,diffuse --reps "$reps" --json > "$j"
 done

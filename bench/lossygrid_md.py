@@ -38,6 +38,12 @@ def ratio(a, b):
 
 def main(paths):
     runs = [json.load(open(p)) for p in paths]
+    order = {"terrain": 0, "canyon": 1, "torus": 2}
+    def key(run):  # displaced scenes by size then kind, the real meshes after them
+        name = mesh_name(run)
+        kind, _, size = name.partition("-")
+        return (0, run["mesh"]["triangles"], order.get(kind, 9)) if kind in order else (1, 0, name)
+    runs.sort(key=key)
     if not runs:
         sys.exit("lossygrid_md.py: no JSON files")
     first = runs[0]
