@@ -7,6 +7,7 @@
 #include "bvh/codecs/bitpack_soa4.h"
 #include "bvh/codecs/idx16_bitpack_soa4.h"
 #include "bvh/codecs/idx32_bitpack_soa4.h"
+#include "support/lossy.h"
 #include "support/meshes.h"
 #include "support/reference.h"
 #include "support/repr.h"
@@ -35,22 +36,6 @@ static double grid_bound(const prt_mesh *m, double steps) {
     return sqrt(half_step2) + 4 * sqrt(3.0) * largest_coordinate(m) * (double)FLT_EPSILON;
 }
 
-/* Every hit of a within the stated error of the brute force's (ref_lossy_acceptable). */
-static size_t hits_outside_the_bound(const prt_mesh *m, const prt_accel *a, size_t n, uint64_t seed) {
-    prt_ray *rays = rays_random(m, n, seed);
-    const double err = repr_vertex_error(a), tol = 1e-5 * ref_diagonal(m);
-    size_t wrong = 0;
-    for (size_t r = 0; r < n; r++) {
-        double edge;
-        prt_hit want = ref_intersect(m, &rays[r], &edge), got;
-        prt_ray ray = rays[r];
-        prt_intersect1(a, &ray, &got);
-        wrong += !ref_lossy_acceptable(m, &rays[r], &got, &want, err, tol);
-    }
-    free(rays);
-    return wrong;
-}
-
 TEST(test_indexed_bitpack_error_within_the_mesh_grid_step) {
     prt_mesh *meshes[] = {mesh_grid(60), mesh_random_soup(3000, 9)};
     const char *specs[] = {"wide8:idx16-bitpack-soa4", "quad:idx32-bitpack-soa4", "aabb:idx32-bitpack-soa4,leaf=7"};
@@ -61,7 +46,7 @@ TEST(test_indexed_bitpack_error_within_the_mesh_grid_step) {
             if (!a) continue;
             double err = repr_vertex_error(a), bound = grid_bound(meshes[i], BPV_MASK);
             CHECK_MSG(err > 0 && err <= bound, "mesh %zu %s: stated error %.3g, bound %.3g", i, specs[s], err, bound);
-            size_t wrong = hits_outside_the_bound(meshes[i], a, 2000, 5 + i);
+            size_t wrong = lossy_hits_outside_the_bound(meshes[i], a, 2000, 5 + i);
             CHECK_MSG(wrong == 0, "mesh %zu %s: %zu of 2000 hits outside the error bound", i, specs[s], wrong);
             prt_accel_free(a);
         }
@@ -82,7 +67,7 @@ TEST(test_bitpack_per_block_and_leaf_errors_are_measured_and_bound_hits) {
             if (!a) continue;
             double err = repr_vertex_error(a), bound = grid_bound(meshes[i], strstr(specs[s], "soa4") ? 65535.0 : BPV_MASK);
             CHECK_MSG(err > 0 && err <= bound, "mesh %zu %s: stated error %.3g, bound %.3g", i, specs[s], err, bound);
-            size_t wrong = hits_outside_the_bound(meshes[i], a, 2000, 15 + i);
+            size_t wrong = lossy_hits_outside_the_bound(meshes[i], a, 2000, 15 + i);
             CHECK_MSG(wrong == 0, "mesh %zu %s: %zu of 2000 hits outside the error bound", i, specs[s], wrong);
             prt_accel_free(a);
         }

@@ -8,30 +8,19 @@
 #include "lossygrid/encode.h"
 #include "lossygrid/lossygrid.h"
 #include "mesh/mesh.h"
+#include "support/lossy.h"
 #include "support/meshes.h"
 #include "support/reference.h"
 #include "support/repr.h"
 
 static const char *const g_encs[] = {"lossygrid,enc=oct", "lossygrid,enc=exp", "lossygrid,enc=fix"};
 
-/* Every hit of spec on rays within its stated bound of brute force's (ref_lossy_acceptable),
- * any hit agreeing with closest hit; returns the rays outside the bound. */
+/* Rays of spec outside its stated bound of brute force's (support/lossy.h). */
 static size_t wrong_hits(const prt_mesh *m, const char *spec, size_t n, uint64_t seed) {
     prt_accel *a;
     CHECK_OK(prt_build(m, spec, NULL, &a));
     if (!a) return n;
-    prt_ray *rays = rays_random(m, n, seed);
-    const double err = repr_vertex_error(a), tol = 1e-5 * ref_diagonal(m);
-    size_t wrong = 0;
-    for (size_t i = 0; i < n; i++) {
-        double edge;
-        prt_hit want = ref_intersect(m, &rays[i], &edge), got;
-        prt_ray r = rays[i];
-        const bool occ = prt_occluded1(a, &rays[i]);
-        prt_intersect1(a, &r, &got);
-        wrong += !ref_lossy_acceptable(m, &rays[i], &got, &want, err, tol) || occ != (got.prim != PRT_INVALID);
-    }
-    free(rays);
+    const size_t wrong = lossy_hits_outside_the_bound(m, a, n, seed);
     prt_accel_free(a);
     return wrong;
 }

@@ -49,9 +49,9 @@ _Static_assert(offsetof(lg_grid_rec, disp) == LG_DISP_OFFSET, "codes where the d
 _Static_assert(sizeof(lg_grid_rec) == LG_RECORD_BYTES && sizeof(lg_tri_rec) == LG_RECORD_BYTES, "records are 128 bytes");
 
 static inline int lg_rx(const lg_grid_rec *g) { return (g->res & 3) + 1; }
+static inline int lg_ry(const lg_grid_rec *g) { return (g->res >> 2 & 3) + 1; }
 /* The exponent byte of LG_ENC_FIX inside the sub-grid (on its border: scale). */
 static inline uint8_t lg_inner_scale(const lg_grid_rec *g) { return (uint8_t)(g->scale - (g->res >> 4)); }
-static inline int lg_ry(const lg_grid_rec *g) { return (g->res >> 2 & 3) + 1; }
 static inline int lg_tri_index(const lg_tri_rec *t, int k, int c) {
     const int nib = 3 * k + c;
     return t->idx[nib >> 1] >> (4 * (nib & 1)) & 15;
