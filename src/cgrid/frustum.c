@@ -24,6 +24,7 @@
 #include "geom/triangle.h"
 
 #include <math.h>
+#include <stddef.h>
 
 #define CG_MAX_SLOPE 8.0f
 #define CG_CHUNK 64 /* candidate triangles gathered before testing */
@@ -157,6 +158,29 @@ static inline bool frustum_culls(const frustum *f, const float *p) {
     return out != 0;
 }
 
+_Static_assert(sizeof(prt_ray) == 32 && offsetof(prt_ray, tnear) == 12 && offsetof(prt_ray, dir) == 16 &&
+                   offsetof(prt_ray, tfar) == 28,
+               "the transpose reads a prt_ray as org xyz, tnear, dir xyz, tfar");
+
+/* In place: c[k][l] = (input c[l])[k], an 8x8 transpose in three rounds of shuffles. */
+static inline void transpose8(vf8 c[8]) {
+    vf8 t[8], u[8];
+    for (int i = 0; i < 8; i += 2) {
+        t[i] = __builtin_shufflevector(c[i], c[i + 1], 0, 8, 1, 9, 4, 12, 5, 13);
+        t[i + 1] = __builtin_shufflevector(c[i], c[i + 1], 2, 10, 3, 11, 6, 14, 7, 15);
+    }
+    for (int i = 0; i < 8; i += 4) {
+        u[i] = __builtin_shufflevector(t[i], t[i + 2], 0, 1, 8, 9, 4, 5, 12, 13);
+        u[i + 1] = __builtin_shufflevector(t[i], t[i + 2], 2, 3, 10, 11, 6, 7, 14, 15);
+        u[i + 2] = __builtin_shufflevector(t[i + 1], t[i + 3], 0, 1, 8, 9, 4, 5, 12, 13);
+        u[i + 3] = __builtin_shufflevector(t[i + 1], t[i + 3], 2, 3, 10, 11, 6, 7, 14, 15);
+    }
+    for (int i = 0; i < 4; i++) {
+        c[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+        c[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+    }
+}
+
 /* floor(x) for the 4 lanes, clamped to [-1, top + 1] first so the conversion is defined. */
 static inline vi4 floor4_clamped(vf4 x, vf4 top) {
     x = vf4_min(vf4_max(x, vf4_set1(-1.0f)), top + vf4_set1(1.0f));
@@ -203,15 +227,13 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         vf8 kf_acc = sgn > 0 ? pinf : ninf, kl_acc = sgn > 0 ? ninf : pinf;
         vf8 su0v = pinf, su1v = ninf, sv0v = pinf, sv1v = ninf;
         for (uint32_t i0 = 0; i0 < n; i0 += 8) {
-            float ob[3][8], db[3][8], tnb[8], tfb[8], dkx[8], dky[8], dkz[8];
-            for (uint32_t l = 0; l < 8; l++) {
-                const prt_ray *r = &rays[idx[i0 + l < n ? i0 + l : i0]];
-                for (int k = 0; k < 3; k++) ob[k][l] = r->org[k], db[k][l] = r->dir[k];
-                tnb[l] = r->tnear, tfb[l] = r->tfar;
-            }
-            const vf8 o[3] = {vf8_load(ob[0]), vf8_load(ob[1]), vf8_load(ob[2])};
-            const vf8 d[3] = {vf8_load(db[0]), vf8_load(db[1]), vf8_load(db[2])};
-            const vf8 tn = vf8_load(tnb), tf = vf8_load(tfb);
+            /* A prt_ray is 8 floats: load 8 rays and transpose (org xyz, tnear, dir xyz, tfar). */
+            vf8 c[8];
+            for (uint32_t l = 0; l < 8; l++) c[l] = vf8_load((const float *)&rays[idx[i0 + l < n ? i0 + l : i0]]);
+            transpose8(c);
+            const vf8 o[3] = {c[0], c[1], c[2]}, d[3] = {c[4], c[5], c[6]};
+            const vf8 tn = c[3], tf = c[7];
+            float db[3][8], dkx[8], dky[8], dkz[8];
             vf8 og[3], dg[3];
             for (int k = 0; k < 3; k++) og[k] = (o[k] - vf8_set1(g->lo[k])) * inv_cell, dg[k] = d[k] * inv_cell;
             const vf8 aK = dg[K] * fsg;
@@ -229,6 +251,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             const vi8 mem = elig & (t0 <= t1);
             if (!vi8_mask(mem)) continue; /* no frustum ray here: the rest is not needed */
             /* The watertight test's permutation and shear, as prt__rayx_init computes them. */
+            memcpy(db[0], &d[0], sizeof d[0]), memcpy(db[1], &d[1], sizeof d[1]), memcpy(db[2], &d[2], sizeof d[2]);
             for (uint32_t l = 0; l < 8; l++) {
                 const float dx = db[0][l], dy = db[1][l], dz = db[2][l];
                 const float ax = fabsf(dx), ay = fabsf(dy), az = fabsf(dz);
