@@ -346,6 +346,30 @@ TEST(test_packets_give_the_single_ray_hits) {
     prt_mesh_free(m);
 }
 
+/* Threads stripify contiguous runs of chunks: the records and nodes do not depend on the
+ * thread count. */
+TEST(test_build_is_the_same_on_one_and_two_threads) {
+    prt_mesh *m = mesh_grid(70); /* 9800 triangles: the SAH builders fork tasks from 8192 */
+    const char *specs[] = {"raystrips", "raystrips,leaf=2,split=f32,strip=meshopt,chunk=32"};
+    for (size_t i = 0; i < COUNT_OF(specs); i++) {
+        prt_build_options one = {.threads = 1}, two = {.threads = 2};
+        prt_accel *a = NULL, *b = NULL;
+        CHECK_OK(prt_build(m, specs[i], &one, &a));
+        CHECK_OK(prt_build(m, specs[i], &two, &b));
+        if (a && b) {
+            const rs_accel *x = (const rs_accel *)a, *y = (const rs_accel *)b;
+            CHECK_MSG(x->strip_words == y->strip_words && x->node_count == y->node_count &&
+                          x->vertex_count == y->vertex_count &&
+                          !memcmp(x->strips, y->strips, 4 * x->strip_words) &&
+                          !memcmp(x->nodes, y->nodes, sizeof(rs_node) * x->node_count) &&
+                          !memcmp(x->vertices, y->vertices, 12 * x->vertex_count),
+                      "%s: one and two threads build different structures", specs[i]);
+        }
+        prt_accel_free(a), prt_accel_free(b);
+    }
+    prt_mesh_free(m);
+}
+
 TEST(test_single_triangle_and_bad_options) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_create(3, 1, &m));
@@ -380,6 +404,7 @@ int main(void) {
     RUN(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit);
     RUN(test_damaged_records_and_nodes_behind_the_checksums_are_errors);
     RUN(test_packets_give_the_single_ray_hits);
+    RUN(test_build_is_the_same_on_one_and_two_threads);
     RUN(test_single_triangle_and_bad_options);
     TEST_END();
 }
