@@ -453,6 +453,64 @@ TEST(test_damaged_files_are_errors_never_crashes) {
     prt_mesh_free(m);
 }
 
+/* Above CG_BUILD_GRAIN triangles the build runs on several threads (atomic counts and
+ * scatter, then a per-cell sort): the grid must be the one a single thread builds, byte for
+ * byte in its file, and answer the same. */
+static size_t file_bytes(const char *path, uint8_t **out) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    fseek(f, 0, SEEK_END);
+    size_t n = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    *out = malloc(n);
+    if (!*out || fread(*out, 1, n, f) != n) n = 0;
+    fclose(f);
+    return n;
+}
+
+TEST(test_parallel_build_equals_single_thread_build) {
+    prt_mesh *m = mesh_grid(400); /* 320k triangles */
+    CHECK(m->triangle_count > CG_BUILD_GRAIN); /* so two threads build it */
+    prt_build_options one = {.threads = 1}, two = {.threads = 2};
+    prt_accel *a = NULL, *b = NULL;
+    CHECK_OK(prt_build(m, "cgrid", &one, &a));
+    CHECK_OK(prt_build(m, "cgrid", &two, &b));
+    if (a && b) {
+        /* Move the mesh, update both, compare the files and some hits. */
+        prt_mesh *moved = mesh_transformed(m, 1.0f, 0.0f);
+        deform(m, 0.9f, moved->vertices);
+        CHECK_OK(prt_accel_update(a, moved->vertices));
+        CHECK_OK(prt_accel_update(b, moved->vertices));
+        char pa[] = "/tmp/test_cgrid_t1_XXXXXX", pb[] = "/tmp/test_cgrid_t2_XXXXXX";
+        int fa = mkstemp(pa), fb = mkstemp(pb);
+        if (fa >= 0) close(fa);
+        if (fb >= 0) close(fb);
+        CHECK_OK(prt_accel_save(a, pa));
+        CHECK_OK(prt_accel_save(b, pb));
+        uint8_t *da = NULL, *db = NULL;
+        size_t na = file_bytes(pa, &da), nb = file_bytes(pb, &db);
+        /* The header's build time differs; the sections after it must not. */
+        CHECK_MSG(na == nb && na > 256 && !memcmp(da + 256, db + 256, na - 256), "files of %zu and %zu bytes differ", na, nb);
+        free(da), free(db);
+        unlink(pa), unlink(pb);
+        prt_ray *rays = rays_random(moved, 2000, 8);
+        size_t wrong = 0;
+        for (size_t i = 0; i < 2000; i++) {
+            prt_ray r1 = rays[i], r2 = rays[i];
+            prt_hit h1, h2;
+            prt_intersect1(a, &r1, &h1);
+            prt_intersect1(b, &r2, &h2);
+            wrong += h1.prim != h2.prim || h1.t != h2.t;
+        }
+        CHECK_MSG(wrong == 0, "%zu rays differ", wrong);
+        free(rays);
+        prt_mesh_free(moved);
+    }
+    prt_accel_free(a);
+    prt_accel_free(b);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_every_option_matches_brute_force);
     RUN(test_canonical_spec_spells_every_option_and_bad_options_fail);
@@ -463,5 +521,6 @@ int main(void) {
     RUN(test_counters_follow_the_paper);
     RUN(test_bart_frame_update);
     RUN(test_damaged_files_are_errors_never_crashes);
+    RUN(test_parallel_build_equals_single_thread_build);
     TEST_END();
 }

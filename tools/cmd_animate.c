@@ -40,6 +40,8 @@ static int usage(void) {
            "  --counters      --bench: also count cells and ray-triangle tests (cgrid; an extra\n"
            "                  untimed single-thread pass per frame)\n"
            "  --size WxH      image size (default 1024x1024)\n"
+           "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov (default 40); default: the\n"
+           "                  framing of the union of all frames' bounds that packrt bench uses\n"
            "  --packet N      packet width for --bench: N x N rays (2, 4, 8, 16; default 8)\n"
            "  --frames N      frames of a generated SCENE (default 21), or the first N of DIR\n"
            "  --tris N        triangles of a generated SCENE (default 100k)\n"
@@ -237,6 +239,8 @@ int cmd_animate(int argc, char **argv) {
     uint32_t W = 1024, H = 1024, packet = 8;
     size_t frames = 0, tris = 100000;
     uint64_t seed = 1;
+    float camv[7] = {0, 0, 0, 0, 0, 0, 40};
+    bool have_cam = false;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage();
@@ -260,6 +264,22 @@ int cmd_animate(int argc, char **argv) {
             vs_embree = true;
         } else if (!strcmp(a, "--size")) {
             if (!parse_size(v, &W, &H)) return cli_usage("animate", "--size: '%s' is not WxH", v);
+        } else if (!strcmp(a, "--camera")) {
+            int got = 0;
+            for (const char *q = v; got < 7;) {
+                char *e;
+                double x = strtod(q, &e);
+                if (e == q || !isfinite(x)) break;
+                camv[got++] = (float)x;
+                if (*e != ',') {
+                    q = e;
+                    if (*e) got = 0;
+                    break;
+                }
+                q = e + 1;
+            }
+            if (got != 6 && got != 7) return cli_usage("animate", "--camera: ex,ey,ez,tx,ty,tz[,fov]");
+            have_cam = true;
         } else if (!strcmp(a, "--packet")) {
             if (!cli_parse_count(v, &n) || (n != 1 && n != 2 && n != 4 && n != 8 && n != 16))
                 return cli_usage("animate", "--packet: 1, 2, 4, 8 or 16");
@@ -326,6 +346,12 @@ int cmd_animate(int argc, char **argv) {
     }
     prt_camera cam;
     prt_camera_default(lo, hi, &cam);
+    if (have_cam) {
+        memcpy(cam.eye, camv, sizeof cam.eye);
+        memcpy(cam.target, camv + 3, sizeof cam.target);
+        cam.up[0] = 0, cam.up[1] = 1, cam.up[2] = 0;
+        cam.fov_y_deg = camv[6];
+    }
     render_camera rcam;
     if ((s = render_camera_setup(&cam, W, H, &rcam))) {
         prt_mesh_free(cur);

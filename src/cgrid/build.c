@@ -207,7 +207,10 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     if ((s = grow((void **)&pl->refs, &pl->cap_refs, g->nrefs ? g->nrefs : 1, sizeof(uint32_t)))) return s;
     uint32_t *refs = pl->refs;
 #pragma omp parallel for num_threads(nt) schedule(static)
-    for (size_t t = 0; t < n; t++) {
+    for (size_t t0 = 0; t0 < n; t0++) {
+        /* One thread walks the triangles backwards, so decrementing leaves each cell's ids
+         * ascending: the order several threads reach by sorting. */
+        const size_t t = nt == 1 ? n - 1 - t0 : t0;
         const uint16_t *rg = ranges + 6 * t;
         for (uint32_t z = rg[2]; z <= rg[5]; z++)
             for (uint32_t y = rg[1]; y <= rg[4]; y++) {
