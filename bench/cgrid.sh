@@ -65,6 +65,14 @@ for l in 1 2 4 6 8 12 16; do lam_specs+=(-r "cgrid,lambda=$l"); done
 # shellcheck disable=SC2046
 run "$tmp/E.json" "$lam_scene" $(gen_opts "$lam_scene") --threads 1 --frames 6 "${lam_specs[@]}"
 
+# F. BART robots from a street inside the city (the default framing sees its outer walls).
+if [ -d "$data/bart_robots" ]; then
+  for t in 1 2; do
+    run "$tmp/F_$t.json" "$data/bart_robots" --threads "$t" --vs embree --camera 0,60,200,0,0,-100,60 \
+      -r cgrid -r cgrid,lambda=1
+  done
+fi
+
 python3 - "$tmp" "$(uname -srm)" "$(nproc)" <<'PY'
 import glob, json, os, sys
 tmp, uname, nproc = sys.argv[1], sys.argv[2], sys.argv[3]
@@ -154,4 +162,18 @@ for r in j["results"]:
     lam = r["representation"].split("lambda=")[1].split(",")[0]
     tot = r["rebuild_cpu_ms"] + r["trace_cpu_ms"]
     print(f"| {lam} | {r['rebuild_cpu_ms']:.2f} | {r['trace_cpu_ms']:.2f} | {tot:.2f} | {tot/best:.2f} |")
+
+if os.path.exists(os.path.join(tmp, "F_1.json")):
+    print("\n### F. BART robots from a street inside the city (`--camera 0,60,200,0,0,-100,60`)\n")
+    print("| threads | representation | rebuild ms | trace ms | total ms | total / Embree's | cpu total / Embree's |")
+    print("|---:|---|---:|---:|---:|---:|---:|")
+    for t in (1, 2):
+        j = load(os.path.join(tmp, f"F_{t}.json"))
+        em = res(j, "embree")
+        for r in j["results"]:
+            tot = r["rebuild_ms"] + r["trace_ms"]
+            cpu = (r["rebuild_cpu_ms"] + r["trace_cpu_ms"]) / (em["rebuild_cpu_ms"] + em["trace_cpu_ms"])
+            cpu_s = f"{cpu:.2f}" if t == 1 else ""
+            print(f"| {t} | `{r['representation']}` | {r['rebuild_ms']:.2f} | {r['trace_ms']:.2f} | {tot:.2f} | "
+                  f"{tot / (em['rebuild_ms'] + em['trace_ms']):.2f} | {cpu_s} |")
 PY
