@@ -80,18 +80,24 @@ prt_status bench_rays_primary(const bench_camera *c, uint32_t width, uint32_t he
 /* The default point light: above, in front of and to the left of the box, outside it. */
 void bench_light_default(const float lo[3], const float hi[3], float light[3]);
 
+/* Where secondary rays start by default: 1e-4 of the mesh diagonal off the surface, far
+ * above float rounding of the hit point (~1e-7 relative) and far below a triangle's size on
+ * the meshes we bench. A lossy representation whose surface lies farther than half the
+ * offset from the mesh's can hit itself: `packrt bench --offset` says so and sets it. */
+#define BENCH_SURFACE_OFFSET 1e-4
+
 /* Shadow rays: for every primary ray that hit (hits[i] from any accel, prim indexing m), a ray
  * from the hit point (interpolated on triangle prim, moved along the geometric normal toward
- * the side the primary ray came from by 1e-4 of the mesh diagonal) toward light; dir
+ * the side the primary ray came from by `offset`, in mesh units) toward light; dir
  * normalised, tnear = 0, tfar = distance to the light. Misses make no shadow ray. */
 prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                             const float light[3], bench_rays *out);
+                             const float light[3], float offset, bench_rays *out);
 
 /* Diffuse bounce rays: for every primary hit, a cosine-weighted direction about the geometric
  * normal (facing the primary ray's side), same offset origin, tnear = 0, tfar = +inf. The
  * direction of the ray from pixel p depends only on (seed, p). */
 prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                              uint64_t seed, bench_rays *out);
+                              uint64_t seed, float offset, bench_rays *out);
 
 /* ---------------------------------------------------------------------------------
  * Backends: what the harness times (packrt: bench/backend_packrt.c)

@@ -187,15 +187,6 @@ static bool hit_frame(const prt_mesh *m, const prt_ray *ray, const prt_hit *h, p
     return true;
 }
 
-static float surface_offset(const prt_mesh *m) {
-    float lo[3], hi[3];
-    prt_mesh_bounds(m, lo, hi);
-    float d = (float)diagonal(lo, hi);
-    /* 1e-4 of the diagonal: far above float rounding of the hit point (~1e-7 relative) and
-     * far below a triangle's size on the meshes we bench (~1e-3 of the diagonal at 1M). */
-    return d > 0.0f ? 1e-4f * d : 1e-4f;
-}
-
 static size_t count_hits(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits) {
     size_t n = 0;
     for (size_t i = 0; i < primary->count; i++) {
@@ -217,11 +208,10 @@ static prt_status alloc_secondary(bench_rays *out, bench_workload kind, size_t c
 }
 
 prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                             const float light[3], bench_rays *out) {
+                             const float light[3], float eps, bench_rays *out) {
     prt_status s = alloc_secondary(out, BENCH_SHADOW, count_hits(m, primary, hits));
     if (s) return s;
     out->any_hit = true;
-    float eps = surface_offset(m);
     prt_vec3 L = prt_v3_load(light);
     size_t k = 0;
     for (size_t i = 0; i < primary->count; i++) {
@@ -240,10 +230,9 @@ prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const
 }
 
 prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                              uint64_t seed, bench_rays *out) {
+                              uint64_t seed, float eps, bench_rays *out) {
     prt_status s = alloc_secondary(out, BENCH_DIFFUSE, count_hits(m, primary, hits));
     if (s) return s;
-    float eps = surface_offset(m);
     size_t k = 0;
     for (size_t i = 0; i < primary->count; i++) {
         prt_vec3 p, n;

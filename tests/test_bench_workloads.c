@@ -66,7 +66,7 @@ TEST(test_shadow_rays_end_at_the_light) {
     CHECK_OK(bench_trace_hits(&a, &primary, &hits));
     size_t nhit = 0;
     for (size_t i = 0; i < primary.count; i++) nhit += hits[i].prim != PRT_INVALID;
-    CHECK_OK(bench_rays_shadow(m, &primary, hits, light, &shadow));
+    CHECK_OK(bench_rays_shadow(m, &primary, hits, light, 1e-4f, &shadow));
     CHECK(shadow.count == nhit && nhit > 0 && shadow.any_hit);
     size_t bad = 0;
     for (size_t i = 0; i < shadow.count; i++) {
