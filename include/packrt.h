@@ -111,6 +111,11 @@ prt_status prt_mesh_save_ply(const prt_mesh *m, const char *path);
  * this limit (or for rays starting farther than about that), rays would miss triangles. */
 #define PRT_MAX_COORDINATE 1e12f
 
+/* Smallest bounding-box diagonal of a mesh prt_build accepts (PRT_ERROR_LIMIT below): for
+ * meshes (and rays) much smaller, that product of three differences leaves the normal float
+ * range (near 2e-13) and hit distances lose their precision, then hits are lost (1e-19). */
+#define PRT_MIN_EXTENT 1e-10f
+
 /* Check a mesh: at least one triangle, every vertex finite, every index < vertex_count.
  * Returns PRT_ERROR_MESH with the first offending element in prt_last_error(). */
 prt_status prt_mesh_validate(const prt_mesh *m);

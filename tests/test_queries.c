@@ -337,6 +337,24 @@ TEST(test_meshes_at_the_coordinate_limit_match_brute_force) {
     prt_mesh_free(soup), prt_mesh_free(m);
 }
 
+/* Down to the smallest extent every representation answers as brute force too (rays of
+ * unit direction, so t is a distance and the tolerance a fraction of the diagonal). */
+TEST(test_meshes_at_the_smallest_extent_match_brute_force) {
+    prt_mesh *soup = mesh_random_soup(300, 4), *m = mesh_transformed(soup, 1.2f * PRT_MIN_EXTENT, 0.0f);
+    prt_ray *rays = rays_random(m, 300, 8);
+    for (size_t i = 0; i < 300; i++) {
+        const double len = sqrt((double)rays[i].dir[0] * rays[i].dir[0] + (double)rays[i].dir[1] * rays[i].dir[1] +
+                                (double)rays[i].dir[2] * rays[i].dir[2]);
+        for (int k = 0; k < 3; k++) rays[i].dir[k] = (float)(rays[i].dir[k] / len);
+    }
+    reference ref = reference_of(m, rays, 300);
+    for (size_t i = 0; i < prt_repr_count(); i++)
+        if (repr_in_cover(prt_repr_name(i))) compare_with_reference(m, prt_repr_name(i), rays, 300, &ref);
+    reference_free(&ref);
+    free(rays);
+    prt_mesh_free(soup), prt_mesh_free(m);
+}
+
 TEST(test_coordinates_beyond_the_limit_are_rejected) {
     prt_mesh *m = mesh_random_soup(4, 1);
     m->vertices[4] = 2.0f * PRT_MAX_COORDINATE;
@@ -344,6 +362,11 @@ TEST(test_coordinates_beyond_the_limit_are_rejected) {
     CHECK(prt_build(m, "quad:float3-soa4", NULL, &a) == PRT_ERROR_LIMIT && a == NULL);
     CHECK(strstr(prt_last_error(), "magnitude") != NULL);
     prt_mesh_free(m);
+    /* And a mesh too small for single precision: rejected rather than silently missed. */
+    prt_mesh *soup = mesh_random_soup(40, 2), *tiny = mesh_transformed(soup, 0.1f * PRT_MIN_EXTENT, 0.0f);
+    CHECK(prt_build(tiny, "lossygrid", NULL, &a) == PRT_ERROR_LIMIT && a == NULL);
+    CHECK(strstr(prt_last_error(), "spans") != NULL);
+    prt_mesh_free(soup), prt_mesh_free(tiny);
 }
 
 TEST(test_ids_none_hits_map_through_the_triangle_order) {
@@ -401,6 +424,7 @@ int main(void) {
     RUN(test_negative_tnear_finds_hits_behind_the_origin);
     RUN(test_equal_t_ties_pick_the_smallest_triangle_id);
     RUN(test_meshes_at_the_coordinate_limit_match_brute_force);
+    RUN(test_meshes_at_the_smallest_extent_match_brute_force);
     RUN(test_coordinates_beyond_the_limit_are_rejected);
     RUN(test_ids_none_hits_map_through_the_triangle_order);
     TEST_END();
