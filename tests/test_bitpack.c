@@ -77,7 +77,7 @@ TEST(test_bitpack_per_block_and_leaf_errors_are_measured_and_bound_hits) {
 /* A bitpack-soa4 leaf: its first id inside the tree, a count its size allows and finite
  * grids; a bitpack leaf: its first id inside the tree and a finite grid. */
 TEST(test_bitpack_crafted_leaves_are_invalid) {
-    bvh_shared sh = {NULL, 0, 8, NULL};
+    bvh_shared sh = {.triangles = 8};
     uint8_t leaf[BSOA_HEAD_BYTES + 2 * BSOA_BLOCK_BYTES] = {0};
     uint32_t count = 6;
     memcpy(leaf + 4, &count, 4);
@@ -145,7 +145,7 @@ TEST(test_indexed_bitpack_leaf_outside_the_buffer_is_invalid) {
     uint8_t shared[32 + 8 * 10] = {0};
     bpv_header hd = {{0, 0, 0}, {1, 1, 1}, 0, 10};
     memcpy(shared, &hd, sizeof hd);
-    bvh_shared sh = {shared, sizeof shared, 8, NULL};
+    bvh_shared sh = {.data = shared, .size = sizeof shared, .triangles = 8};
     uint8_t l16[4 + 24] = {0}, l32[4 + 48] = {0};
     uint16_t nine16 = 9, ten16 = 10;
     uint32_t nine32 = 9, ten32 = 10;

@@ -94,7 +94,7 @@ TEST(test_idx16_more_than_65535_vertices_is_a_limit) {
 /* A leaf must name vertices of the buffer and a first triangle inside the tree. */
 TEST(test_idx16_leaf_outside_the_buffer_is_invalid) {
     float vertices[3 * 10] = {0}; /* 9 mesh vertices and the NaN one */
-    bvh_shared sh = {(const uint8_t *)vertices, sizeof vertices, 8, NULL};
+    bvh_shared sh = {.data = (const uint8_t *)vertices, .size = sizeof vertices, .triangles = 8};
     uint8_t leaf[IDX16_HEAD_BYTES + IDX16_SOA4_BLOCK_BYTES] = {0};
     uint16_t nine = 9, ten = 10;
     memcpy(leaf + IDX16_HEAD_BYTES + 2 * 11, &nine, 2); /* vertex 2 of lane 3: the NaN vertex */

@@ -182,7 +182,7 @@ TEST(test_idx8_bitpack_leaf_outside_the_buffer_is_invalid) {
     uint8_t shared[32 + 8 * 10] = {0};
     idx8bp_header hd = {{0, 0, 0}, {1, 1, 1}, 0, 10};
     memcpy(shared, &hd, sizeof hd);
-    bvh_shared sh = {shared, sizeof shared, 4, NULL};
+    bvh_shared sh = {.data = shared, .size = sizeof shared, .triangles = 4};
     uint8_t leaf[IDX8BP_HEAD_BYTES + IDX8BP_BLOCK_BYTES] = {0};
     uint32_t first = 5;
     memcpy(leaf, &first, 4);

@@ -280,6 +280,53 @@ TEST(test_lossygrid_ids_none_and_save_load) {
     prt_mesh_free(m);
 }
 
+/* The id map of ids=mesh: compact (a base and 16-bit deltas per 32 positions) where a
+ * block's triangles lie near each other in the mesh, every id in full in the blocks where
+ * they do not, a plain u32 map where that would be smaller; hits name the right triangles
+ * in all three cases, before and after saving. */
+TEST(test_lossygrid_id_map_names_the_right_triangles) {
+    prt_mesh *grid = mesh_grid(250), *soup = mesh_random_soup(90000, 5); /* ids past 65536 apart */
+    /* Triangles moved far from their neighbours in the file: wide blocks in a compact map. */
+    for (size_t t = 0; t < 400; t += 2) {
+        uint32_t tmp[3];
+        memcpy(tmp, &grid->triangles[3 * t], 12);
+        memcpy(&grid->triangles[3 * t], &grid->triangles[3 * (t + 100001)], 12);
+        memcpy(&grid->triangles[3 * (t + 100001)], tmp, 12);
+    }
+    prt_mesh *meshes[2] = {grid, soup};
+    for (int i = 0; i < 2; i++) {
+        prt_mesh *m = meshes[i];
+        uint32_t *order = malloc(m->triangle_count * sizeof *order);
+        prt_build_options o = {.triangle_order = order};
+        prt_accel *a = NULL, *none = NULL, *loaded = NULL;
+        CHECK_OK(prt_build(m, "lossygrid", NULL, &a));
+        CHECK_OK(prt_build(m, "lossygrid,ids=none", &o, &none));
+        if (!a || !none) continue;
+        prt_stats sa, sn;
+        prt_accel_stats(a, &sa), prt_accel_stats(none, &sn);
+        const double map = (double)(sa.bytes_geometry - sn.bytes_geometry) / (double)sa.triangles_built;
+        /* The grid's map is compact; the soup's ids are scattered, so its map is plain. */
+        CHECK_MSG(i == 0 ? map < 2.5 : map == 4.0, "mesh %d: the id map takes %.2f B/tri", i, map);
+        CHECK(lossy_hits_outside_the_bound(m, a, 500, 31 + (uint64_t)i) == 0);
+        const char *path = "test_lossygrid_ids.prt";
+        CHECK_OK(prt_accel_save(a, path));
+        CHECK_OK(prt_accel_load(path, &loaded));
+        prt_ray *rays = rays_random(m, 2000, 41);
+        size_t differ = 0;
+        for (size_t k = 0; loaded && k < 2000; k++) {
+            prt_ray r1 = rays[k], r2 = rays[k];
+            prt_hit h1, h2;
+            prt_intersect1(a, &r1, &h1), prt_intersect1(loaded, &r2, &h2);
+            differ += h1.prim != h2.prim || h1.t != h2.t;
+        }
+        CHECK_MSG(differ == 0, "mesh %d: %zu of 2000 rays differ after loading", i, differ);
+        free(rays), free(order);
+        remove(path);
+        prt_accel_free(a), prt_accel_free(none), prt_accel_free(loaded);
+    }
+    prt_mesh_free(grid), prt_mesh_free(soup);
+}
+
 /* A record naming triangles past the id map, or a bad kind, makes the file fail to load. */
 TEST(test_lossygrid_rejects_crafted_records) {
     prt_mesh *m = mesh_grid(12);
@@ -351,6 +398,7 @@ int main(void) {
     RUN(test_lossygrid_seams_between_sub_grids_are_watertight);
     RUN(test_lossygrid_barycentrics_are_in_the_mesh_triangles_order);
     RUN(test_lossygrid_ids_none_and_save_load);
+    RUN(test_lossygrid_id_map_names_the_right_triangles);
     RUN(test_lossygrid_rejects_crafted_records);
     RUN(test_lossygrid_bunny_within_the_bound);
     TEST_END();

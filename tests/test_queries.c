@@ -391,8 +391,11 @@ TEST(test_ids_none_hits_map_through_the_triangle_order) {
         }
         prt_stats sa, sb;
         prt_accel_stats(a, &sa), prt_accel_stats(b, &sb);
-        CHECK_MSG(sb.bytes_geometry + 4 * sb.triangles_built == sa.bytes_geometry, "%s: %zu geometry bytes, %zu with ids",
-                  spec, sb.bytes_geometry, sa.bytes_geometry);
+        /* The map costs 4 bytes a triangle; lossygrid's compact one less (about 2.1). */
+        const bool compact = !strncmp(spec, "lossygrid", 9);
+        CHECK_MSG(compact ? sb.bytes_geometry < sa.bytes_geometry && sa.bytes_geometry < sb.bytes_geometry + 4 * sb.triangles_built
+                          : sb.bytes_geometry + 4 * sb.triangles_built == sa.bytes_geometry,
+                  "%s: %zu geometry bytes, %zu with ids", spec, sb.bytes_geometry, sa.bytes_geometry);
         size_t differ = 0;
         for (size_t i = 0; i < n; i++) {
             prt_ray r1 = rays[i], r2 = rays[i];

@@ -281,7 +281,7 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (meta.blob_size != size || meta.bytes_tree > size || meta.bytes_geometry != size - meta.bytes_tree ||
         meta.depth > BVH_MAX_DEPTH || meta.depth == 0)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section disagrees with its BLOB");
-    bvh_shared shared = {NULL, 0, 0, NULL};
+    bvh_shared shared = {.data = NULL};
     if (bvh_codecs[codec].shared_build || bvh_codecs[codec].shared_remap) {
         const void *sd;
         if ((s = prt__reader_section(r, PRT_FOURCC('S', 'H', 'R', 'D'), 1, &sd, &shared.size))) return s;

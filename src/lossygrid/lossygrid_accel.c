@@ -3,9 +3,12 @@
  * sub-grids (extract.c), each compressed into 128 bytes (encode.c), the triangles that fit
  * no grid packed into exact 128-byte records; a binned SAH BVH over the records is packed
  * into 8-wide quantized nodes (bvh/layouts/wide8_pack.c) and traversed by the wide8
- * kernel with the record kernels of record.h. Saved as sections META, BLOB and IDS. */
+ * kernel with the record kernels of record.h. Saved as sections META, BLOB and, with
+ * ids=mesh, IDMP (the compact map of idmap.h) or, where that would be larger, IDS (a u32
+ * mesh id per position). */
 #include "api/accel.h"
 #include "bvh/layouts/wide8.h"
+#include "lossygrid/idmap.h"
 #include "lossygrid/lossygrid.h"
 
 #include <math.h>
@@ -15,22 +18,24 @@
 typedef struct lg_meta {
     uint64_t blob_size, bytes_tree, nodes, leaves;
     uint64_t triangles; /* accel positions: every record's triangles lie below */
-    uint32_t depth, flags; /* LG_META_MESH_IDS: an IDS section maps positions to mesh ids */
+    uint32_t depth, flags; /* how positions map to mesh ids: LG_META_IDS, LG_META_IDMAP or neither */
     float vertex_error;    /* the largest decoded vertex error, measured at build time */
     float rms_error;
     uint32_t subgrids, grid_triangles;
 } lg_meta;
-enum { LG_META_MESH_IDS = 1 };
+enum { LG_META_IDS = 1, LG_META_IDMAP = 2 };
 _Static_assert(sizeof(lg_meta) == 64, "META section is 64 bytes");
 
 typedef struct lg_accel {
     prt_accel base;
     bvh_blob blob;
-    bvh_shared shared; /* mesh_ids and the position count, for the tie rule and the id map */
+    bvh_shared shared; /* the position count and the id map, for the tie rule and hits */
     lg_meta meta;
     lg_build_report report; /* built accels only (zero when loaded) */
-    uint32_t *mesh_ids;     /* owned when built */
-    bool owns_blob;
+    lg_idmap idmap;         /* ids=mesh */
+    const uint8_t *idmap_data;
+    size_t idmap_size;
+    bool owns_blob; /* and idmap_data */
 } lg_accel;
 
 extern const prt_accel_ops prt__lossygrid_ops;
@@ -38,7 +43,9 @@ extern const prt_accel_ops prt__lossygrid_ops;
 static void lg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     const lg_accel *g = (const lg_accel *)a;
     lg_trace1(g->blob.data, &g->shared, r, h);
-    if (g->shared.mesh_ids && h->prim < g->shared.triangles) h->prim = g->shared.mesh_ids[h->prim];
+    if (h->prim >= g->shared.triangles) return;
+    if (g->shared.mesh_ids) h->prim = g->shared.mesh_ids[h->prim];
+    else if (g->shared.map) h->prim = lg_idmap_get(&g->idmap, h->prim);
 }
 
 static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -49,7 +56,7 @@ static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
 static void lg_stats(const prt_accel *a, prt_stats *s) {
     const lg_accel *g = (const lg_accel *)a;
     s->bytes_tree = g->blob.bytes_tree;
-    s->bytes_geometry = g->blob.bytes_geometry + (g->shared.mesh_ids ? 4 * g->shared.triangles : 0);
+    s->bytes_geometry = g->blob.bytes_geometry + g->idmap_size;
     s->bytes_other = sizeof(lg_accel);
     s->nodes = g->blob.nodes;
     s->leaves = g->blob.leaves;
@@ -70,7 +77,7 @@ static void lg_stats(const prt_accel *a, prt_stats *s) {
 
 static void lg_destroy(prt_accel *a) {
     lg_accel *g = (lg_accel *)a;
-    if (g->owns_blob) prt__free(g->blob.data), prt__free(g->mesh_ids);
+    if (g->owns_blob) prt__free(g->blob.data), prt__free((void *)g->idmap_data);
     prt__free(g);
 }
 
@@ -112,10 +119,28 @@ static prt_status lg_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
         prt__free(g);
         return s;
     }
-    if (!ids) g->mesh_ids = order, g->shared.mesh_ids = order;
     g->shared.triangles = g->report.triangles;
+    if (!ids) { /* the compact map, unless the ids are so scattered that it is larger */
+        uint8_t *img = NULL;
+        size_t size = 0;
+        s = lg_idmap_build(order, g->report.triangles, &img, &size);
+        if (!s && size < 4 * g->report.triangles) {
+            prt__free(order);
+            g->idmap_data = img, g->idmap_size = size;
+            s = lg_idmap_open(img, size, g->report.triangles, &g->idmap);
+            g->shared.map_id = lg_idmap_lookup, g->shared.map = &g->idmap;
+        } else {
+            prt__free(img);
+            g->idmap_data = (const uint8_t *)order, g->idmap_size = 4 * g->report.triangles;
+            g->shared.mesh_ids = order;
+        }
+        if (s) {
+            lg_destroy(&g->base);
+            return s;
+        }
+    }
     g->meta = (lg_meta){g->blob.size, g->blob.bytes_tree, g->blob.nodes, g->blob.leaves, g->report.triangles,
-                        g->blob.depth, ids ? 0 : LG_META_MESH_IDS, (float)g->report.vertex_error,
+                        g->blob.depth, ids ? 0u : g->shared.map ? LG_META_IDMAP : LG_META_IDS, (float)g->report.vertex_error,
                         (float)g->report.rms_error, (uint32_t)g->report.subgrids, (uint32_t)g->report.grid_triangles};
     if ((double)g->meta.vertex_error < g->report.vertex_error) /* never state less than measured */
         g->meta.vertex_error = nextafterf(g->meta.vertex_error, INFINITY);
@@ -130,8 +155,9 @@ static prt_status lg_save(const prt_accel *a, prt_writer *w) {
     const lg_accel *g = (const lg_accel *)a;
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &g->meta, sizeof g->meta);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), g->blob.data, g->blob.size);
-    if (!s && g->shared.mesh_ids)
-        s = prt__writer_section(w, PRT_FOURCC('I', 'D', 'S', ' '), g->shared.mesh_ids, 4 * g->shared.triangles);
+    if (!s && g->idmap_size)
+        s = prt__writer_section(w, g->shared.map ? PRT_FOURCC('I', 'D', 'M', 'P') : PRT_FOURCC('I', 'D', 'S', ' '), g->idmap_data,
+                                g->idmap_size);
     return s;
 }
 
@@ -147,23 +173,29 @@ static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     lg_meta meta;
     memcpy(&meta, mp, sizeof meta);
     if (meta.blob_size != size || meta.bytes_tree > size || meta.depth == 0 || meta.depth > BVH_MAX_DEPTH ||
-        meta.flags & ~(uint32_t)LG_META_MESH_IDS || meta.triangles > UINT32_MAX ||
+        meta.flags > LG_META_IDMAP || meta.triangles > UINT32_MAX ||
         !(meta.vertex_error >= 0 && meta.vertex_error < INFINITY))
         return prt__fail(PRT_ERROR_CORRUPT, "lossygrid META section disagrees with its BLOB");
-    bvh_shared shared = {NULL, 0, (size_t)meta.triangles, NULL};
-    if (meta.flags & LG_META_MESH_IDS) {
-        const void *ids;
-        size_t ids_size;
-        if ((s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'S', ' '), 4, &ids, &ids_size))) return s;
-        if (ids_size != 4 * shared.triangles)
-            return prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDS section holds %zu bytes for %zu triangles", ids_size,
-                             shared.triangles);
-        shared.mesh_ids = ids;
-    }
     lg_accel *g = prt__calloc(1, sizeof *g);
     if (!g) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    g->shared = (bvh_shared){.triangles = (size_t)meta.triangles};
+    const void *map = NULL;
+    if (meta.flags == LG_META_IDMAP &&
+        !(s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'M', 'P'), 4, &map, &g->idmap_size)) &&
+        !(s = lg_idmap_open(map, g->idmap_size, g->shared.triangles, &g->idmap)))
+        g->shared.map_id = lg_idmap_lookup, g->shared.map = &g->idmap;
+    if (meta.flags == LG_META_IDS && !(s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'S', ' '), 4, &map, &g->idmap_size))) {
+        if (g->idmap_size != 4 * g->shared.triangles)
+            s = prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDS section holds %zu bytes for %zu triangles", g->idmap_size,
+                          g->shared.triangles);
+        g->shared.mesh_ids = map;
+    }
+    g->idmap_data = map;
+    if (s) {
+        prt__free(g);
+        return s;
+    }
     g->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, size - meta.bytes_tree, meta.nodes, meta.leaves, meta.depth};
-    g->shared = shared;
     g->meta = meta;
     if ((s = lg_blob_check(&g->blob, &g->shared))) {
         prt__free(g);

@@ -51,6 +51,10 @@ typedef struct bvh_shared {
      * kernel compares bvh_tie_id(sh, id) rather than its own ids (bvh/codecs/nearest.h). */
     size_t triangles;
     const uint32_t *mesh_ids;
+    /* Instead of mesh_ids, a compact map (lossygrid's id map): the mesh id of position id
+     * below triangles. NULL for the BVH family. */
+    uint32_t (*map_id)(const void *map, uint32_t id);
+    const void *map;
 } bvh_shared;
 
 typedef struct bvh_codec {

@@ -25,7 +25,8 @@ static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u
 /* The id that decides a tie at equal t for a seq_ids codec: the mesh id of leaf-order
  * triangle `id` (ids=none: the leaf-order id itself). Only evaluated on exact ties. */
 static inline uint32_t bvh_tie_id(const bvh_shared *sh, uint32_t id) {
-    return sh->mesh_ids && id < sh->triangles ? sh->mesh_ids[id] : id;
+    if (id >= sh->triangles) return id;
+    return sh->mesh_ids ? sh->mesh_ids[id] : sh->map_id ? sh->map_id(sh->map, id) : id;
 }
 
 /* bvh_take_nearest for seq_ids codecs: ids[lane] are leaf-order ids, and a tie at equal t
