@@ -205,20 +205,9 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     prt__spec_set(spec, "split", bvh_split_names[split]);
     prt__spec_set(spec, "leaf", num);
 
-    /* Primitive boxes; exactly degenerate triangles are left out: they can never be hit. */
-    bvh_prim *prims = prt__alloc(prt__mul_size(m->triangle_count, sizeof *prims));
-    if (!prims) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu primitive boxes", m->triangle_count);
-    size_t n = 0;
-    for (size_t t = 0; t < m->triangle_count; t++) {
-        if (prt__mesh_triangle_degenerate(m, t)) continue;
-        prt_aabb box = prt_aabb_empty();
-        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&box, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
-        bvh_prim *q = &prims[n++];
-        memcpy(q->lo, box.lo, sizeof box.lo);
-        memcpy(q->hi, box.hi, sizeof box.hi);
-        q->id = (uint32_t)t;
-        q->pad = 0;
-    }
+    bvh_prim *prims;
+    size_t n;
+    if ((s = bvh_triangle_prims(m, NULL, 0, &prims, &n))) return s;
     bvh_tree tree;
     s = bvh_build(prims, n, &p, &tree);
     prt__free(prims);

@@ -58,6 +58,14 @@ typedef struct bvh_build_params {
     float progress_scale; /* the builder reports fraction * progress_scale */
 } bvh_build_params;
 
+/* A prim's box and id (pad cleared). */
+void bvh_prim_set(bvh_prim *p, const prt_aabb *box, uint32_t id);
+
+/* The boxes of m's triangles (ids[0 .. count) of them, or all when ids is NULL) into a new
+ * array (prt__free it), leaving out exactly degenerate ones: they can never be hit. *n:
+ * the prims written. */
+prt_status bvh_triangle_prims(const prt_mesh *m, const uint32_t *ids, size_t count, bvh_prim **out, size_t *n);
+
 /* Build over n prims (permuted in place). On success *out owns its arrays. */
 prt_status bvh_build(bvh_prim *prims, size_t n, const bvh_build_params *p, bvh_tree *out);
 void bvh_tree_free(bvh_tree *t);

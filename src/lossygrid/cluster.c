@@ -43,18 +43,21 @@ static void add(building *b, const prt_mesh *m, const uint32_t *canon, uint32_t 
 prt_status lg_cluster(const prt_mesh *m, const uint32_t *canon, const uint32_t *loose, size_t n, int threads,
                       lg_tri_rec **recs_out, uint32_t **ids_out, size_t *nrec_out) {
     *recs_out = NULL, *ids_out = NULL, *nrec_out = 0;
-    bvh_prim *p = prt__alloc(prt__mul_size(n + 1, sizeof *p));
+    bvh_prim *p = NULL;
+    size_t np = 0;
+    prt_status st = bvh_triangle_prims(m, loose, n, &p, &np);
+    if (st) return st;
+    if (np != n) { /* loose triangles are hittable ones (lg_extract) */
+        prt__free(p);
+        return prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: internal: %zu of %zu loose triangles are degenerate", n - np, n);
+    }
     lg_tri_rec *recs = prt__alloc(prt__mul_size(n + 1, sizeof *recs)); /* at most one record a triangle */
     uint32_t *ids = prt__alloc(prt__mul_size(n + 1, LG_TRI_MAX * sizeof(uint32_t)));
     uint8_t *placed = prt__calloc(n + 1, 1);
     uint32_t *codes = NULL;
-    if (!p || !recs || !ids || !placed) goto nomem;
+    if (!recs || !ids || !placed) goto nomem;
     prt_aabb cbox = prt_aabb_empty();
     for (size_t i = 0; i < n; i++) {
-        prt_aabb b = prt_aabb_empty();
-        for (int c = 0; c < 3; c++) prt_aabb_grow_point(&b, &m->vertices[3 * (size_t)m->triangles[3 * (size_t)loose[i] + (size_t)c]]);
-        memcpy(p[i].lo, b.lo, 12), memcpy(p[i].hi, b.hi, 12);
-        p[i].id = loose[i], p[i].pad = 0;
         const float ctr[3] = {bvh_centroid(&p[i], 0), bvh_centroid(&p[i], 1), bvh_centroid(&p[i], 2)};
         prt_aabb_grow_point(&cbox, ctr);
     }

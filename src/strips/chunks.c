@@ -33,22 +33,13 @@ static void cut(cutter *c, uint32_t i, size_t *lo, size_t *hi) {
 prt_status rs_chunks(const prt_mesh *m, uint32_t max_chunk, int threads, uint32_t **tris, size_t *tri_count,
                      uint32_t **first, size_t *chunk_count) {
     *tris = NULL, *first = NULL, *tri_count = 0, *chunk_count = 0;
-    bvh_prim *prims = prt__alloc(prt__mul_size(m->triangle_count, sizeof *prims));
-    if (!prims) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu primitive boxes", m->triangle_count);
-    size_t n = 0;
-    for (size_t t = 0; t < m->triangle_count; t++) {
-        if (prt__mesh_triangle_degenerate(m, t)) continue;
-        prt_aabb box = prt_aabb_empty();
-        for (int v = 0; v < 3; v++) prt_aabb_grow_point(&box, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
-        bvh_prim *q = &prims[n++];
-        memcpy(q->lo, box.lo, sizeof box.lo);
-        memcpy(q->hi, box.hi, sizeof box.hi);
-        q->id = (uint32_t)t;
-        q->pad = 0;
-    }
+    bvh_prim *prims;
+    size_t n;
+    prt_status s = bvh_triangle_prims(m, NULL, 0, &prims, &n);
+    if (s) return s;
     bvh_build_params p = {.split = BVH_SPLIT_SAH, .max_leaf = max_chunk < 16 ? (int)max_chunk : 16, .block = 1, .threads = threads};
     bvh_tree tree;
-    prt_status s = bvh_build(prims, n, &p, &tree);
+    s = bvh_build(prims, n, &p, &tree);
     prt__free(prims);
     if (s) return s;
     cutter c = {&tree, max_chunk, prt__alloc(prt__mul_size(n + 1, sizeof(uint32_t))), 0};
