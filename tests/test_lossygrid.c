@@ -25,6 +25,23 @@ static size_t wrong_hits(const prt_mesh *m, const char *spec, size_t n, uint64_t
     return wrong;
 }
 
+/* m's sub-grids encoded with enc as the build encodes them (lg_encode_subgrids): *ex their
+ * sources, recs, boxes (new arrays, free()) their records and decoded boxes. */
+static bool encode_as_built(const prt_mesh *m, int enc, lg_extraction *ex, lg_grid_rec **recs, prt_aabb **boxes) {
+    uint32_t *canon;
+    *recs = NULL, *boxes = NULL;
+    CHECK_OK(prt__mesh_weld(m, &canon));
+    CHECK_OK(lg_extract(m, canon, ex));
+    prt__free(canon);
+    lg_tables_init();
+    const size_t n = ex->subgrid_count + 1;
+    lg_grid_error *errs = malloc(n * sizeof *errs);
+    *recs = malloc(n * sizeof **recs), *boxes = malloc(n * sizeof **boxes);
+    CHECK_OK(lg_encode_subgrids(m, ex, enc, 1, *recs, *boxes, errs));
+    free(errs);
+    return ex->subgrid_count > 0;
+}
+
 TEST(test_lossygrid_puts_a_regular_mesh_into_sub_grids) {
     prt_mesh *m = mesh_grid(31); /* 31 x 31 quads: 8 x 8 sub-grids, partial ones of 3 quads a side */
     uint32_t *canon;
@@ -68,36 +85,27 @@ TEST(test_lossygrid_error_bound_holds_for_every_decoded_vertex) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("terrain", 20000, 5, &m));
     if (!m) return;
-    uint32_t *canon;
-    lg_extraction ex;
-    CHECK_OK(prt__mesh_weld(m, &canon));
-    CHECK_OK(lg_extract(m, canon, &ex));
-    lg_tables_init();
     const double diag = ref_diagonal(m);
     for (int enc = 0; enc < LG_ENC_COUNT; enc++) {
         prt_accel *a;
         CHECK_OK(prt_build(m, g_encs[enc], NULL, &a));
-        if (!a) continue;
+        lg_extraction ex;
+        lg_grid_rec *recs;
+        prt_aabb *boxes;
+        if (!a || !encode_as_built(m, enc, &ex, &recs, &boxes)) continue;
         const double stated = repr_vertex_error(a);
-        float grid_max[64] = {0};
-        for (size_t s = 0; s < ex.subgrid_count && ex.subgrids[s].grid < 64; s++)
-            grid_max[ex.subgrids[s].grid] = fmaxf(grid_max[ex.subgrids[s].grid], lg_grid_max_displacement(m, &ex.subgrids[s]));
         double worst = 0;
         for (size_t s = 0; s < ex.subgrid_count; s++) {
             const lg_source *src = &ex.subgrids[s];
-            lg_grid_rec rec;
-            prt_aabb box;
-            lg_grid_error e;
-            lg_grid_encode(m, src, enc, lg_fix_exponent(src->grid < 64 ? grid_max[src->grid] : 0), &rec, &box, &e);
             lg_grid_vertices gv;
-            lg_grid_decode(&rec, &gv);
+            lg_grid_decode(&recs[s], &gv);
             for (int j = 0; j <= src->ry; j++)
                 for (int i = 0; i <= src->rx; i++) {
                     const float *want = &m->vertices[3 * (size_t)src->v[5 * j + i]];
                     double d2 = 0;
                     for (int k = 0; k < 3; k++) d2 += pow((double)gv.w[k][j][i] - want[k], 2);
                     worst = fmax(worst, sqrt(d2));
-                    CHECK(box.lo[0] <= gv.w[0][j][i] && gv.w[0][j][i] <= box.hi[0]);
+                    CHECK(boxes[s].lo[0] <= gv.w[0][j][i] && gv.w[0][j][i] <= boxes[s].hi[0]);
                 }
         }
         CHECK_MSG(worst <= stated && stated > 0, "%s: a vertex decodes %.3g away, the stated error is %.3g", g_encs[enc], worst,
@@ -105,10 +113,10 @@ TEST(test_lossygrid_error_bound_holds_for_every_decoded_vertex) {
         /* The paper's encodings keep displacements to about 3.5% (fix: 0.4% of a grid's
          * largest); on this terrain that is well under 1e-3 of the diagonal. */
         CHECK_MSG(stated < 1e-3 * diag, "%s: vertex error %.3g is %.2g of the diagonal", g_encs[enc], stated, stated / diag);
+        free(recs), free(boxes);
+        lg_extraction_free(&ex);
         prt_accel_free(a);
     }
-    prt__free(canon);
-    lg_extraction_free(&ex);
     prt_mesh_free(m);
 }
 
@@ -173,20 +181,17 @@ TEST(test_lossygrid_seams_between_sub_grids_are_watertight) {
         prt_accel *a;
         CHECK_OK(prt_build(m, g_encs[e], NULL, &a));
         if (!a) continue;
-        uint32_t *canon;
         lg_extraction ex;
-        CHECK_OK(prt__mesh_weld(m, &canon));
-        CHECK_OK(lg_extract(m, canon, &ex));
-        float grid_max = 0;
-        for (size_t s = 0; s < ex.subgrid_count; s++) grid_max = fmaxf(grid_max, lg_grid_max_displacement(m, &ex.subgrids[s]));
+        lg_grid_rec *recs;
+        prt_aabb *boxes;
+        if (!encode_as_built(m, (int)e, &ex, &recs, &boxes)) {
+            prt_accel_free(a);
+            continue;
+        }
         size_t rays = 0, misses = 0;
         for (size_t s = 0; s < ex.subgrid_count; s++) {
-            lg_grid_rec rec;
-            prt_aabb box;
-            lg_grid_error err;
-            lg_grid_encode(m, &ex.subgrids[s], (int)e, lg_fix_exponent(grid_max), &rec, &box, &err);
             lg_grid_vertices gv;
-            lg_grid_decode(&rec, &gv);
+            lg_grid_decode(&recs[s], &gv);
             const int rx = ex.subgrids[s].rx, ry = ex.subgrids[s].ry;
             /* Border vertices, and midpoints of border edges, away from the mesh's rim. */
             for (int j = 0; j <= ry; j++)
@@ -206,7 +211,7 @@ TEST(test_lossygrid_seams_between_sub_grids_are_watertight) {
                 }
         }
         CHECK_MSG(rays > 1000 && misses == 0, "%s: %zu of %zu rays through sub-grid seams missed", g_encs[e], misses, rays);
-        prt__free(canon);
+        free(recs), free(boxes);
         lg_extraction_free(&ex);
         prt_accel_free(a);
     }

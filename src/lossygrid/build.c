@@ -7,7 +7,6 @@
 #include "mesh/mesh.h"
 
 #include <math.h>
-#include <omp.h>
 #include <stdlib.h>
 
 typedef struct packer {
@@ -67,11 +66,6 @@ static size_t distinct_corners(const lg_source *s, size_t n) {
     return d;
 }
 
-static void set_prim(bvh_prim *p, const prt_aabb *b, size_t id) {
-    memcpy(p->lo, b->lo, 12), memcpy(p->hi, b->hi, 12);
-    p->id = (uint32_t)id, p->pad = 0;
-}
-
 prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob *blob, uint32_t **order,
                          lg_build_report *rep) {
     memset(rep, 0, sizeof *rep);
@@ -102,28 +96,15 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
         if (!grids || !errs || !prims || !*order)
             s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu records", nrec);
     }
-    float *grid_max = NULL; /* LG_ENC_FIX: per grid, its largest displacement component */
-    if (!s && bp->enc == LG_ENC_FIX && !(grid_max = prt__calloc(ex.grid_count + 1, sizeof *grid_max)))
-        s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu grids", ex.grid_count);
+    prt_aabb *boxes = NULL;
+    if (!s && !(boxes = prt__alloc(prt__mul_size(ng + 1, sizeof *boxes))))
+        s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu sub-grid boxes", ng);
+    if (!s) s = lg_encode_subgrids(m, &ex, bp->enc, bp->threads, grids, boxes, errs);
     if (!s) {
-        /* Below a few thousand sub-grids the loops run on one thread: waking and joining the
-         * others cost more than the work (1 s for 300 triangles on a busy 2-core machine). */
-        const int nth = bp->threads > 0 ? bp->threads : omp_get_max_threads();
-        if (grid_max) {
-#pragma omp parallel for schedule(dynamic, 256) num_threads(nth) if (ng >= 4096)
-            for (size_t i = 0; i < ng; i++) errs[i].max = lg_grid_max_displacement(m, &ex.subgrids[i]);
-            for (size_t i = 0; i < ng; i++) grid_max[ex.subgrids[i].grid] = fmaxf(grid_max[ex.subgrids[i].grid], (float)errs[i].max);
-        }
-#pragma omp parallel for schedule(dynamic, 256) num_threads(nth) if (ng >= 4096)
-        for (size_t i = 0; i < ng; i++) {
-            prt_aabb b;
-            const uint8_t scale = grid_max ? lg_fix_exponent(grid_max[ex.subgrids[i].grid]) : 0;
-            lg_grid_encode(m, &ex.subgrids[i], bp->enc, scale, &grids[i], &b, &errs[i]);
-            set_prim(&prims[i], &b, i);
-        }
+        for (size_t i = 0; i < ng; i++) bvh_prim_set(&prims[i], &boxes[i], (uint32_t)i);
         for (size_t i = 0; i < ntri_rec; i++) {
             prt_aabb b = lg_tri_box(&tris[i]);
-            set_prim(&prims[ng + i], &b, ng + i);
+            bvh_prim_set(&prims[ng + i], &b, (uint32_t)(ng + i));
         }
         bvh_build_params p = {.split = BVH_SPLIT_SAH, .max_leaf = bp->leaf, .block = 1, .threads = bp->threads};
         s = bvh_build(prims, nrec, &p, &tree);
@@ -157,7 +138,7 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
         memset(blob, 0, sizeof *blob);
     }
     bvh_tree_free(&tree);
-    prt__free(grid_max);
+    prt__free(boxes);
     prt__free(canon), prt__free(tri_ids), prt__free(grids), prt__free(errs), prt__free(tris), prt__free(prims);
     lg_extraction_free(&ex);
     return s;

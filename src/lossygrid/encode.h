@@ -24,6 +24,12 @@ void lg_grid_encode(const prt_mesh *m, const lg_source *src, int enc, uint8_t sc
 /* The largest component of a displacement off src's bilinear patch. */
 float lg_grid_max_displacement(const prt_mesh *m, const lg_source *src);
 
+/* Compress every sub-grid of ex (on up to `threads` threads, 0: all) as the build does:
+ * LG_ENC_FIX's border exponent is one per grid, from the largest displacement of its
+ * sub-grids. recs, boxes and errs receive sub-grid i's record, decoded box and error. */
+prt_status lg_encode_subgrids(const prt_mesh *m, const lg_extraction *ex, int enc, int threads, lg_grid_rec *recs,
+                              prt_aabb *boxes, lg_grid_error *errs);
+
 /* Pack the loose triangles into exact records, near triangles together (Morton order,
  * then greedily the candidate adding the fewest vertices). *recs (count *nrec) and, per
  * record, its mesh triangles at ids[LG_TRI_MAX r + k] are new arrays. */

@@ -61,7 +61,7 @@ static inline float lg_lerp(float a, float b, float w1, float w) { return a * w1
 
 /* The grid vertices of a sub-grid as traversal sees them (and as the encoder measures
  * them), one 8-lane row per grid row: lane i of w[k][j] is component k of vertex (i, j),
- * NaN past the resolution so those triangles never hit. The patch point is
+ * NaN past rx so those triangles never hit; rows past ry are not written (not read). The patch point is
  * lg_lerp(lg_lerp(c00, c10, 1 - u, u), lg_lerp(c01, c11, 1 - u, u), 1 - v, v), the same
  * operations whichever sub-grid of a grid evaluates a shared border. */
 typedef struct lg_grid_vertices {
@@ -125,11 +125,7 @@ static inline void lg_grid_decode(const lg_grid_rec *g, lg_grid_vertices *out) {
         a[k] = vf8_set1(g->corner[0][k]) * u1 + vf8_set1(g->corner[1][k]) * u;
         b[k] = vf8_set1(g->corner[2][k]) * u1 + vf8_set1(g->corner[3][k]) * u;
     }
-    for (int j = 0; j < 5; j++) {
-        if (j >= rows) {
-            for (int k = 0; k < 3; k++) out->w[k][j] = vf8_set1(NAN);
-            continue;
-        }
+    for (int j = 0; j < rows; j++) {
         vf8 d[3];
         vi8 inner;
         memcpy(&inner, &t->inner[8 * j], sizeof inner);
