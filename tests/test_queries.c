@@ -324,25 +324,13 @@ TEST(test_equal_t_ties_pick_the_smallest_triangle_id) {
     prt_mesh_free(m);
 }
 
-/* Up to the coordinate limit every representation still answers as brute force: a soup
- * scaled to 0.9 PRT_MAX_COORDINATE, rays from around it (their t near 1e12 too). */
-TEST(test_meshes_at_the_coordinate_limit_match_brute_force) {
-    prt_mesh *soup = mesh_random_soup(300, 4), *m = mesh_transformed(soup, 0.9f * PRT_MAX_COORDINATE, 0.0f);
+/* The covering set against brute force on a 300-triangle soup scaled by `scale`, rays from
+ * around it; with unit directions t is a distance, so the tolerance (a fraction of the
+ * diagonal) holds for tiny meshes too. */
+static void expect_brute_force_at_scale(float scale, bool unit_dirs) {
+    prt_mesh *soup = mesh_random_soup(300, 4), *m = mesh_transformed(soup, scale, 0.0f);
     prt_ray *rays = rays_random(m, 300, 8);
-    reference ref = reference_of(m, rays, 300);
-    for (size_t i = 0; i < prt_repr_count(); i++)
-        if (repr_in_cover(prt_repr_name(i))) compare_with_reference(m, prt_repr_name(i), rays, 300, &ref);
-    reference_free(&ref);
-    free(rays);
-    prt_mesh_free(soup), prt_mesh_free(m);
-}
-
-/* Down to the smallest extent every representation answers as brute force too (rays of
- * unit direction, so t is a distance and the tolerance a fraction of the diagonal). */
-TEST(test_meshes_at_the_smallest_extent_match_brute_force) {
-    prt_mesh *soup = mesh_random_soup(300, 4), *m = mesh_transformed(soup, 1.2f * PRT_MIN_EXTENT, 0.0f);
-    prt_ray *rays = rays_random(m, 300, 8);
-    for (size_t i = 0; i < 300; i++) {
+    for (size_t i = 0; unit_dirs && i < 300; i++) {
         const double len = sqrt((double)rays[i].dir[0] * rays[i].dir[0] + (double)rays[i].dir[1] * rays[i].dir[1] +
                                 (double)rays[i].dir[2] * rays[i].dir[2]);
         for (int k = 0; k < 3; k++) rays[i].dir[k] = (float)(rays[i].dir[k] / len);
@@ -354,6 +342,12 @@ TEST(test_meshes_at_the_smallest_extent_match_brute_force) {
     free(rays);
     prt_mesh_free(soup), prt_mesh_free(m);
 }
+
+/* Up to the coordinate limit every representation still answers as brute force (t near
+ * 1e12 too), and down to the smallest extent. */
+TEST(test_meshes_at_the_coordinate_limit_match_brute_force) { expect_brute_force_at_scale(0.9f * PRT_MAX_COORDINATE, false); }
+
+TEST(test_meshes_at_the_smallest_extent_match_brute_force) { expect_brute_force_at_scale(1.2f * PRT_MIN_EXTENT, true); }
 
 TEST(test_coordinates_beyond_the_limit_are_rejected) {
     prt_mesh *m = mesh_random_soup(4, 1);
