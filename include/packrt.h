@@ -77,24 +77,43 @@ void prt_memory_reset_peak(void);
  * --------------------------------------------------------------------------------- */
 
 /* An indexed triangle mesh. Triangles index vertices; degenerate triangles (zero area,
- * repeated indices) are allowed: they are kept in the mesh and are never hit. */
+ * repeated indices) are allowed: they are kept in the mesh and are never hit.
+ *
+ * Colours are optional and NULL when the mesh has none: 3 bytes (red, green, blue, 0-255,
+ * sRGB-encoded as in image and mesh files) per vertex or per triangle. prt_render uses them
+ * as the surface colour (per-vertex colours interpolated across each triangle; when a mesh
+ * has both, the vertex colours). They are allocated with prt_mesh_add_colors (or by the
+ * loaders) and freed by prt_mesh_free; prt_build ignores them. */
 typedef struct prt_mesh {
     float *vertices;       /* 3 * vertex_count floats: x, y, z */
     uint32_t *triangles;   /* 3 * triangle_count vertex indices */
     size_t vertex_count;
     size_t triangle_count;
+    uint8_t *vertex_colors;   /* NULL, or 3 * vertex_count bytes: r, g, b */
+    uint8_t *triangle_colors; /* NULL, or 3 * triangle_count bytes: r, g, b */
 } prt_mesh;
 
-/* Allocate a mesh with uninitialised vertex and index arrays of the given sizes.
- * Free it with prt_mesh_free(). Returns PRT_ERROR_NOMEM or PRT_ERROR_ARGUMENT on failure. */
+/* Allocate a mesh with uninitialised vertex and index arrays of the given sizes and no
+ * colours. Free it with prt_mesh_free(). Returns PRT_ERROR_NOMEM or PRT_ERROR_ARGUMENT on
+ * failure. */
 prt_status prt_mesh_create(size_t vertex_count, size_t triangle_count, prt_mesh **out);
 
-/* Free a mesh from prt_mesh_create or prt_mesh_load. NULL is ignored. */
+/* Give m uninitialised per-vertex and/or per-triangle colour arrays (sized by its current
+ * counts), through packrt's allocator so prt_mesh_free releases them; an array m has
+ * already is kept as it is. PRT_ERROR_ARGUMENT for a NULL m, PRT_ERROR_NOMEM (m unchanged). */
+prt_status prt_mesh_add_colors(prt_mesh *m, bool per_vertex, bool per_triangle);
+
+/* Free a mesh from prt_mesh_create or prt_mesh_load, colours included. NULL is ignored. */
 void prt_mesh_free(prt_mesh *m);
 
 /* Load a mesh from a file: PLY (ASCII, binary little or big endian, any numeric vertex
  * type, polygons fan-triangulated) or OBJ (v/f, negative indices, polygons), each also
  * gzip-compressed (.ply.gz, .obj.gz). The format is chosen by content, not by name.
+ * Colours are kept when the file has them: PLY vertex or face properties red, green, blue
+ * (optionally alpha, read and dropped; also named diffuse_red, ...) of type uchar (0-255),
+ * ushort (0-65535) or float/double (0-1, clamped); every triangle of a polygon takes the
+ * face's colour. OBJ `v x y z r g b` (0-1, clamped) when every vertex has them. A colour
+ * set missing a channel, a list or another type is PRT_ERROR_FORMAT.
  * The mesh is validated (see prt_mesh_validate). On failure *out is NULL and
  * prt_last_error() says what is wrong and where (file name, line or byte offset). */
 prt_status prt_mesh_load(const char *path, prt_mesh **out);
@@ -102,7 +121,8 @@ prt_status prt_mesh_load(const char *path, prt_mesh **out);
 /* Load from memory; name is used in error messages only. Same rules as prt_mesh_load. */
 prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name, prt_mesh **out);
 
-/* Write a binary little-endian PLY (float xyz, uchar/int triangle lists). */
+/* Write a binary little-endian PLY (float xyz, uchar/int triangle lists), with uchar red,
+ * green, blue vertex and face properties for the colours m has. */
 prt_status prt_mesh_save_ply(const prt_mesh *m, const char *path);
 
 /* Largest coordinate magnitude prt_build accepts (PRT_ERROR_LIMIT beyond). The watertight

@@ -160,6 +160,70 @@ TEST(test_ply_header_errors_name_the_offending_word) {
         PRT_ERROR_FORMAT, "'z'", NULL);
 }
 
+/* A triangle whose vertices carry the properties `props` (after x y z), each vertex row
+ * ending in `vals`, and a face row ending in `fvals` for the face properties `fprops`. */
+#define PLY_COLOR(props, vals, fprops, fvals)                                                      \
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"                \
+    "property float z\n" props "element face 1\nproperty list uchar int vertex_indices\n" fprops   \
+    "end_header\n0 0 0" vals "\n1 0 0" vals "\n0 1 0" vals "\n3 0 1 2" fvals "\n"
+
+TEST(test_malformed_colour_properties_are_named) {
+    expect_text_failure(PLY_COLOR("property uchar red\nproperty uchar green\n", " 1 2", "", ""),
+                        PRT_ERROR_FORMAT, "vertex element has a colour channel 'red' but no 'blue'",
+                        "red, green and blue");
+    expect_text_failure(PLY_COLOR("", "", "property uchar blue\nproperty uchar alpha\n", " 1 2"),
+                        PRT_ERROR_FORMAT, "face element has a colour channel 'blue' but no 'red'",
+                        NULL);
+    expect_text_failure(PLY_COLOR("", "", "property float alpha\n", " 1"), PRT_ERROR_FORMAT,
+                        "face element has a colour channel 'alpha'", NULL);
+    expect_text_failure(PLY_COLOR("property list uchar uchar red\nproperty uchar green\n"
+                                  "property uchar blue\n",
+                                  " 1 1 2 3", "", ""),
+                        PRT_ERROR_FORMAT, "line 7", "colour 'red' is a list");
+    expect_text_failure(PLY_COLOR("property uchar red\nproperty short green\nproperty uchar blue\n",
+                                  " 1 2 3", "", ""),
+                        PRT_ERROR_FORMAT, "line 8", "colour 'green' of type short");
+    expect_text_failure(PLY_COLOR("", "",
+                                  "property uint diffuse_red\nproperty uchar diffuse_green\n"
+                                  "property uchar diffuse_blue\n",
+                                  " 1 2 3"),
+                        PRT_ERROR_FORMAT, "face colour 'diffuse_red' of type uint", NULL);
+    expect_text_failure(PLY_COLOR("property uchar red\nproperty uchar diffuse_red\n"
+                                  "property uchar green\nproperty uchar blue\n",
+                                  " 1 1 2 3", "", ""),
+                        PRT_ERROR_FORMAT, "second property for the same role", "diffuse_red");
+}
+
+TEST(test_colour_values_out_of_range_or_not_numbers_are_named) {
+    const char *rgb = "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    char text[1024];
+    snprintf(text, sizeof text, PLY_COLOR("%s", " 1 256 3", "", ""), rgb);
+    expect_text_failure(text, PRT_ERROR_FORMAT, "line 13",
+                        "colour value 256 outside the range of uchar");
+    snprintf(text, sizeof text, PLY_COLOR("%s", " 1 -1 3", "", ""), rgb);
+    expect_text_failure(text, PRT_ERROR_FORMAT, "colour value -1", NULL);
+    snprintf(text, sizeof text, PLY_COLOR("%s", " 1 0.5 3", "", ""), rgb);
+    expect_text_failure(text, PRT_ERROR_FORMAT, "line 13", "malformed number '0.5'");
+    expect_text_failure(PLY_COLOR("property ushort red\nproperty ushort green\n"
+                                  "property ushort blue\n",
+                                  " 1 65536 3", "", ""),
+                        PRT_ERROR_FORMAT, "outside the range of ushort (0-65535)", NULL);
+    expect_text_failure(PLY_COLOR("", "",
+                                  "property float red\nproperty float green\n"
+                                  "property float blue\n",
+                                  " 0.5 nan 1"),
+                        PRT_ERROR_FORMAT, "face 0 has a non-finite colour", "line 16");
+    /* Binary: the NaN green of vertex 1 (tests/data/bad). */
+    size_t n;
+    unsigned char *nan = read_file(BAD "/colour_nan_float_binary_le.ply", &n);
+    CHECK(nan != NULL);
+    if (nan) expect_failure(nan, n, PRT_ERROR_FORMAT, "vertex 1 has a non-finite colour", "byte ");
+    free(nan);
+    /* OBJ colours that are not finite, when every vertex has colours. */
+    expect_text_failure("v 0 0 0 1 0 0\nv 1 0 0 0 inf 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+                        PRT_ERROR_FORMAT, "line 2", "vertex 2 has a non-finite colour");
+}
+
 /* The binary quad of tests/data/good: 4 float vertices and one `list uchar int` 4-gon. */
 static unsigned char *binary_quad(size_t *n) {
     return read_file(GOOD "/quad_binary_le.ply", n);
@@ -338,6 +402,8 @@ int main(void) {
     RUN(test_neither_ply_nor_obj_is_a_format_error);
     RUN(test_ply_errors_name_the_line_and_the_value);
     RUN(test_ply_header_errors_name_the_offending_word);
+    RUN(test_malformed_colour_properties_are_named);
+    RUN(test_colour_values_out_of_range_or_not_numbers_are_named);
     RUN(test_truncated_binary_names_the_bytes_it_needs);
     RUN(test_every_prefix_of_a_binary_file_fails);
     RUN(test_every_prefix_of_a_gzip_file_fails);

@@ -60,6 +60,40 @@ TEST(test_negative_indices_count_back_from_the_last_vertex) {
 
 TEST(test_extra_vertex_values_are_ignored) {
     check_quad_file(GOOD "vertex_colors.obj");
+    /* v x y z w: no colours. */
+    prt_mesh *m = NULL;
+    const char *w = "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n";
+    CHECK_OK(prt_mesh_load_memory(w, strlen(w), "w.obj", &m));
+    CHECK(m && !m->vertex_colors && !m->triangle_colors);
+    prt_mesh_free(m);
+}
+
+TEST(test_vertex_colours_when_every_vertex_has_r_g_b) {
+    /* vertex_colors.obj: 1 0 0, 0 1 0, 0 0 1, 1 1 1 -> bytes x 255. */
+    static const uint8_t want[12] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(GOOD "vertex_colors.obj", &m));
+    CHECK(m && m->vertex_colors && !memcmp(m->vertex_colors, want, 12) && !m->triangle_colors);
+    prt_mesh_free(m);
+    /* 0.5 -> 128 (127.5 rounds up), beyond 0..1 clamped. */
+    const char *t = "v 0 0 0 0.5 -2 7\nv 1 0 0 0.2 0.4 0.6\nv 0 1 0 0 0 0\nf 1 2 3\n";
+    static const uint8_t want2[9] = {128, 0, 255, 51, 102, 153, 0, 0, 0};
+    m = NULL;
+    CHECK_OK(prt_mesh_load_memory(t, strlen(t), "c.obj", &m));
+    CHECK(m && m->vertex_colors && !memcmp(m->vertex_colors, want2, 9));
+    prt_mesh_free(m);
+}
+
+TEST(test_vertex_colours_on_some_vertices_only_are_dropped) {
+    const char *texts[] = {"v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+                           "v 0 0 0\nv 1 0 0 1 0 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+                           "v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 0 0 1 1\nf 1 2 3\n"};
+    for (size_t i = 0; i < COUNT_OF(texts); i++) {
+        prt_mesh *m = NULL;
+        CHECK_OK(prt_mesh_load_memory(texts[i], strlen(texts[i]), "mixed.obj", &m));
+        CHECK_MSG(m && m->vertex_count == 3 && !m->vertex_colors, "case %zu kept colours", i);
+        prt_mesh_free(m);
+    }
 }
 
 TEST(test_all_four_face_vertex_forms) {
@@ -266,5 +300,7 @@ int main(void) {
     RUN(test_vertices_without_faces_is_an_error);
     RUN(test_gzip_obj_spanning_many_windows_equals_plain);
     RUN(test_number_parser_agrees_with_strtof);
+    RUN(test_vertex_colours_when_every_vertex_has_r_g_b);
+    RUN(test_vertex_colours_on_some_vertices_only_are_dropped);
     TEST_END();
 }

@@ -345,6 +345,113 @@ TEST(test_saved_file_is_binary_le_float_xyz_and_uchar_int_lists) {
     prt_mesh_free(q);
 }
 
+/* ---- colours ---------------------------------------------------------------------- */
+
+static bool same_bytes(const uint8_t *got, const uint8_t *want, size_t n) {
+    return got && !memcmp(got, want, n);
+}
+
+/* The quad's vertex colours in every file below, as the files' values map to bytes by
+ * hand: uchar as written, ushort v -> round(v * 255 / 65535), float f -> round(f * 255)
+ * clamped to 0..255. */
+static const uint8_t QUAD_VC[12] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 10, 20, 30};
+
+static void check_vertex_colors(const char *path, const uint8_t *want) {
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(path, &m));
+    CHECK_MSG(same_mesh(m, QUAD_V, 4, QUAD_T, 2), "%s is not the quad", path);
+    CHECK_MSG(m && same_bytes(m->vertex_colors, want, 12), "%s: vertex colours differ", path);
+    CHECK_MSG(m && !m->triangle_colors, "%s: triangle colours from nowhere", path);
+    if (m && m->vertex_colors)
+        for (int i = 0; i < 4; i++)
+            if (memcmp(m->vertex_colors + 3 * i, want + 3 * i, 3))
+                fprintf(stderr, "    vertex %d: %d %d %d, want %d %d %d\n", i,
+                        m->vertex_colors[3 * i], m->vertex_colors[3 * i + 1],
+                        m->vertex_colors[3 * i + 2], want[3 * i], want[3 * i + 1], want[3 * i + 2]);
+    prt_mesh_free(m);
+}
+
+TEST(test_uchar_vertex_colours_ascii_with_alpha_dropped) {
+    check_vertex_colors(GOOD "vertex_colors_ascii.ply", QUAD_VC);
+}
+
+TEST(test_ushort_vertex_colours_binary_big_endian) {
+    check_vertex_colors(GOOD "vertex_colors_ushort_binary_be.ply", QUAD_VC);
+}
+
+TEST(test_float_vertex_colours_binary_clamped_and_diffuse_names) {
+    /* The fourth vertex holds 0.5, -0.25, 1.5: 128 (0.5 x 255 = 127.5 rounds up), 0, 255. */
+    static const uint8_t want[12] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 128, 0, 255};
+    check_vertex_colors(GOOD "vertex_colors_float_binary_le.ply", want);
+}
+
+/* Both face-colour files: the 4-gon (200, 100, 50) fans into two triangles that share its
+ * colour, then the triangle 1 2 3 (7, 8, 9). */
+static void check_face_colors(const char *path) {
+    static const uint32_t tris[9] = {0, 1, 2, 0, 2, 3, 1, 2, 3};
+    static const uint8_t want[9] = {200, 100, 50, 200, 100, 50, 7, 8, 9};
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(path, &m));
+    CHECK_MSG(same_mesh(m, QUAD_V, 4, tris, 3), "%s: wrong geometry", path);
+    CHECK_MSG(m && same_bytes(m->triangle_colors, want, 9), "%s: triangle colours differ", path);
+    CHECK_MSG(m && !m->vertex_colors, "%s: vertex colours from nowhere", path);
+    prt_mesh_free(m);
+}
+
+TEST(test_face_colours_ascii_after_the_index_list) {
+    check_face_colors(GOOD "face_colors_ascii.ply");
+}
+
+TEST(test_face_colours_binary_before_the_index_list_float_with_alpha) {
+    check_face_colors(GOOD "face_colors_float_binary_le.ply");
+}
+
+TEST(test_colourless_files_load_without_colour_arrays) {
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(GOOD "quad_binary_le.ply", &m));
+    CHECK(m && !m->vertex_colors && !m->triangle_colors);
+    prt_mesh_free(m);
+    CHECK_OK(prt_mesh_load(GOOD "quad_ascii.ply", &m)); /* a material element's red is skipped */
+    CHECK(m && !m->vertex_colors && !m->triangle_colors);
+    prt_mesh_free(m);
+}
+
+/* Vertex colours across many read windows and in gzip: every byte where it belongs. */
+TEST(test_vertex_and_face_colours_survive_save_load_and_gzip) {
+    prt_mesh *g = make_grid(301);
+    CHECK(g != NULL);
+    if (!g) return;
+    CHECK_OK(prt_mesh_add_colors(g, true, true));
+    for (size_t i = 0; i < 3 * g->vertex_count; i++) g->vertex_colors[i] = (uint8_t)(i * 7 + i / 5);
+    for (size_t i = 0; i < 3 * g->triangle_count; i++)
+        g->triangle_colors[i] = (uint8_t)(i * 13 + 1);
+    const char *path = PRT_BINARY_DIR "/test_mesh_ply_colors.ply";
+    CHECK_OK(prt_mesh_save_ply(g, path));
+    size_t n;
+    unsigned char *data = read_file(path, &n);
+    CHECK(data && strstr((const char *)data, "property float z\nproperty uchar red\nproperty uchar "
+                                             "green\nproperty uchar blue\nelement face"));
+    CHECK(data && strstr((const char *)data, "vertex_indices\nproperty uchar red\n"));
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(path, &m));
+    CHECK(same_mesh(m, g->vertices, g->vertex_count, g->triangles, g->triangle_count));
+    CHECK(m && same_bytes(m->vertex_colors, g->vertex_colors, 3 * g->vertex_count));
+    CHECK(m && same_bytes(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
+    prt_mesh_free(m);
+    size_t zn = 0;
+    unsigned char *z = data ? gzip_bytes(data, n, &zn) : NULL;
+    CHECK(z != NULL);
+    m = NULL;
+    if (z) CHECK_OK(prt_mesh_load_memory(z, zn, "colors.ply.gz", &m));
+    CHECK(m && same_bytes(m->vertex_colors, g->vertex_colors, 3 * g->vertex_count));
+    CHECK(m && same_bytes(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
+    prt_mesh_free(m);
+    free(z);
+    free(data);
+    remove(path);
+    prt_mesh_free(g);
+}
+
 TEST(test_saving_an_invalid_mesh_is_refused) {
     prt_mesh *q = NULL;
     CHECK_OK(prt_mesh_create(3, 1, &q));
@@ -381,5 +488,12 @@ int main(void) {
     RUN(test_save_then_load_gives_identical_arrays);
     RUN(test_saved_file_is_binary_le_float_xyz_and_uchar_int_lists);
     RUN(test_saving_an_invalid_mesh_is_refused);
+    RUN(test_uchar_vertex_colours_ascii_with_alpha_dropped);
+    RUN(test_ushort_vertex_colours_binary_big_endian);
+    RUN(test_float_vertex_colours_binary_clamped_and_diffuse_names);
+    RUN(test_face_colours_ascii_after_the_index_list);
+    RUN(test_face_colours_binary_before_the_index_list_float_with_alpha);
+    RUN(test_colourless_files_load_without_colour_arrays);
+    RUN(test_vertex_and_face_colours_survive_save_load_and_gzip);
     TEST_END();
 }

@@ -31,25 +31,59 @@ static prt_status grow(const char *name, void **p, size_t *cap, size_t need, siz
     return PRT_OK;
 }
 
+/* Give a colour array the capacity of the array it belongs to. */
+static prt_status color_room(const char *name, uint8_t **c, size_t *ccap, size_t cap,
+                             const char *what) {
+    if (*ccap == cap) return PRT_OK;
+    size_t bytes = prt__mul_size(PRT_MAX(cap, (size_t)1), 3);
+    uint8_t *q = bytes == SIZE_MAX ? NULL : prt__realloc(*c, bytes);
+    if (!q)
+        return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the colours of %zu %s", name, cap,
+                         what);
+    *c = q;
+    *ccap = cap;
+    return PRT_OK;
+}
+
 prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect) {
     if (extra > UINT32_MAX || a->nv + extra > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT,
                          "%s: more than %u vertices: packrt indexes vertices with 32 bits", a->name,
                          UINT32_MAX);
-    return grow(a->name, (void **)&a->v, &a->vcap, a->nv + extra, expect, 3 * sizeof(float),
-                "vertices");
+    prt_status st = grow(a->name, (void **)&a->v, &a->vcap, a->nv + extra, expect,
+                         3 * sizeof(float), "vertices");
+    if (st == PRT_OK && a->want_vc)
+        st = color_room(a->name, &a->vc, &a->vccap, a->vcap, "vertices");
+    return st;
 }
 
 prt_status mesh_arrays_triangle_room(mesh_arrays *a, size_t extra, size_t expect) {
     if (extra > SIZE_MAX - a->nt)
         return prt__fail(PRT_ERROR_NOMEM, "%s: triangle count overflows", a->name);
-    return grow(a->name, (void **)&a->t, &a->tcap, a->nt + extra, expect, 3 * sizeof(uint32_t),
-                "triangles");
+    prt_status st = grow(a->name, (void **)&a->t, &a->tcap, a->nt + extra, expect,
+                         3 * sizeof(uint32_t), "triangles");
+    if (st == PRT_OK && a->want_tc)
+        st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
+    return st;
+}
+
+prt_status mesh_arrays_colors(mesh_arrays *a, bool vertex, bool triangle) {
+    if (!vertex && a->want_vc) {
+        prt__free(a->vc);
+        a->vc = NULL, a->vccap = 0, a->want_vc = false;
+    }
+    prt_status st = PRT_OK;
+    if (vertex) a->want_vc = true, st = color_room(a->name, &a->vc, &a->vccap, a->vcap, "vertices");
+    if (triangle && st == PRT_OK)
+        a->want_tc = true, st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
+    return st;
 }
 
 void mesh_arrays_free(mesh_arrays *a) {
     prt__free(a->v);
     prt__free(a->t);
+    prt__free(a->vc);
+    prt__free(a->tc);
     const char *name = a->name;
     memset(a, 0, sizeof *a);
     a->name = name;
@@ -67,6 +101,8 @@ static void shrink(void **p, size_t *cap, size_t n, size_t elem) {
 prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out) {
     shrink((void **)&a->v, &a->vcap, a->nv, 3 * sizeof(float));
     shrink((void **)&a->t, &a->tcap, a->nt, 3 * sizeof(uint32_t));
+    shrink((void **)&a->vc, &a->vccap, a->nv, 3);
+    shrink((void **)&a->tc, &a->tccap, a->nt, 3);
     /* prt_mesh_create owns the struct's layout; swap our arrays in for its empty ones
      * (both come from prt__alloc, so prt_mesh_free releases either). */
     prt_mesh *m;
@@ -79,8 +115,12 @@ prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out) {
         m->triangles = a->t;
         m->vertex_count = a->nv;
         m->triangle_count = a->nt;
+        m->vertex_colors = a->want_vc ? a->vc : NULL;
+        m->triangle_colors = a->want_tc ? a->tc : NULL;
         a->v = NULL;
         a->t = NULL;
+        if (a->want_vc) a->vc = NULL;
+        if (a->want_tc) a->tc = NULL;
     }
     mesh_arrays_free(a);
     st = prt_mesh_validate(m);

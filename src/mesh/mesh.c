@@ -30,10 +30,31 @@ prt_status prt_mesh_create(size_t vertex_count, size_t triangle_count, prt_mesh 
     return PRT_OK;
 }
 
+prt_status prt_mesh_add_colors(prt_mesh *m, bool per_vertex, bool per_triangle) {
+    if (!m) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_add_colors: mesh is NULL");
+    uint8_t *vc = NULL, *tc = NULL;
+    if (per_vertex && !m->vertex_colors)
+        vc = prt__alloc(PRT_MAX(prt__mul_size(m->vertex_count, 3), (size_t)1));
+    if (per_triangle && !m->triangle_colors)
+        tc = prt__alloc(PRT_MAX(prt__mul_size(m->triangle_count, 3), (size_t)1));
+    if ((per_vertex && !m->vertex_colors && !vc) || (per_triangle && !m->triangle_colors && !tc)) {
+        prt__free(vc);
+        prt__free(tc);
+        return prt__fail(PRT_ERROR_NOMEM,
+                         "out of memory for the colours of %zu vertices, %zu triangles",
+                         m->vertex_count, m->triangle_count);
+    }
+    if (vc) m->vertex_colors = vc;
+    if (tc) m->triangle_colors = tc;
+    return PRT_OK;
+}
+
 void prt_mesh_free(prt_mesh *m) {
     if (!m) return;
     prt__free(m->vertices);
     prt__free(m->triangles);
+    prt__free(m->vertex_colors);
+    prt__free(m->triangle_colors);
     prt__free(m);
 }
 

@@ -1,5 +1,6 @@
-/* Wavefront OBJ reader: `v x y z [w]` and `f` with i, i/t, i//n, i/t/n vertices
- * (negative = relative), polygons fan-triangulated; every other statement ignored. */
+/* Wavefront OBJ reader: `v x y z [w]`, `v x y z r g b` (the common vertex-colour extension)
+ * and `f` with i, i/t, i//n, i/t/n vertices (negative = relative), polygons
+ * fan-triangulated; every other statement ignored. */
 #include "mesh/source.h"
 
 #include <math.h>
@@ -8,6 +9,7 @@ typedef struct obj_reader {
     mesh_source *s;
     const char *name;
     mesh_arrays a;
+    bool colorless; /* a vertex without colours was seen: colours are off for good */
 } obj_reader;
 
 static prt_status obj_error(obj_reader *r, prt_status st, const char *what, const char *t,
@@ -16,10 +18,11 @@ static prt_status obj_error(obj_reader *r, prt_status st, const char *what, cons
     return prt__fail(st, "%s: line %zu: %s '%s'", r->name, r->s->line, what, mesh_quote(t, n, q));
 }
 
-/* `v x y z [w]`; up to three more values are accepted and ignored (w, or the r g b of
- * the common vertex-colour extension). */
+/* `v x y z [w]`, or `v x y z r g b` with colours 0..1 (clamped). The mesh keeps colours
+ * only when every vertex has them: the first one without switches them off. Up to seven
+ * values are accepted; other counts' extra values are ignored. */
 static prt_status vertex(obj_reader *r, const char *p, const char *e) {
-    float xyz[3];
+    float xyz[3], rgb[3] = {0, 0, 0};
     const char *t;
     size_t n, k = 0;
     for (; mesh_next_token(&p, e, &t, &n); k++) {
@@ -36,14 +39,35 @@ static prt_status vertex(obj_reader *r, const char *p, const char *e) {
                     PRT_ERROR_MESH, "%s: line %zu: vertex %zu has a non-finite %c coordinate '%s'",
                     r->name, r->s->line, r->a.nv + 1, (int)('x' + k), mesh_quote(t, n, q));
             xyz[k] = f;
+        } else if (k < 6) {
+            rgb[k - 3] = f;
         }
     }
     if (k < 3)
         return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: vertex with %zu coordinates, needs x y z",
                          r->name, r->s->line, k);
+    bool colored = k == 6;
+    if (!colored && !r->colorless) {
+        r->colorless = true;
+        if (r->a.want_vc) mesh_arrays_colors(&r->a, false, false);
+    }
+    if (colored && !r->colorless && !r->a.want_vc) {
+        prt_status st = mesh_arrays_colors(&r->a, true, false);
+        if (st != PRT_OK) return st;
+    }
     if (r->a.nv == r->a.vcap) {
         prt_status st = mesh_arrays_vertex_room(&r->a, 1, 0);
         if (st != PRT_OK) return st;
+    }
+    if (r->a.want_vc) {
+        for (int c = 0; c < 3; c++) {
+            if (!isfinite(rgb[c]))
+                return prt__fail(PRT_ERROR_FORMAT,
+                                 "%s: line %zu: vertex %zu has a non-finite colour", r->name,
+                                 r->s->line, r->a.nv + 1);
+            float f = rgb[c];
+            r->a.vc[3 * r->a.nv + c] = f > 0.0f ? f < 1.0f ? (uint8_t)(f * 255.0f + 0.5f) : 255 : 0;
+        }
     }
     memcpy(r->a.v + 3 * r->a.nv++, xyz, sizeof xyz);
     return PRT_OK;
@@ -193,7 +217,7 @@ static prt_status parse(obj_reader *r) {
 }
 
 prt_status mesh_obj_parse(mesh_source *s, prt_mesh **out) {
-    obj_reader r = {s, s->name, {.name = s->name}};
+    obj_reader r = {s, s->name, {.name = s->name}, false};
     prt_status st = parse(&r);
     if (st == PRT_OK) st = mesh_arrays_finish(&r.a, out);
     mesh_arrays_free(&r.a);

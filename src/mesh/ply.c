@@ -1,6 +1,7 @@
 /* PLY reader (Greg Turk's polygon file format): ascii, binary_little_endian and
  * binary_big_endian; vertex x, y, z of any numeric type, faces from the vertex_indices
- * (or vertex_index) list fan-triangulated, every other element and property skipped. */
+ * (or vertex_index) list fan-triangulated, vertex and face colours (red, green, blue
+ * [, alpha]), every other element and property skipped. */
 #include "mesh/source.h"
 
 #include <math.h>
@@ -10,7 +11,18 @@ static const uint8_t k_size[] = {0, 1, 1, 2, 2, 4, 4, 4, 8};
 static const char *const k_type_name[] = {"?",   "char", "uchar", "short", "ushort",
                                           "int", "uint", "float", "double"};
 
-enum { ROLE_NONE, ROLE_X, ROLE_Y, ROLE_Z, ROLE_INDICES };
+enum {
+    ROLE_NONE,
+    ROLE_X,
+    ROLE_Y,
+    ROLE_Z,
+    ROLE_INDICES,
+    ROLE_R,
+    ROLE_G,
+    ROLE_B,
+    ROLE_A,
+    ROLE_COUNT
+};
 enum { FMT_NONE, FMT_ASCII, FMT_BLE, FMT_BBE };
 enum { EL_OTHER, EL_VERTEX, EL_FACE };
 
@@ -48,7 +60,8 @@ typedef struct ply_reader {
     ply_prop prop[MAX_PROPS];
     uint32_t nprop;
     int vertex_el, face_el;
-    uint64_t nverts; /* declared vertex count (fits 32 bits once checked) */
+    bool vertex_colors, face_colors; /* the element has red, green and blue */
+    uint64_t nverts;                 /* declared vertex count (fits 32 bits once checked) */
     mesh_arrays a;
 } ply_reader;
 
@@ -71,6 +84,21 @@ static int parse_type(const char *t, size_t n) {
 
 PRT_INLINE bool is_float_type(int t) {
     return t == T_F32 || t == T_F64;
+}
+
+/* Colour channel names (the usual ones, and the diffuse_ forms some writers use) in role
+ * order; alpha is read and dropped. */
+static const char *const k_color_name[] = {"red", "green", "blue", "alpha"};
+
+static int color_role(const char *name, size_t n) {
+    if (n > 8 && !memcmp(name, "diffuse_", 8)) name += 8, n -= 8;
+    for (int i = 0; i < 4; i++)
+        if (tok_is(name, n, k_color_name[i])) return ROLE_R + i;
+    return ROLE_NONE;
+}
+
+PRT_INLINE bool is_color_role(int role) {
+    return role >= ROLE_R && role <= ROLE_A;
 }
 
 /* ---- header ------------------------------------------------------------------------ */
@@ -131,6 +159,22 @@ static prt_status parse_property(ply_reader *r, const char *p, const char *e) {
                              "%s: line %zu: face indices of type %s: must be an integer type",
                              r->name, s->line, k_type_name[pr.type]);
         pr.role = ROLE_INDICES;
+    }
+    int color = el->kind == EL_OTHER ? ROLE_NONE : color_role(name, name_len);
+    if (color != ROLE_NONE) {
+        char q[MESH_QUOTE_SIZE];
+        const char *what = el->kind == EL_VERTEX ? "vertex" : "face";
+        if (list)
+            return prt__fail(PRT_ERROR_FORMAT,
+                             "%s: line %zu: %s colour '%s' is a list; a colour channel is a scalar",
+                             r->name, s->line, what, mesh_quote(name, name_len, q));
+        if (pr.type != T_U8 && pr.type != T_U16 && !is_float_type(pr.type))
+            return prt__fail(PRT_ERROR_FORMAT,
+                             "%s: line %zu: %s colour '%s' of type %s: packrt reads colours as "
+                             "uchar (0-255), ushort (0-65535), float or double (0-1)",
+                             r->name, s->line, what, mesh_quote(name, name_len, q),
+                             k_type_name[pr.type]);
+        pr.role = (uint8_t)color;
     }
     for (uint32_t i = el->first; i < el->first + el->nprops; i++)
         if (pr.role != ROLE_NONE && r->prop[i].role == pr.role)
@@ -204,6 +248,23 @@ static prt_status parse_format(ply_reader *r, const char *p, const char *e) {
     return PRT_OK;
 }
 
+/* An element's colour channels are all three of red, green and blue or none (alpha alone
+ * counts as a channel without its colour). */
+static prt_status check_color_set(ply_reader *r, const ply_element *el, bool *has_color) {
+    bool has[ROLE_COUNT] = {false};
+    for (uint32_t i = el->first; i < el->first + el->nprops; i++) has[r->prop[i].role] = true;
+    int n = has[ROLE_R] + has[ROLE_G] + has[ROLE_B];
+    *has_color = n == 3;
+    if (n == 3 || (n == 0 && !has[ROLE_A])) return PRT_OK;
+    int present = has[ROLE_R] ? ROLE_R : has[ROLE_G] ? ROLE_G : has[ROLE_B] ? ROLE_B : ROLE_A;
+    int missing = !has[ROLE_R] ? ROLE_R : !has[ROLE_G] ? ROLE_G : ROLE_B;
+    return prt__fail(PRT_ERROR_FORMAT,
+                     "%s: the %s element has a colour channel '%s' but no '%s': a colour needs "
+                     "red, green and blue",
+                     r->name, el->kind == EL_VERTEX ? "vertex" : "face",
+                     k_color_name[present - ROLE_R], k_color_name[missing - ROLE_R]);
+}
+
 static prt_status parse_header(ply_reader *r) {
     mesh_source *s = r->s;
     for (;;) {
@@ -252,12 +313,14 @@ static prt_status parse_header(ply_reader *r) {
     if (r->vertex_el < 0)
         return prt__fail(PRT_ERROR_FORMAT, "%s: the header declares no vertex element", r->name);
     const ply_element *v = &r->el[r->vertex_el];
-    bool has[5] = {false};
+    bool has[ROLE_COUNT] = {false};
     for (uint32_t i = v->first; i < v->first + v->nprops; i++) has[r->prop[i].role] = true;
     for (int k = 0; k < 3; k++)
         if (!has[ROLE_X + k])
             return prt__fail(PRT_ERROR_FORMAT, "%s: the vertex element has no '%c' property",
                              r->name, 'x' + k);
+    prt_status st = check_color_set(r, v, &r->vertex_colors);
+    if (st != PRT_OK) return st;
     if (v->count > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "%s: %llu vertices: packrt indexes vertices with 32 bits",
                          r->name, (unsigned long long)v->count);
@@ -274,7 +337,8 @@ static prt_status parse_header(ply_reader *r) {
         return prt__fail(PRT_ERROR_FORMAT,
                          "%s: the face element has no vertex_indices (or vertex_index) list",
                          r->name);
-    return PRT_OK;
+    if ((st = check_color_set(r, f, &r->face_colors)) != PRT_OK) return st;
+    return mesh_arrays_colors(&r->a, r->vertex_colors, r->face_colors);
 }
 
 /* The least number of bytes each element's rows can take (lists empty, ascii values one
@@ -349,8 +413,8 @@ PRT_INLINE uint64_t face_expect(const ply_reader *r) {
     return r->el[r->face_el].count;
 }
 
-static prt_status emit_vertex(ply_reader *r, const float xyz[3], uint64_t row, const char *where,
-                              uint64_t pos) {
+static prt_status emit_vertex(ply_reader *r, const float xyz[3], const uint8_t rgb[3], uint64_t row,
+                              const char *where, uint64_t pos) {
     for (int k = 0; k < 3; k++)
         if (!isfinite(xyz[k]))
             return prt__fail(PRT_ERROR_MESH,
@@ -361,8 +425,30 @@ static prt_status emit_vertex(ply_reader *r, const float xyz[3], uint64_t row, c
         prt_status st = mesh_arrays_vertex_room(&r->a, 1, (size_t)r->nverts);
         if (st != PRT_OK) return st;
     }
+    if (r->vertex_colors) memcpy(r->a.vc + 3 * r->a.nv, rgb, 3);
     memcpy(r->a.v + 3 * r->a.nv++, xyz, 3 * sizeof(float));
     return PRT_OK;
+}
+
+/* The face's colour on every triangle its polygon became (from triangle `first` on). */
+static void emit_face_color(ply_reader *r, size_t first, const uint8_t rgb[3]) {
+    if (!r->face_colors) return;
+    for (size_t t = first; t < r->a.nt; t++) memcpy(r->a.tc + 3 * t, rgb, 3);
+}
+
+static prt_status color_value_error(ply_reader *r, const ply_element *el, uint64_t row,
+                                    const char *where, uint64_t pos, const char *what) {
+    return prt__fail(PRT_ERROR_FORMAT, "%s: %s %llu: %s %llu has a %s colour value", r->name, where,
+                     (unsigned long long)pos, el->name, (unsigned long long)row, what);
+}
+
+/* Colour channels to bytes: floats 0..1 (clamped), ushort 0..65535, uchar as it is. */
+PRT_INLINE uint8_t color_from_float(float f) {
+    return f > 0.0f ? f < 1.0f ? (uint8_t)(f * 255.0f + 0.5f) : 255 : 0;
+}
+
+PRT_INLINE uint8_t color_from_u16(uint32_t v) {
+    return (uint8_t)((v * 255u + 32767u) / 65535u);
 }
 
 /* Check one face index; where/pos locate it ("line", 12 or "byte", 4096). */
@@ -443,6 +529,15 @@ PRT_INLINE float load_float(const uint8_t *p, int type, bool swap) {
     return (float)load_int(p, type, swap);
 }
 
+/* A binary colour channel as a byte; *bad is set for a float that is not finite. */
+PRT_INLINE uint8_t load_color(const uint8_t *p, int type, bool swap, bool *bad) {
+    if (type == T_U8) return p[0];
+    if (type == T_U16) return color_from_u16((uint32_t)load_u(p, 2, swap));
+    float f = load_float(p, type, swap);
+    *bad |= !isfinite(f);
+    return color_from_float(f);
+}
+
 static prt_status truncated(ply_reader *r, const ply_element *el, uint64_t row) {
     mesh_source *s = r->s;
     return prt__fail(
@@ -466,6 +561,9 @@ static prt_status truncated(ply_reader *r, const ply_element *el, uint64_t row) 
 static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row) {
     mesh_source *s = r->s;
     float xyz[3] = {0, 0, 0};
+    uint8_t rgb[3] = {0, 0, 0};
+    bool bad_color = false;
+    size_t first_triangle = r->a.nt;
     uint64_t row_pos = mesh_source_offset(s, s->cur);
     for (uint32_t k = el->first; k < el->first + el->nprops; k++) {
         const ply_prop *p = &r->prop[k];
@@ -474,6 +572,8 @@ static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row)
             NEED(n);
             if (p->role >= ROLE_X && p->role <= ROLE_Z)
                 xyz[p->role - ROLE_X] = load_float(s->cur, p->type, r->swap);
+            else if (p->role >= ROLE_R && p->role <= ROLE_B)
+                rgb[p->role - ROLE_R] = load_color(s->cur, p->type, r->swap, &bad_color);
             s->cur += n;
             continue;
         }
@@ -513,7 +613,9 @@ static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row)
         }
         s->cur = q;
     }
-    if (el->kind == EL_VERTEX) return emit_vertex(r, xyz, row, "byte", row_pos);
+    if (bad_color) return color_value_error(r, el, row, "byte", row_pos, "non-finite");
+    if (el->kind == EL_VERTEX) return emit_vertex(r, xyz, rgb, row, "byte", row_pos);
+    if (el->kind == EL_FACE) emit_face_color(r, first_triangle, rgb);
     return PRT_OK;
 }
 
@@ -522,12 +624,16 @@ static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row)
 static prt_status binary_vertices_fixed(ply_reader *r, const ply_element *el) {
     mesh_source *s = r->s;
     const size_t R = el->row_size;
-    size_t off[3] = {0, 0, 0};
-    int type[3] = {T_F32, T_F32, T_F32};
+    size_t off[3] = {0, 0, 0}, coff[3] = {0, 0, 0};
+    int type[3] = {T_F32, T_F32, T_F32}, ctype[3] = {T_U8, T_U8, T_U8};
     for (uint32_t k = el->first, o = 0; k < el->first + el->nprops;
-         o += k_size[r->prop[k].type], k++)
-        if (r->prop[k].role >= ROLE_X && r->prop[k].role <= ROLE_Z)
-            off[r->prop[k].role - ROLE_X] = o, type[r->prop[k].role - ROLE_X] = r->prop[k].type;
+         o += k_size[r->prop[k].type], k++) {
+        int role = r->prop[k].role;
+        if (role >= ROLE_X && role <= ROLE_Z)
+            off[role - ROLE_X] = o, type[role - ROLE_X] = r->prop[k].type;
+        if (role >= ROLE_R && role <= ROLE_B)
+            coff[role - ROLE_R] = o, ctype[role - ROLE_R] = r->prop[k].type;
+    }
     const bool plain = R == 12 && !r->swap && off[0] == 0 && off[1] == 4 && off[2] == 8 &&
                        type[0] == T_F32 && type[1] == T_F32 && type[2] == T_F32;
     uint64_t row = 0;
@@ -561,6 +667,22 @@ static prt_status binary_vertices_fixed(ply_reader *r, const ply_element *el) {
                         "%s: byte %llu: vertex %llu has a non-finite %c coordinate (%g)", r->name,
                         (unsigned long long)mesh_source_offset(s, s->cur + (i / 3) * R),
                         (unsigned long long)(row + i / 3), (int)('x' + i % 3), (double)v[i]);
+        if (r->vertex_colors) {
+            uint8_t *c = r->a.vc + 3 * r->a.nv;
+            bool bad_color = false;
+            q = s->cur;
+            for (size_t i = 0; i < batch; i++, q += R)
+                for (int k = 0; k < 3; k++)
+                    c[3 * i + k] = load_color(q + coff[k], ctype[k], r->swap, &bad_color);
+            for (size_t i = 0; bad_color && i < batch; i++) {
+                bool bad = false;
+                for (int k = 0; k < 3; k++)
+                    load_color(s->cur + i * R + coff[k], ctype[k], r->swap, &bad);
+                if (bad)
+                    return color_value_error(r, el, row + i, "byte",
+                                             mesh_source_offset(s, s->cur + i * R), "non-finite");
+            }
+        }
         r->a.nv += batch;
         s->cur += batch * R;
         row += batch;
@@ -677,6 +799,30 @@ static bool ascii_check(ply_reader *r, int type, const char *t, size_t n) {
     return is_float_type(type) ? mesh_parse_float(r->s, t, n, &f) : mesh_parse_int(t, n, &i);
 }
 
+/* A colour channel written in text: a number of the property's type, integers within the
+ * type's range; *out receives it as a byte. */
+static prt_status ascii_color(ply_reader *r, const ply_element *el, uint64_t row, int type,
+                              const char *t, size_t n, uint8_t *out) {
+    if (is_float_type(type)) {
+        float f;
+        if (!mesh_parse_float(r->s, t, n, &f)) return ascii_value_error(r, el, row, t, n);
+        if (!isfinite(f)) return color_value_error(r, el, row, "line", r->s->line, "non-finite");
+        *out = color_from_float(f);
+        return PRT_OK;
+    }
+    int64_t i, hi = type == T_U8 ? 255 : 65535;
+    if (!mesh_parse_int(t, n, &i)) return ascii_value_error(r, el, row, t, n);
+    if (i < 0 || i > hi) {
+        char q[MESH_QUOTE_SIZE];
+        return prt__fail(PRT_ERROR_FORMAT,
+                         "%s: line %zu: %s %llu: colour value %s outside the range of %s (0-%lld)",
+                         r->name, r->s->line, el->name, (unsigned long long)row,
+                         mesh_quote(t, n, q), k_type_name[type], (long long)hi);
+    }
+    *out = type == T_U8 ? (uint8_t)i : color_from_u16((uint32_t)i);
+    return PRT_OK;
+}
+
 static prt_status ascii_row(ply_reader *r, const ply_element *el, uint64_t row) {
     const char *p = NULL, *e = NULL, *t;
     size_t n;
@@ -684,9 +830,16 @@ static prt_status ascii_row(ply_reader *r, const ply_element *el, uint64_t row) 
     if (st != PRT_OK) return st;
     size_t line = r->s->line;
     float xyz[3] = {0, 0, 0};
+    uint8_t rgba[4] = {0, 0, 0, 0};
+    size_t first_triangle = r->a.nt;
     for (uint32_t k = el->first; k < el->first + el->nprops; k++) {
         const ply_prop *pr = &r->prop[k];
         if ((st = ascii_token(r, el, row, &p, e, &t, &n)) != PRT_OK) return st;
+        if (pr->count_type == T_NONE && is_color_role(pr->role)) {
+            if ((st = ascii_color(r, el, row, pr->type, t, n, &rgba[pr->role - ROLE_R])) != PRT_OK)
+                return st;
+            continue;
+        }
         if (pr->count_type == T_NONE) {
             bool ok = pr->role >= ROLE_X && pr->role <= ROLE_Z
                           ? mesh_parse_float(r->s, t, n, &xyz[pr->role - ROLE_X])
@@ -737,7 +890,8 @@ static prt_status ascii_row(ply_reader *r, const ply_element *el, uint64_t row) 
             "%s: line %zu: %s %llu: more values than the element's %u properties ('%s')", r->name,
             line, el->name, (unsigned long long)row, el->nprops, mesh_quote(t, n, q));
     }
-    if (el->kind == EL_VERTEX) return emit_vertex(r, xyz, row, "line", line);
+    if (el->kind == EL_VERTEX) return emit_vertex(r, xyz, rgba, row, "line", line);
+    if (el->kind == EL_FACE) emit_face_color(r, first_triangle, rgba);
     return PRT_OK;
 }
 

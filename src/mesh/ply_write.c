@@ -1,5 +1,6 @@
-/* prt_mesh_save_ply: binary little-endian PLY (float x y z, list uchar int vertex_indices)
- * streamed to disk in large writes, so a 100M-triangle mesh needs one 8 MiB buffer. */
+/* prt_mesh_save_ply: binary little-endian PLY (float x y z, list uchar int vertex_indices,
+ * uchar red green blue on vertices and faces when the mesh has colours) streamed to disk in
+ * large writes, so a 100M-triangle mesh needs one 8 MiB buffer. */
 #include "mesh/source.h"
 
 #include <errno.h>
@@ -50,17 +51,31 @@ PRT_INLINE void put_u32le(uint8_t *p, uint32_t v) {
 static prt_status write_body(ply_out *o, const prt_mesh *m) {
     /* Indices above INT32_MAX do not fit the customary `int`: say `uint` then. */
     const char *itype = m->vertex_count > (size_t)INT32_MAX + 1 ? "uint" : "int";
+    const char *rgb = "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    const uint8_t *vc = m->vertex_colors, *tc = m->triangle_colors;
     int h = snprintf(
         (char *)o->buf, WRITE_BUFFER,
         "ply\nformat binary_little_endian 1.0\ncomment written by packrt\nelement vertex %zu\n"
-        "property float x\nproperty float y\nproperty float z\nelement face %zu\n"
-        "property list uchar %s vertex_indices\nend_header\n",
-        m->vertex_count, m->triangle_count, itype);
+        "property float x\nproperty float y\nproperty float z\n%selement face %zu\n"
+        "property list uchar %s vertex_indices\n%send_header\n",
+        m->vertex_count, vc ? rgb : "", m->triangle_count, itype, tc ? rgb : "");
     o->n = (size_t)h;
     prt_status st = flush(o);
     if (st != PRT_OK) return st;
     const size_t nf = 3 * m->vertex_count;
-    if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__) {
+    if (vc) { /* rows of 15 bytes: positions and colours interleaved */
+        for (size_t i = 0; i < m->vertex_count && st == PRT_OK; i++) {
+            uint8_t *p = o->buf + o->n;
+            for (int k = 0; k < 3; k++) {
+                uint32_t b;
+                memcpy(&b, m->vertices + 3 * i + k, 4);
+                put_u32le(p + 4 * k, b);
+            }
+            memcpy(p + 12, vc + 3 * i, 3);
+            if ((o->n += 15) + 15 > WRITE_BUFFER) st = flush(o);
+        }
+        if (st == PRT_OK) st = flush(o);
+    } else if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__) {
         st = write_all(o, m->vertices, nf * sizeof(float)); /* already the file's layout */
     } else {
         for (size_t i = 0; i < nf && st == PRT_OK; i++) {
@@ -78,7 +93,9 @@ static prt_status write_body(ply_out *o, const prt_mesh *m) {
         put_u32le(p + 1, i[0]);
         put_u32le(p + 5, i[1]);
         put_u32le(p + 9, i[2]);
-        if ((o->n += 13) + 13 > WRITE_BUFFER) st = flush(o);
+        size_t row = 13;
+        if (tc) memcpy(p + 13, tc + 3 * t, 3), row = 16;
+        if ((o->n += row) + 16 > WRITE_BUFFER) st = flush(o);
     }
     if (st == PRT_OK) st = flush(o);
     return st;

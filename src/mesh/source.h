@@ -97,12 +97,21 @@ typedef struct mesh_arrays {
     size_t nv, vcap;
     uint32_t *t;
     size_t nt, tcap;
+    /* Colours (3 bytes per vertex / triangle), kept as long as the positions and
+     * triangles when switched on by mesh_arrays_colors; NULL otherwise. */
+    uint8_t *vc, *tc;
+    size_t vccap, tccap;
+    bool want_vc, want_tc;
 } mesh_arrays;
 
-/* Ensure room for `extra` more vertices / triangles. Capacity at least doubles, but not
- * past `expect` (the total the input announces, 0 when unknown) unless more is needed. */
+/* Ensure room for `extra` more vertices / triangles (and their colours when on). Capacity
+ * at least doubles, but not past `expect` (the total the input announces, 0 when unknown)
+ * unless more is needed. */
 prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect);
 prt_status mesh_arrays_triangle_room(mesh_arrays *a, size_t extra, size_t expect);
+/* Switch per-vertex / per-triangle colours on (room for as many as the positions and
+ * triangles have), or per-vertex colours off again (vertex = false frees them). */
+prt_status mesh_arrays_colors(mesh_arrays *a, bool vertex, bool triangle);
 /* Hand the arrays over to a new prt_mesh (validated; errors are prefixed with the name). */
 prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out);
 void mesh_arrays_free(mesh_arrays *a);
