@@ -85,8 +85,8 @@ void prt_memory_reset_peak(void);
  * has both, the vertex colours). They are allocated with prt_mesh_add_colors (or by the
  * loaders) and freed by prt_mesh_free; prt_build ignores them. */
 typedef struct prt_mesh {
-    float *vertices;       /* 3 * vertex_count floats: x, y, z */
-    uint32_t *triangles;   /* 3 * triangle_count vertex indices */
+    float *vertices;     /* 3 * vertex_count floats: x, y, z */
+    uint32_t *triangles; /* 3 * triangle_count vertex indices */
     size_t vertex_count;
     size_t triangle_count;
     uint8_t *vertex_colors;   /* NULL, or 3 * vertex_count bytes: r, g, b */
@@ -346,12 +346,13 @@ typedef struct prt_camera {
  * workload. */
 void prt_camera_default(const float lo[3], const float hi[3], prt_camera *c);
 
-/* Shading modes (docs/render.md). */
+/* Shading modes (docs/render.md). The surface colour (diffuse, shadows, gi) is the mesh's
+ * vertex or triangle colour when prt_render has a mesh with colours, else grey. */
 typedef enum prt_shade {
     PRT_SHADE_NORMAL,  /* geometric normal facing the ray, as colour 0.5 + 0.5 n */
     PRT_SHADE_DIFFUSE, /* Lambert with a light at the eye: no secondary rays */
     PRT_SHADE_SHADOWS, /* Lambert with a point light and hard shadows (one any-hit ray) */
-    PRT_SHADE_AO,      /* ambient occlusion: one cosine-weighted any-hit ray per sample */
+    PRT_SHADE_AO,      /* ambient occlusion, uncoloured: a cosine-weighted any-hit ray per sample */
     PRT_SHADE_GI,      /* point light with shadows + one diffuse bounce (sky and light) */
     PRT_SHADE_COUNT
 } prt_shade;
@@ -405,7 +406,10 @@ typedef struct prt_image {
  * with m it is taken from triangle hit.prim of m (m->triangle_count must equal the accel's
  * triangle count, else PRT_ERROR_ARGUMENT); without m (a .prt file loaded alone) it is
  * estimated from two to four extra rays parallel to the hit ray, a small step beside it,
- * which costs rays and softens normals at creases and silhouettes (docs/render.md).
+ * which costs rays and softens normals at creases and silhouettes (docs/render.md). The
+ * mesh's colours, when it has them, colour the surfaces: vertex colours interpolated at the
+ * hit's (u, v), else the triangle's colour (decoded from sRGB); without them, or without m,
+ * surfaces are grey.
  *
  * The image is a pure function of (a's hits, m, c, options other than threads and
  * progress): the same call gives the same bytes on any number of threads.

@@ -71,6 +71,28 @@ static int linear8(double v) {
     return v <= 0 ? 0 : v >= 1 ? 255 : (int)(v * 255 + 0.5);
 }
 
+/* An 8-bit sRGB colour value as linear reflectance (IEC 61966-2-1). */
+static double srgb_decode(int c) {
+    double v = c / 255.0;
+    return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
+}
+
+/* docs/render.md: the surface colour at barycentric (u, v) of triangle t: vertex colours
+ * decoded then interpolated, else the triangle's, else grey 0.72. */
+static void reference_albedo(const prt_mesh *m, uint32_t t, double u, double v, double out[3]) {
+    const uint32_t *i = &m->triangles[3 * (size_t)t];
+    for (int k = 0; k < 3; k++) {
+        if (m->vertex_colors)
+            out[k] = (1 - u - v) * srgb_decode(m->vertex_colors[3 * i[0] + k]) +
+                     u * srgb_decode(m->vertex_colors[3 * i[1] + k]) +
+                     v * srgb_decode(m->vertex_colors[3 * i[2] + k]);
+        else if (m->triangle_colors)
+            out[k] = srgb_decode(m->triangle_colors[3 * (size_t)t + k]);
+        else
+            out[k] = 0.72;
+    }
+}
+
 /* Reference pixel of a mode without random choices, or -1 where the answer is ambiguous
  * (camera or shadow ray within 1e-4 of a triangle edge, in barycentric units). *hit says
  * whether the camera ray hit. */
@@ -100,8 +122,10 @@ static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int
         for (int k = 0; k < 3; k++) rgb[k] = linear8(0.5 + 0.5 * n[k]);
         return 0;
     }
+    double albedo[3];
+    reference_albedo(m, h.prim, h.u, h.v, albedo);
     if (shade == PRT_SHADE_DIFFUSE) {
-        rgb[0] = rgb[1] = rgb[2] = srgb8(0.72 * (0.1 + 0.9 * -nd));
+        for (int k = 0; k < 3; k++) rgb[k] = srgb8(albedo[k] * (0.1 + 0.9 * -nd));
         return 0;
     }
     /* shadows: light 1.25 diagonals from the bounds centre toward (-0.5, 1, 0.6). */
@@ -128,16 +152,33 @@ static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int
         if (occ < 0) return -1;
         lit = occ ? 0 : nl;
     }
-    rgb[0] = rgb[1] = rgb[2] = srgb8(0.72 * (0.12 + 0.88 * lit));
+    for (int k = 0; k < 3; k++) rgb[k] = srgb8(albedo[k] * (0.12 + 0.88 * lit));
     return 0;
+}
+
+/* Give scene_mesh colours that change from triangle to triangle and vertex to vertex, so a
+ * pixel shows the wrong triangle's or vertex's colour, or a wrong blend, plainly. */
+enum { COLORS_NONE, COLORS_TRIANGLE, COLORS_VERTEX };
+static void paint(prt_mesh *m, int colors) {
+    if (colors == COLORS_NONE ||
+        prt_mesh_add_colors(m, colors == COLORS_VERTEX, colors == COLORS_TRIANGLE))
+        return;
+    if (colors == COLORS_VERTEX)
+        for (size_t i = 0; i < 3 * m->vertex_count; i++)
+            m->vertex_colors[i] = (uint8_t)(40 + (i * 2654435761u >> 7) % 216);
+    else
+        for (size_t i = 0; i < 3 * m->triangle_count; i++)
+            m->triangle_colors[i] = (uint8_t)(40 + (i * 2246822519u >> 9) % 216);
 }
 
 /* Render with mode `shade` and compare with the reference: every unambiguous pixel within 2
  * levels, at most 3% ambiguous, a quarter of the image covered, misses dark. */
-static void check_against_reference(prt_shade shade) {
+static void check_against_reference(prt_shade shade, int colors) {
     prt_mesh *m = scene_mesh();
     CHECK(m != NULL);
     if (!m) return;
+    paint(m, colors);
+    size_t colorful = 0; /* hit pixels whose channels differ by 16 levels or more */
     prt_accel *a;
     CHECK_OK(prt_build(m, "aabb:float3", NULL, &a));
     prt_render_options o = {.width = W, .height = H, .shade = shade, .threads = 2};
@@ -160,6 +201,7 @@ static void check_against_reference(prt_shade shade) {
             }
             hits++;
             shadowed += shade == PRT_SHADE_SHADOWS && want[0] == srgb8(0.72 * 0.12);
+            colorful += abs(want[0] - want[1]) >= 16 || abs(want[1] - want[2]) >= 16;
             bool ok = true;
             for (int k = 0; k < 3; k++) ok = ok && abs(want[k] - got[k]) <= 2;
             if (!ok && wrong++ < 5)
@@ -173,21 +215,32 @@ static void check_against_reference(prt_shade shade) {
               ambiguous);
     CHECK_MSG(dark_misses == misses, "%s: %zu of %zu background pixels are not dark",
               prt_shade_name(shade), misses - dark_misses, misses);
-    if (shade == PRT_SHADE_SHADOWS)
+    if (shade == PRT_SHADE_SHADOWS && colors == COLORS_NONE)
         CHECK_MSG(shadowed > 20, "only %zu pixels in shadow: no shadow tested", shadowed);
+    if (colors != COLORS_NONE)
+        CHECK_MSG(colorful > hits / 2, "only %zu of %zu pixels coloured: colours not tested",
+                  colorful, hits);
     prt_image_free(&img);
     prt_accel_free(a);
     prt_mesh_free(m);
 }
 
 TEST(test_normal_mode_matches_brute_force_image) {
-    check_against_reference(PRT_SHADE_NORMAL);
+    check_against_reference(PRT_SHADE_NORMAL, COLORS_NONE);
 }
 TEST(test_diffuse_mode_matches_brute_force_image) {
-    check_against_reference(PRT_SHADE_DIFFUSE);
+    check_against_reference(PRT_SHADE_DIFFUSE, COLORS_NONE);
 }
 TEST(test_shadows_mode_matches_brute_force_image) {
-    check_against_reference(PRT_SHADE_SHADOWS);
+    check_against_reference(PRT_SHADE_SHADOWS, COLORS_NONE);
+}
+TEST(test_triangle_colours_match_brute_force_image) {
+    check_against_reference(PRT_SHADE_DIFFUSE, COLORS_TRIANGLE);
+    check_against_reference(PRT_SHADE_SHADOWS, COLORS_TRIANGLE);
+}
+TEST(test_vertex_colours_interpolate_as_brute_force_image) {
+    check_against_reference(PRT_SHADE_DIFFUSE, COLORS_VERTEX);
+    check_against_reference(PRT_SHADE_SHADOWS, COLORS_VERTEX);
 }
 
 static prt_image render_with(const prt_accel *a, const prt_mesh *m, prt_shade shade, uint32_t spp,
@@ -269,6 +322,44 @@ TEST(test_image_does_not_depend_on_thread_count) {
         prt_image_free(&other);
         prt_image_free(&one);
     }
+    prt_accel_free(a);
+    prt_mesh_free(m);
+}
+
+/* gi composes direct light and the filtered bounce with the surface colour: a red mesh
+ * gives a red image (its mean red channel far above green and blue, where the grey mesh
+ * keeps them within the light's and sky's tint), the same on any thread count, denoised
+ * or not. */
+TEST(test_coloured_gi_shows_the_colour_and_does_not_depend_on_threads) {
+    prt_mesh *m = scene_mesh();
+    prt_accel *a;
+    CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &a));
+    if (!a) return prt_mesh_free(m);
+    double grey[3] = {0}, red[3] = {0};
+    prt_image img = render_with(a, m, PRT_SHADE_GI, 4, 2, true);
+    for (size_t i = 0; i < (size_t)W * H && img.rgb; i++)
+        for (int k = 0; k < 3; k++) grey[k] += img.rgb[3 * i + k] / (double)(W * H);
+    prt_image_free(&img);
+    CHECK_OK(prt_mesh_add_colors(m, false, true));
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        uint8_t *c = &m->triangle_colors[3 * t];
+        c[0] = 220, c[1] = 30, c[2] = 20;
+    }
+    for (int denoise = 0; denoise <= 1; denoise++) {
+        prt_image one = render_with(a, m, PRT_SHADE_GI, 4, 1, denoise);
+        prt_image many = render_with(a, m, PRT_SHADE_GI, 4, 3, denoise);
+        CHECK_MSG(same_pixels(&one, &many), "coloured gi (denoise %d): 1 and 3 threads differ",
+                  denoise);
+        for (size_t i = 0; denoise && i < (size_t)W * H && one.rgb; i++)
+            for (int k = 0; k < 3; k++) red[k] += one.rgb[3 * i + k] / (double)(W * H);
+        prt_image_free(&one);
+        prt_image_free(&many);
+    }
+    CHECK_MSG(fabs(grey[0] - grey[1]) < 10 && fabs(grey[0] - grey[2]) < 20,
+              "grey mesh: mean r %.1f g %.1f b %.1f", grey[0], grey[1], grey[2]);
+    CHECK_MSG(red[0] > red[1] + 40 && red[0] > red[2] + 40,
+              "red mesh: mean r %.1f g %.1f b %.1f (grey: %.1f %.1f %.1f)", red[0], red[1], red[2],
+              grey[0], grey[1], grey[2]);
     prt_accel_free(a);
     prt_mesh_free(m);
 }
@@ -497,6 +588,9 @@ int main(void) {
     RUN(test_normal_mode_matches_brute_force_image);
     RUN(test_diffuse_mode_matches_brute_force_image);
     RUN(test_shadows_mode_matches_brute_force_image);
+    RUN(test_triangle_colours_match_brute_force_image);
+    RUN(test_vertex_colours_interpolate_as_brute_force_image);
+    RUN(test_coloured_gi_shows_the_colour_and_does_not_depend_on_threads);
     RUN(test_every_representation_renders_the_same_image);
     RUN(test_image_does_not_depend_on_thread_count);
     RUN(test_ao_is_open_on_a_convex_sphere_and_darker_near_contact);

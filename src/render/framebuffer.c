@@ -5,7 +5,7 @@
 #include <math.h>
 
 prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height,
-                                   bool guides) {
+                                   bool guides, bool albedo) {
     memset(fb, 0, sizeof *fb);
     fb->width = width, fb->height = height;
     size_t n = (size_t)width * height, n3 = prt__mul_size(n, 3 * sizeof(float));
@@ -19,6 +19,10 @@ prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint3
         fb->position = prt__calloc(1, n3);
         fb->coverage = prt__calloc(n, sizeof(float));
         ok = ok && fb->indirect && fb->normal && fb->position && fb->coverage;
+    }
+    if (albedo) {
+        fb->albedo = prt__calloc(1, n3);
+        ok = ok && fb->albedo;
     }
     if (!ok) {
         render_framebuffer_free(fb);
@@ -34,6 +38,7 @@ void render_framebuffer_free(render_framebuffer *fb) {
     prt__free(fb->normal);
     prt__free(fb->position);
     prt__free(fb->coverage);
+    prt__free(fb->albedo);
     memset(fb, 0, sizeof *fb);
 }
 
@@ -63,7 +68,9 @@ void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, i
         for (size_t i = (size_t)y * fb->width; i < (size_t)(y + 1) * fb->width; i++)
             for (int k = 0; k < 3; k++) {
                 float v = fb->direct[3 * i + k];
-                if (fb->indirect) v += RENDER_ALBEDO * fb->indirect[3 * i + k];
+                if (fb->indirect)
+                    v += (fb->albedo ? fb->albedo[3 * i + k] : RENDER_ALBEDO) *
+                         fb->indirect[3 * i + k];
                 img->rgb[3 * i + k] = encode(v);
             }
 }

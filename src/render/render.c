@@ -28,7 +28,7 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
     prt_rng rng[TILE * TILE];
     float direct[TILE * TILE][3] = {{0}}, indirect[TILE * TILE][3] = {{0}};
     float normal[TILE * TILE][3] = {{0}}, position[TILE * TILE][3] = {{0}},
-                        hit_count[TILE * TILE] = {0};
+                        albedo[TILE * TILE][3] = {{0}}, hit_count[TILE * TILE] = {0};
     uint64_t cast = 0;
     for (uint32_t i = 0; i < n; i++) rng[i] = render_pixel_rng(j->seed, x0 + i % w, y0 + i / w);
     for (uint32_t s = 0; s < j->spp; s++) {
@@ -53,6 +53,8 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             if (hit) {
                 normal[i][0] += surf.n.x, normal[i][1] += surf.n.y, normal[i][2] += surf.n.z;
                 position[i][0] += surf.p.x, position[i][1] += surf.p.y, position[i][2] += surf.p.z;
+                albedo[i][0] += surf.albedo.x, albedo[i][1] += surf.albedo.y,
+                    albedo[i][2] += surf.albedo.z;
                 hit_count[i] += 1.0f;
             }
         }
@@ -70,6 +72,7 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             fb->indirect[3 * px + k] = indirect[i][k] * inv;
             fb->normal[3 * px + k] = normal[i][k] * hinv;
             fb->position[3 * px + k] = position[i][k] * hinv;
+            if (fb->albedo) fb->albedo[3 * px + k] = albedo[i][k] * hinv;
         }
         fb->coverage[px] = hit_count[i] * inv;
     }
@@ -134,7 +137,13 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
         return st;
     }
 
-    render_scene scene = {a, m, o.shade, 0, 0, 0, {0, 0, 0}, 0};
+    render_scene scene = {a, m, o.shade, 0, 0, 0, {0, 0, 0}, 0, false, {0}};
+    scene.colored = m && (m->vertex_colors || m->triangle_colors);
+    /* Colours in files are sRGB-encoded bytes; shading wants linear reflectance. */
+    for (int i = 0; scene.colored && i < 256; i++) {
+        float c = (float)i / 255.0f;
+        scene.linear[i] = c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
+    }
     float diag = prt_v3_len(prt_v3_sub(prt_v3_load(hi), prt_v3_load(lo)));
     if (!(diag > 0.0f) || !isfinite(diag)) diag = 1.0f;
     scene.diag = diag;
@@ -160,7 +169,8 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
     uint32_t spp = o.spp ? o.spp : (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI ? 16 : 1);
 
     render_framebuffer fb;
-    if ((st = render_framebuffer_init(&fb, w, h, o.shade == PRT_SHADE_GI)) ||
+    if ((st = render_framebuffer_init(&fb, w, h, o.shade == PRT_SHADE_GI,
+                                      o.shade == PRT_SHADE_GI && scene.colored)) ||
         (st = size_image(img, w, h))) {
         render_framebuffer_free(&fb);
         prt_image_free(img);

@@ -67,22 +67,26 @@ typedef struct render_scene {
     const prt_accel *accel;
     const prt_mesh *mesh; /* NULL: normals from finite differences */
     prt_shade shade;
-    float diag;      /* bounds diagonal */
-    float offset;    /* secondary ray origins move this far along the normal */
-    float fd_step;   /* finite-difference offset between parallel rays (no mesh) */
-    prt_vec3 light;  /* point light (shadows, gi) */
-    float ao_radius; /* occlusion ray length (ao) */
+    float diag;        /* bounds diagonal */
+    float offset;      /* secondary ray origins move this far along the normal */
+    float fd_step;     /* finite-difference offset between parallel rays (no mesh) */
+    prt_vec3 light;    /* point light (shadows, gi) */
+    float ao_radius;   /* occlusion ray length (ao) */
+    bool colored;      /* the mesh has vertex or triangle colours */
+    float linear[256]; /* 8-bit sRGB colour value -> linear albedo */
 } render_scene;
 
-/* A hit point and the unit geometric normal turned toward the ray's origin side. */
+/* A hit point, the unit geometric normal turned toward the ray's origin side, and the
+ * surface's linear albedo. */
 typedef struct render_surface {
-    prt_vec3 p, n;
+    prt_vec3 p, n, albedo;
 } render_surface;
 
 /* Surface of hit h of ray r (r as cast, tfar may have shrunk). With a mesh: the barycentric
- * point and the triangle's normal. Without: org + t dir and a normal from parallel rays a
- * small step beside r; *rays counts those extra rays. False for a miss (or a degenerate
- * surface estimate), in which case the hit is shaded as background. */
+ * point, the triangle's normal and its colour (vertex colours interpolated at (u, v), else
+ * the triangle's, else RENDER_ALBEDO grey). Without: org + t dir, a normal from parallel rays
+ * a small step beside r (*rays counts those extra rays) and grey. False for a miss (or a
+ * degenerate surface estimate), in which case the hit is shaded as background. */
 bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h,
                        render_surface *out, uint64_t *rays);
 
@@ -95,7 +99,7 @@ typedef struct render_sample {
     prt_vec3 direct, indirect;
 } render_sample;
 
-/* The grey albedo of every surface. */
+/* The grey albedo of surfaces without colours. */
 #define RENDER_ALBEDO 0.72f
 
 /* Shade camera ray r with hit h: fills *out, and *surf when the ray hit (return true). */
@@ -113,15 +117,18 @@ typedef struct render_framebuffer {
     float *normal;   /* 3 per pixel: mean normal of the samples that hit */
     float *position; /* 3 per pixel: mean hit point */
     float *coverage; /* fraction of samples that hit */
+    float *albedo;   /* 3 per pixel, gi on coloured meshes: mean albedo of the samples that hit
+                        (NULL: RENDER_ALBEDO everywhere) */
 } render_framebuffer;
 
+/* guides: the gi buffers (indirect, normal, position, coverage); albedo: the albedo buffer. */
 prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height,
-                                   bool guides);
+                                   bool guides, bool albedo);
 void render_framebuffer_free(render_framebuffer *fb);
 
-/* Compose direct + albedo x indirect, encode (sRGB, except normal and ao, which show a
- * normal's components and a visibility fraction as they are) and quantise into img
- * (already sized). */
+/* Compose direct + albedo x indirect (albedo demodulated, so the filter sees none), encode (sRGB,
+ * except normal and ao, which show a normal's components and a visibility fraction as they are) and
+ * quantise into img (already sized). */
 void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
                                 prt_image *img);
 

@@ -76,6 +76,13 @@ static float light_visible_cos(const render_scene *s, const render_surface *f, u
     return prt_occluded1(s->accel, &sr) ? 0.0f : c;
 }
 
+/* The point light reflected by a surface of this albedo at cosine c (as g_light scaled by
+ * albedo x c, the order the grey renderer used, so grey images keep every bit). */
+static prt_vec3 reflected(prt_vec3 albedo, float c) {
+    return prt_v3(g_light.x * (albedo.x * c), g_light.y * (albedo.y * c),
+                  g_light.z * (albedo.z * c));
+}
+
 bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt_rng *g,
                   render_sample *out, render_surface *surf, uint64_t *rays) {
     prt_vec3 d = prt_v3_load(r->dir);
@@ -92,13 +99,12 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt
     case PRT_SHADE_DIFFUSE: {
         /* Light at the eye: the normal faces the ray, so cos is -n.d (d normalised). */
         float c = -prt_v3_dot(f->n, d) / prt_v3_len(d);
-        float v = RENDER_ALBEDO * (0.1f + 0.9f * prt_maxf(0.0f, c));
-        out->direct = prt_v3(v, v, v);
+        out->direct = prt_v3_scale(f->albedo, 0.1f + 0.9f * prt_maxf(0.0f, c));
         break;
     }
     case PRT_SHADE_SHADOWS: {
-        float v = RENDER_ALBEDO * (AMBIENT + (1.0f - AMBIENT) * light_visible_cos(s, f, rays));
-        out->direct = prt_v3(v, v, v);
+        out->direct =
+            prt_v3_scale(f->albedo, AMBIENT + (1.0f - AMBIENT) * light_visible_cos(s, f, rays));
         break;
     }
     case PRT_SHADE_AO: {
@@ -111,7 +117,7 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt
         break;
     }
     case PRT_SHADE_GI: {
-        out->direct = prt_v3_scale(g_light, RENDER_ALBEDO * light_visible_cos(s, f, rays));
+        out->direct = reflected(f->albedo, light_visible_cos(s, f, rays));
         /* One bounce: a cosine-weighted direction, so the arriving radiance needs no weight.
          * What it finds is lit directly (light and shadow ray) but not bounced again; a miss
          * brings the sky. */
@@ -121,7 +127,7 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt
         (*rays)++;
         render_surface y;
         if (render_surface_at(s, &br, &bh, &y, rays))
-            out->indirect = prt_v3_scale(g_light, RENDER_ALBEDO * light_visible_cos(s, &y, rays));
+            out->indirect = reflected(y.albedo, light_visible_cos(s, &y, rays));
         else
             out->indirect = sky(prt_v3_load(br.dir));
         break;

@@ -5,7 +5,26 @@
 
 #include <math.h>
 
-static bool from_mesh(const prt_mesh *m, const prt_ray *r, const prt_hit *h, render_surface *out) {
+/* Linear albedo at barycentric (u, v) of triangle t with corners i[3]. */
+static prt_vec3 mesh_albedo(const render_scene *s, const prt_mesh *m, size_t t, const uint32_t *i,
+                            float u, float v) {
+    const float *lin = s->linear;
+    if (m->vertex_colors) {
+        const uint8_t *a = &m->vertex_colors[3 * (size_t)i[0]],
+                      *b = &m->vertex_colors[3 * (size_t)i[1]],
+                      *c = &m->vertex_colors[3 * (size_t)i[2]];
+        float w = 1.0f - u - v;
+        return prt_v3(w * lin[a[0]] + u * lin[b[0]] + v * lin[c[0]],
+                      w * lin[a[1]] + u * lin[b[1]] + v * lin[c[1]],
+                      w * lin[a[2]] + u * lin[b[2]] + v * lin[c[2]]);
+    }
+    const uint8_t *c = &m->triangle_colors[3 * t];
+    return prt_v3(lin[c[0]], lin[c[1]], lin[c[2]]);
+}
+
+static bool from_mesh(const render_scene *s, const prt_ray *r, const prt_hit *h,
+                      render_surface *out) {
+    const prt_mesh *m = s->mesh;
     if (h->prim >= m->triangle_count) return false;
     const uint32_t *t = &m->triangles[3 * (size_t)h->prim];
     prt_vec3 a = prt_v3_load(&m->vertices[3 * (size_t)t[0]]);
@@ -22,6 +41,8 @@ static bool from_mesh(const prt_mesh *m, const prt_ray *r, const prt_hit *h, ren
     n = prt_v3_scale(n, 1.0f / len);
     if (prt_v3_dot(n, prt_v3_load(r->dir)) > 0.0f) n = prt_v3_scale(n, -1.0f);
     out->n = n;
+    out->albedo = s->colored ? mesh_albedo(s, m, h->prim, t, h->u, h->v)
+                             : prt_v3(RENDER_ALBEDO, RENDER_ALBEDO, RENDER_ALBEDO);
     return true;
 }
 
@@ -71,8 +92,10 @@ static bool from_rays(const render_scene *s, const prt_ray *r, const prt_hit *h,
         /* A lone sliver or a silhouette pixel: face the ray rather than drop the hit. */
         out->p = p;
         out->n = prt_v3_scale(d, -1.0f);
+        out->albedo = prt_v3(RENDER_ALBEDO, RENDER_ALBEDO, RENDER_ALBEDO);
         return true;
     }
+    out->albedo = prt_v3(RENDER_ALBEDO, RENDER_ALBEDO, RENDER_ALBEDO);
     prt_vec3 n = prt_v3_cross(t1, t2);
     float len = prt_v3_len(n);
     if (!(len > 0.0f) || !isfinite(len))
@@ -88,5 +111,5 @@ static bool from_rays(const render_scene *s, const prt_ray *r, const prt_hit *h,
 bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h,
                        render_surface *out, uint64_t *rays) {
     if (h->prim == PRT_INVALID) return false;
-    return s->mesh ? from_mesh(s->mesh, r, h, out) : from_rays(s, r, h, out, rays);
+    return s->mesh ? from_mesh(s, r, h, out) : from_rays(s, r, h, out, rays);
 }
