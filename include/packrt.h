@@ -204,6 +204,9 @@ typedef struct prt_build_options {
      * order once and save the 4 bytes per triangle the map would cost. Caller-allocated,
      * mesh triangle count entries; NULL otherwise. */
     uint32_t *triangle_order;
+    /* Out-of-core builds ("ooc", prt_build_file): bytes of memory the build may hold, however
+     * large the mesh (0: 4 GiB). Temporary files go next to the output file. */
+    uint64_t memory_budget;
 } prt_build_options;
 
 /* Memory of an accel, split as in Rouwé's and Benthin's tables. Every byte that a query
@@ -295,6 +298,79 @@ prt_status prt_accel_load(const char *path, prt_accel **out);
 
 /* Same, from memory that the caller keeps alive and unchanged until prt_accel_free. */
 prt_status prt_accel_load_memory(const void *data, size_t size, prt_accel **out);
+
+/* ---------------------------------------------------------------------------------
+ * Out-of-core accels and levels of detail ("ooc": Áfra 2012; docs/ooc.md)
+ *
+ * An "ooc" accel is a block file: a kd-tree with LOD voxels in 64 KB LZ4-compressed
+ * blocks, read on demand into a cache of fixed size, so a model far larger than memory
+ * can be traced. prt_build(m, "ooc") builds one in memory; prt_build_file and
+ * prt_build_generated stream a mesh of any size to a block file with bounded memory.
+ * prt_accel_load and prt_accel_open open one. prt_intersect1 and the other exact queries
+ * answer at full detail on every accel, waiting for the blocks they need; the LOD queries
+ * below answer from what is loaded and stop at a voxel that is small enough.
+ * --------------------------------------------------------------------------------- */
+
+/* Build from a mesh file (PLY or OBJ, as prt_mesh_load reads) into out_path. For "ooc" the
+ * mesh is streamed (never held whole: o->memory_budget bounds the build); for any other
+ * spec this is prt_mesh_load, prt_build and prt_accel_save in one. */
+prt_status prt_build_file(const char *mesh_path, const char *spec, const char *out_path, const prt_build_options *o);
+
+/* Build a procedural mesh (prt_mesh_generate's kinds) into out_path; for "ooc" and the
+ * kinds that can stream ("mandelbulb") the mesh is never held whole. */
+prt_status prt_build_generated(const char *kind, uint64_t triangles, uint64_t seed, const char *spec,
+                               const char *out_path, const prt_build_options *o);
+
+typedef struct prt_open_options {
+    uint64_t cache_bytes; /* ooc: decompressed block cache (0: 1 GiB, or the whole file if smaller) */
+    int fetchers;         /* ooc: threads loading blocks for LOD queries (0: 4) */
+} prt_open_options;
+
+/* prt_accel_load with options (NULL: defaults); other representations ignore them. */
+prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel **out);
+
+/* prim of a LOD hit on a voxel rather than a triangle. */
+#define PRT_VOXEL_HIT 0xFFFFFFFEu
+
+typedef struct prt_lod_hit {
+    prt_hit hit;        /* hit.prim: a triangle, PRT_VOXEL_HIT, or PRT_INVALID on a miss */
+    float normal[3];    /* a voxel's shading normal (unit); zero for triangle hits */
+    float color[3];     /* a voxel's colour (0..1) */
+    float voxel_radius; /* radius of the voxel's bounding sphere, 0 for triangles: offset
+                         * secondary rays by its diameter to leave the voxel (§6.2) */
+} prt_lod_hit;
+
+/* Closest hit with levels of detail: a voxel of bounding radius R met at distance t stops
+ * the ray when R <= t * error (Áfra eq. 2: for a camera, error = pixels of error / (h / 2 /
+ * tan(fov_y / 2)) radius in pixels); and where a block is not loaded yet the ray stops
+ * at the last voxel it passed and the block is requested (loaded by the fetcher threads,
+ * used after the next prt_accel_frame). Returns true on a hit (r->tfar shrinks to it).
+ * Other representations answer exactly (as prt_intersect1). */
+bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h);
+/* Any-hit with levels of detail: a voxel blocks the ray as a triangle does. */
+bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error);
+
+typedef struct prt_cache_info {
+    uint64_t cache_bytes;     /* the cache's size */
+    uint64_t resident_bytes;  /* decompressed blocks held */
+    uint64_t working_set_bytes; /* blocks the last frame touched */
+    uint32_t requested;       /* blocks the last frame asked for and did not have */
+    uint32_t pending;         /* blocks being loaded */
+    uint64_t blocks, blocks_loaded_total; /* in the file; loads since opening */
+    uint64_t bytes_read_total; /* compressed bytes read since opening */
+    double decompress_seconds_total;
+} prt_cache_info;
+
+/* Between frames (Áfra §5.3): publish the blocks loaded since the last call, turn the
+ * last frame's requests into loads (most requested first), evict the least recently used
+ * blocks the last frame did not touch. Must not run concurrently with queries on a. info
+ * may be NULL; zeros for representations without a cache. */
+void prt_accel_frame(prt_accel *a, prt_cache_info *info);
+
+/* PRT_ERROR_CORRUPT (with a message) when a query so far met a block that failed its
+ * checks; queries treat such a block as empty rather than crash. PRT_OK otherwise and for
+ * representations checked whole at load. */
+prt_status prt_accel_check(const prt_accel *a);
 
 /* ---------------------------------------------------------------------------------
  * Representations

@@ -40,10 +40,11 @@ bool cli_parse_count(const char *s, size_t *out) {
 bool cli_is_prt_file(const char *path) {
     FILE *f = fopen(path, "rb");
     if (!f) return false;
-    char magic[4] = {0};
-    size_t n = fread(magic, 1, 4, f);
+    char magic[8] = {0};
+    size_t n = fread(magic, 1, 8, f);
     fclose(f);
-    return n == 4 && !memcmp(magic, "PRT1", 4);
+    /* A .prt container, or an out-of-core block file. */
+    return (n >= 4 && !memcmp(magic, "PRT1", 4)) || (n == 8 && !memcmp(magic, "PRTOOC1\n", 8));
 }
 
 int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec,

@@ -1,6 +1,7 @@
 /* The API layer: validates arguments and rays, times builds, dispatches to the
  * representation's ops, and provides the generic packet and stream paths. */
 #include "api/accel.h"
+#include "ooc/ooc_accel.h"
 #include "geom/ray.h"
 
 #include <math.h>
@@ -138,6 +139,39 @@ void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occlu
             occluded[i] = prt_occluded1(a, &rays[i]);
 }
 
+/* --- Levels of detail and caches ---------------------------------------------------- */
+
+bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h) {
+    memset(h, 0, sizeof *h);
+    if (PRT_UNLIKELY(!prt__ray_valid(r))) {
+        miss(&h->hit);
+        return false;
+    }
+    if (a->ops->lod_query) return a->ops->lod_query(a, r, error, false, h);
+    a->ops->intersect1(a, r, &h->hit);
+    return h->hit.prim != PRT_INVALID;
+}
+
+bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
+    if (PRT_UNLIKELY(!prt__ray_valid(r))) return false;
+    if (a->ops->lod_query) {
+        prt_ray copy = *r;
+        prt_lod_hit h;
+        return a->ops->lod_query(a, &copy, error, true, &h);
+    }
+    return a->ops->occluded1(a, r);
+}
+
+void prt_accel_frame(prt_accel *a, prt_cache_info *info) {
+    if (info) memset(info, 0, sizeof *info);
+    if (a && a->ops->frame) a->ops->frame(a, info);
+}
+
+prt_status prt_accel_check(const prt_accel *a) {
+    if (!a) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_check: NULL accel");
+    return a->ops->check ? a->ops->check(a) : PRT_OK;
+}
+
 /* --- .prt files ---------------------------------------------------------------------- */
 
 static prt_status fill_sections(const void *ctx, prt_writer *w) {
@@ -147,6 +181,7 @@ static prt_status fill_sections(const void *ctx, prt_writer *w) {
 
 prt_status prt_accel_save(const prt_accel *a, const char *path) {
     if (!a || !path) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_save: NULL argument");
+    if (a->ops->save_file) return a->ops->save_file(a, path);
     prt_file_info info = {{0}, {0}, a->triangles, a->triangles_built, a->build_seconds};
     snprintf(info.spec, sizeof info.spec, "%s", a->spec);
     memcpy(info.bounds, a->bounds, sizeof info.bounds);
@@ -179,6 +214,13 @@ prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_a
 
 prt_status prt_accel_load_memory(const void *data, size_t size, prt_accel **out) {
     if (!data || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_load_memory: NULL argument");
+    *out = NULL;
+    if (ooc_is_block_file(data, size)) {
+        ooc_accel *a;
+        prt_status s = ooc_open(data, size, -1, 0, "block file in memory", NULL, &a);
+        if (!s) *out = &a->base;
+        return s;
+    }
     if ((uintptr_t)data % 64 == 0) return prt__accel_open(data, size, true, out);
     /* Layouts read their nodes in place and need the container's 64-byte alignment. */
     void *copy = prt__alloc(size);

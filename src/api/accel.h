@@ -25,6 +25,15 @@ typedef struct prt_accel_ops {
      * array holds 3 floats per vertex of the mesh the accel was built from. NULL: the
      * representation cannot update; prt_accel_update says so. */
     prt_status (*update)(prt_accel *a, const float *vertices);
+    /* Representations stored in a format of their own rather than a .prt container (ooc's
+     * block file): write it to path. NULL: save() into a container. */
+    prt_status (*save_file)(const prt_accel *a, const char *path);
+    /* Level-of-detail queries (prt_intersect_lod, prt_occluded_lod); NULL: exact queries. */
+    bool (*lod_query)(const prt_accel *a, prt_ray *r, float error, bool any, prt_lod_hit *h);
+    /* The cache update between frames (prt_accel_frame); NULL: nothing to do. */
+    void (*frame)(prt_accel *a, prt_cache_info *info);
+    /* Failures met by queries so far (prt_accel_check); NULL: none possible. */
+    prt_status (*check)(const prt_accel *a);
 } prt_accel_ops;
 
 struct prt_accel {

@@ -8,12 +8,14 @@ extern const prt_repr_family prt__bvh_family;
 extern const prt_repr_family prt__raystrips_family;
 extern const prt_repr_family prt__lossygrid_family;
 extern const prt_repr_family prt__cgrid_family;
+extern const prt_repr_family prt__ooc_family;
 
 static const prt_repr_family *const g_families[] = {
     &prt__bvh_family,
     &prt__raystrips_family,
     &prt__lossygrid_family,
     &prt__cgrid_family,
+    &prt__ooc_family,
 };
 
 const prt_repr_family *prt__registry_find(const prt_spec *spec) {

@@ -309,7 +309,14 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
 }
 
 const prt_accel_ops prt__bvh_ops = {
-    "bvh", bvh_build_accel, bvh_intersect1, bvh_occluded1, NULL, bvh_stats, bvh_save, bvh_load, bvh_destroy, NULL, /* update: not yet (rebuild) */
+    .name = "bvh",
+    .build = bvh_build_accel,
+    .intersect1 = bvh_intersect1,
+    .occluded1 = bvh_occluded1,
+    .stats = bvh_stats,
+    .save = bvh_save,
+    .load = bvh_load,
+    .destroy = bvh_destroy, /* no update yet: rebuild */
 };
 
 const prt_repr_family prt__bvh_family = {&prt__bvh_ops, bvh_accepts, bvh_name_at};

@@ -215,7 +215,16 @@ static bool cg_name_at(size_t i, const char **name, const char **desc) {
 }
 
 const prt_accel_ops prt__cgrid_ops = {
-    "cgrid", cg_build, cg_intersect1, cg_occluded1, cg_intersect_packet, cg_stats, cg_save, cg_load, cg_destroy, cg_update,
+    .name = "cgrid",
+    .build = cg_build,
+    .intersect1 = cg_intersect1,
+    .occluded1 = cg_occluded1,
+    .intersect_packet = cg_intersect_packet,
+    .stats = cg_stats,
+    .save = cg_save,
+    .load = cg_load,
+    .destroy = cg_destroy,
+    .update = cg_update,
 };
 
 const prt_repr_family prt__cgrid_family = {&prt__cgrid_ops, cg_accepts, cg_name_at};

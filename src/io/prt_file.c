@@ -2,6 +2,7 @@
  * foreign file an error rather than a crash (docs/formats.md has the byte layout). */
 #include "api/accel.h"
 #include "io/prt_file.h"
+#include "ooc/ooc_accel.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -190,8 +191,10 @@ prt_status prt__reader_section(prt_reader *r, uint32_t tag, size_t min_size, con
 
 void prt__unmap(void *p, size_t size) { munmap(p, size); }
 
-prt_status prt_accel_load(const char *path, prt_accel **out) {
-    if (!path || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_load: NULL argument");
+prt_status prt_accel_load(const char *path, prt_accel **out) { return prt_accel_open(path, NULL, out); }
+
+prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel **out) {
+    if (!path || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_open: NULL argument");
     *out = NULL;
     int fd = open(path, O_RDONLY);
     if (fd < 0) return prt__fail(PRT_ERROR_IO, "%s: %s", path, strerror(errno));
@@ -201,6 +204,15 @@ prt_status prt_accel_load(const char *path, prt_accel **out) {
         return prt__fail(PRT_ERROR_IO, "%s: not a regular file", path);
     }
     size_t size = (size_t)st.st_size;
+    /* An out-of-core block file is read block by block through its cache, never mapped. */
+    char head[8];
+    if (pread(fd, head, sizeof head, 0) == (ssize_t)sizeof head && ooc_is_block_file(head, sizeof head)) {
+        ooc_accel *a;
+        prt_status s = ooc_open(NULL, 0, fd, (uint64_t)st.st_size, path, o, &a);
+        if (s) close(fd);
+        else *out = &a->base;
+        return s;
+    }
     if (size < PRT_FILE_HEADER_BYTES) {
         close(fd);
         return prt__fail(PRT_ERROR_CORRUPT, "%s: %zu bytes is too short for a .prt file", path, size);

@@ -1,0 +1,277 @@
+/* In-core kd-tree construction (Áfra 2012 §4.1): binned SAH over the triangles' boxes
+ * clipped to the cell, aggressive empty-space cutting first, a spatial-median split when
+ * the SAH finds nothing better but the node is still over the leaf limit. Large subtrees
+ * are built as parallel tasks, each into its own node array, grafted afterwards. */
+#include "ooc/ooc.h"
+
+#include <float.h>
+#include <math.h>
+
+#define BINS 32
+#define COST_TRAVERSE 1.0f
+#define COST_INTERSECT 1.5f
+#define TASK_MIN 65536 /* triangles below which a subtree is built on the current thread */
+
+typedef struct ctx {
+    const ooc_btri *tris;
+    const ooc_build_params *p;
+} ctx;
+
+static void tri_box(const ooc_btri *t, const float cell[6], float b[6]) {
+    for (int k = 0; k < 3; k++) {
+        float lo = fminf(fminf(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        float hi = fmaxf(fmaxf(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        b[k] = fmaxf(lo, cell[k]);
+        b[3 + k] = fminf(hi, cell[3 + k]);
+    }
+}
+
+static float half_area(const float b[6]) {
+    float dx = b[3] - b[0], dy = b[4] - b[1], dz = b[5] - b[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+static float volume(const float b[6]) { return (b[3] - b[0]) * (b[4] - b[1]) * (b[5] - b[2]); }
+
+static prt_status push_node(ooc_tree *t, int32_t *idx) {
+    if (t->count == t->cap) {
+        size_t cap = t->cap ? 2 * t->cap : 64;
+        ooc_bnode *n = prt__realloc(t->nodes, prt__mul_size(cap, sizeof *n));
+        if (!n) return prt__fail(PRT_ERROR_NOMEM, "out of memory for kd-tree nodes");
+        t->nodes = n, t->cap = cap;
+    }
+    if (t->count >= INT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "kd-tree has more than 2^31 nodes");
+    *idx = (int32_t)t->count++;
+    memset(&t->nodes[*idx], 0, sizeof t->nodes[*idx]);
+    t->nodes[*idx].child[0] = t->nodes[*idx].child[1] = -1;
+    return PRT_OK;
+}
+
+static prt_status push_refs(ooc_tree *t, const uint32_t *refs, size_t n, uint32_t *first) {
+    if (t->nrefs + n > t->refcap) {
+        size_t cap = PRT_MAX(t->refcap * 2, t->nrefs + n + 1024);
+        uint32_t *r = prt__realloc(t->refs, prt__mul_size(cap, sizeof *r));
+        if (!r) return prt__fail(PRT_ERROR_NOMEM, "out of memory for kd-tree leaf lists");
+        t->refs = r, t->refcap = cap;
+    }
+    if (t->nrefs + n > UINT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "kd-tree has more than 2^32 leaf references");
+    memcpy(t->refs + t->nrefs, refs, n * sizeof *refs);
+    *first = (uint32_t)t->nrefs;
+    t->nrefs += n;
+    return PRT_OK;
+}
+
+/* Where to split: an empty-space cut when one leaves at least empty_cut of the cell's
+ * volume empty, else the best SAH plane, else (over the leaf limit) the spatial median.
+ * Returns false for a leaf. */
+static bool choose_split(const ctx *c, const uint32_t *refs, size_t n, const float cell[6], int *axis_out,
+                         float *split_out) {
+    float b[6] = {FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (size_t i = 0; i < n; i++) {
+        float tb[6];
+        tri_box(&c->tris[refs[i]], cell, tb);
+        for (int k = 0; k < 3; k++) b[k] = fminf(b[k], tb[k]), b[3 + k] = fmaxf(b[3 + k], tb[3 + k]);
+    }
+    const float vol = volume(cell);
+    /* Empty-space cutting (§4.1): the largest empty slab at one of the six faces. */
+    float best_empty = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        float ext = cell[3 + k] - cell[k];
+        if (!(ext > 0.0f)) continue;
+        float lo_gap = (b[k] - cell[k]) / ext, hi_gap = (cell[3 + k] - b[3 + k]) / ext;
+        if (lo_gap > best_empty) best_empty = lo_gap, *axis_out = k, *split_out = b[k];
+        if (hi_gap > best_empty) best_empty = hi_gap, *axis_out = k, *split_out = b[3 + k];
+    }
+    if (vol > 0.0f && best_empty >= c->p->empty_cut) return true;
+    if (n <= 1) return false;
+
+    /* Binned SAH over the clipped boxes: a box counts left when its minimum is below the
+     * plane and right when its maximum is above it (both when it straddles). */
+    const float area = half_area(cell);
+    float best_cost = COST_INTERSECT * (float)n;
+    int best_axis = -1;
+    float best_split = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        float lo = cell[k], ext = cell[3 + k] - cell[k];
+        if (!(ext > 0.0f)) continue;
+        uint32_t mins[BINS] = {0}, maxs[BINS] = {0};
+        const float scale = BINS / ext;
+        for (size_t i = 0; i < n; i++) {
+            float tb[6];
+            tri_box(&c->tris[refs[i]], cell, tb);
+            int a = (int)((tb[k] - lo) * scale), z = (int)((tb[3 + k] - lo) * scale);
+            mins[PRT_MIN(PRT_MAX(a, 0), BINS - 1)]++;
+            maxs[PRT_MIN(PRT_MAX(z, 0), BINS - 1)]++;
+        }
+        size_t nl = 0, nr = n;
+        for (int i = 1; i < BINS; i++) {
+            nl += mins[i - 1];
+            nr -= maxs[i - 1];
+            float s = lo + ext * (float)i / BINS;
+            float lb[6], rb[6];
+            memcpy(lb, cell, sizeof lb), memcpy(rb, cell, sizeof rb);
+            lb[3 + k] = s, rb[k] = s;
+            float cost = COST_TRAVERSE + COST_INTERSECT * (half_area(lb) * (float)nl + half_area(rb) * (float)nr) / area;
+            if (cost < best_cost && (nl < n || nr < n)) best_cost = cost, best_axis = k, best_split = s;
+        }
+    }
+    if (best_axis >= 0) {
+        *axis_out = best_axis, *split_out = best_split;
+        return true;
+    }
+    if ((int)n <= c->p->leaf_max) return false;
+    int k = 0;
+    for (int j = 1; j < 3; j++)
+        if (cell[3 + j] - cell[j] > cell[3 + k] - cell[k]) k = j;
+    *axis_out = k, *split_out = 0.5f * (cell[k] + cell[3 + k]);
+    return true;
+}
+
+static prt_status build_node(const ctx *c, ooc_tree *t, uint32_t *refs, size_t n, const float cell[6], uint32_t depth,
+                             int32_t *out);
+
+/* Build the subtree of refs into tree t (node index in *out); refs is consumed (freed). */
+static prt_status make_leaf(const ctx *c, ooc_tree *t, uint32_t *refs, size_t n, const float cell[6], int32_t *out) {
+    prt_status s = push_node(t, out);
+    if (!s) {
+        ooc_bnode *nd = &t->nodes[*out];
+        memcpy(nd->box, cell, sizeof nd->box);
+        nd->count = (uint32_t)n;
+        ooc_look_leaf(&nd->look, cell, c->tris, refs, n);
+        s = push_refs(t, refs, n, &t->nodes[*out].first);
+    }
+    prt__free(refs);
+    return s;
+}
+
+/* Copy tree src under t (indices shifted); returns the root's new index. */
+static prt_status graft(ooc_tree *t, const ooc_tree *src, int32_t *root) {
+    *root = -1;
+    if (!src->count) return PRT_OK;
+    size_t base = t->count, rbase = t->nrefs;
+    for (size_t i = 0; i < src->count; i++) {
+        int32_t idx;
+        prt_status s = push_node(t, &idx);
+        if (s) return s;
+        ooc_bnode nd = src->nodes[i];
+        for (int k = 0; k < 2; k++)
+            if (nd.child[k] >= 0) nd.child[k] += (int32_t)base;
+        if (nd.child[0] < 0 && nd.child[1] < 0) nd.first += (uint32_t)rbase;
+        t->nodes[idx] = nd;
+    }
+    uint32_t first;
+    prt_status s = push_refs(t, src->refs, src->nrefs, &first);
+    if (s) return s;
+    t->depth = PRT_MAX(t->depth, src->depth);
+    *root = (int32_t)base;
+    return PRT_OK;
+}
+
+static prt_status build_node(const ctx *c, ooc_tree *t, uint32_t *refs, size_t n, const float cell[6], uint32_t depth,
+                             int32_t *out) {
+    *out = -1;
+    if (n == 0) {
+        prt__free(refs);
+        return PRT_OK;
+    }
+    t->depth = PRT_MAX(t->depth, depth + 1);
+    int axis = 0;
+    float split = 0.0f;
+    if (depth + 1 >= OOC_MAX_DEPTH || !choose_split(c, refs, n, cell, &axis, &split))
+        return make_leaf(c, t, refs, n, cell, out);
+
+    /* Sift: a triangle goes to each side its clipped box reaches (a box touching the
+     * plane goes to both, so hits on the plane are found from either side). */
+    uint32_t *side[2];
+    size_t cnt[2] = {0, 0};
+    side[0] = prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
+    side[1] = prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
+    if (!side[0] || !side[1]) {
+        prt__free(side[0]), prt__free(side[1]), prt__free(refs);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
+    }
+    for (size_t i = 0; i < n; i++) {
+        float tb[6];
+        tri_box(&c->tris[refs[i]], cell, tb);
+        if (tb[axis] <= split) side[0][cnt[0]++] = refs[i];
+        if (tb[3 + axis] >= split) side[1][cnt[1]++] = refs[i];
+    }
+    /* A split that separates nothing (a pile of triangles through one point) ends here. */
+    if (cnt[0] == n && cnt[1] == n) {
+        prt__free(side[0]), prt__free(side[1]);
+        return make_leaf(c, t, refs, n, cell, out);
+    }
+    prt__free(refs);
+    float box[2][6];
+    memcpy(box[0], cell, sizeof box[0]), memcpy(box[1], cell, sizeof box[1]);
+    box[0][3 + axis] = split, box[1][axis] = split;
+
+    int32_t kid[2] = {-1, -1};
+    prt_status st[2] = {PRT_OK, PRT_OK};
+    if (n >= TASK_MIN && depth < 12) {
+        /* Both halves as tasks, each into a tree of its own, grafted below. */
+        ooc_tree sub[2];
+        memset(sub, 0, sizeof sub);
+        for (int k = 0; k < 2; k++) {
+#pragma omp task default(none) shared(sub, st, side, cnt, box, kid) firstprivate(k, c, depth)
+            {
+                int32_t r;
+                st[k] = build_node(c, &sub[k], side[k], cnt[k], box[k], depth + 1, &r);
+                (void)r;
+            }
+        }
+#pragma omp taskwait
+        prt_status s = st[0] ? st[0] : st[1];
+        if (!s) s = push_node(t, out);
+        for (int k = 0; k < 2 && !s; k++) s = graft(t, &sub[k], &kid[k]);
+        ooc_tree_free(&sub[0]), ooc_tree_free(&sub[1]);
+        if (s) return s;
+    } else {
+        prt_status s = push_node(t, out);
+        if (s) {
+            prt__free(side[0]), prt__free(side[1]);
+            return s;
+        }
+        for (int k = 0; k < 2; k++) {
+            if (!st[0]) st[k] = build_node(c, t, side[k], cnt[k], box[k], depth + 1, &kid[k]);
+            else prt__free(side[k]);
+        }
+        if (st[0] || st[1]) return st[0] ? st[0] : st[1];
+    }
+    ooc_bnode *nd = &t->nodes[*out];
+    memcpy(nd->box, cell, sizeof nd->box);
+    nd->axis = (uint8_t)axis, nd->split = split;
+    nd->child[0] = kid[0], nd->child[1] = kid[1];
+    static const ooc_look none; /* an empty child looks like nothing at all */
+    ooc_look_compose(&nd->look, cell, axis, kid[0] >= 0 ? &t->nodes[kid[0]].look : &none, box[0],
+                     kid[1] >= 0 ? &t->nodes[kid[1]].look : &none, box[1]);
+    return PRT_OK;
+}
+
+prt_status ooc_kd_build(const ooc_btri *tris, size_t n, const float box[6], uint32_t root_depth,
+                        const ooc_build_params *p, ooc_tree *out) {
+    memset(out, 0, sizeof *out);
+    if (n > UINT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "an in-core kd subtree holds more than 2^32 triangles");
+    uint32_t *refs = prt__alloc(prt__mul_size(PRT_MAX(n, 1), sizeof *refs));
+    if (!refs) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu kd-tree references", n);
+    for (size_t i = 0; i < n; i++) refs[i] = (uint32_t)i;
+    ctx c = {tris, p};
+    prt_status s = PRT_OK;
+    int32_t root = -1;
+    int threads = prt__threads(p->threads);
+#pragma omp parallel num_threads(threads) if (n >= TASK_MIN && threads > 1) default(none) shared(s, c, refs, n, box, root_depth, out, root)
+#pragma omp single
+    s = build_node(&c, out, refs, n, box, root_depth, &root);
+    if (s) {
+        ooc_tree_free(out);
+        return s;
+    }
+    /* build_node pushes a node before its children, so the root is node 0. */
+    return PRT_OK;
+}
+
+void ooc_tree_free(ooc_tree *t) {
+    prt__free(t->nodes);
+    prt__free(t->refs);
+    memset(t, 0, sizeof *t);
+}

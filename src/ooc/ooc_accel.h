@@ -1,0 +1,31 @@
+/* The "ooc" representation behind prt_accel_ops (ooc_accel.c): a block file held in
+ * memory or on disk, its block table, and the cache that serves its blocks. */
+#ifndef PRT_OOC_ACCEL_H
+#define PRT_OOC_ACCEL_H
+
+#include "ooc/cache.h"
+
+typedef struct ooc_accel {
+    prt_accel base;
+    ooc_header h;
+    ooc_block_entry *table; /* owned copy (file) or pointer into the image */
+    ooc_cache cache;
+    void *image;            /* a block file built in memory, owned; NULL for a file */
+    const uint8_t *mem;     /* the image's bytes (built, or the caller's memory) */
+    uint64_t mem_size;
+    int fd;
+    uint64_t file_bytes;
+} ooc_accel;
+
+void ooc_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
+bool ooc_occluded1(const prt_accel *a, const prt_ray *r);
+bool ooc_intersect_lod(const prt_accel *a, prt_ray *r, float C, bool any, prt_lod_hit *out);
+
+/* Open a block file image (memory) or file (fd >= 0); checks header and table. */
+prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file_size, const char *name,
+                    const prt_open_options *o, ooc_accel **out);
+
+/* True when these bytes start a block file. */
+bool ooc_is_block_file(const void *head, size_t n);
+
+#endif

@@ -1,0 +1,68 @@
+/* What feeds the out-of-core builder: a prt_mesh in memory, a mesh file, a generator. */
+#include "ooc/ooc_build.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#define MESH_BATCH 4096
+
+static prt_status mesh_producer(void *ctx, tri_sink_fn sink, void *user) {
+    const prt_mesh *m = ctx;
+    float buf[9 * MESH_BATCH];
+    for (size_t t0 = 0; t0 < m->triangle_count; t0 += MESH_BATCH) {
+        size_t n = PRT_MIN((size_t)MESH_BATCH, m->triangle_count - t0);
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++) memcpy(buf + 9 * i + 3 * c, m->vertices + 3 * (size_t)m->triangles[3 * (t0 + i) + c], 12);
+        prt_status s = sink(user, buf, n, t0);
+        if (s) return s;
+    }
+    return PRT_OK;
+}
+
+/* Temporary files of a build in memory go to $TMPDIR; of a file build, beside the file. */
+static void tmp_prefix(char *buf, size_t n, const char *out_path) {
+    static _Atomic unsigned seq;
+    if (out_path) {
+        snprintf(buf, n, "%s", out_path);
+        return;
+    }
+    const char *dir = getenv("TMPDIR");
+    snprintf(buf, n, "%s/packrt-ooc-%ld-%u", dir && *dir ? dir : "/tmp", (long)getpid(), seq++);
+}
+
+prt_status ooc_build_mesh(const prt_mesh *m, ooc_build_job *job, ooc_header *h, void **image, size_t *image_size) {
+    char prefix[4096];
+    tmp_prefix(prefix, sizeof prefix, job->out_path);
+    job->tmp_prefix = prefix;
+    job->expected = m->triangle_count;
+    prt_status s = ooc_build(mesh_producer, (void *)m, job, h, image, image_size);
+    job->tmp_prefix = NULL;
+    return s;
+}
+
+prt_status ooc_build_file(const char *mesh_path, ooc_build_job *job, ooc_header *h) {
+    /* Until the PLY stream reader lands, the mesh is read whole. */
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(mesh_path, &m);
+    if (s) return s;
+    s = ooc_build_mesh(m, job, h, NULL, NULL);
+    prt_mesh_free(m);
+    return s;
+}
+
+prt_status ooc_build_generated(const char *kind, uint64_t triangles, uint64_t seed, ooc_build_job *job, ooc_header *h) {
+    char prefix[4096];
+    tmp_prefix(prefix, sizeof prefix, job->out_path);
+    job->tmp_prefix = prefix;
+    prt_status s;
+    {
+        prt_mesh *m;
+        if ((s = prt_mesh_generate(kind, (size_t)triangles, seed, &m))) return s;
+        job->expected = m->triangle_count;
+        s = ooc_build(mesh_producer, m, job, h, NULL, NULL);
+        prt_mesh_free(m);
+    }
+    job->tmp_prefix = NULL;
+    return s;
+}
