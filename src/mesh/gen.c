@@ -5,10 +5,6 @@
 
 #include <string.h>
 
-/* Above this the triangles' 32-bit ids (prt_hit.prim) and the machine's memory run out
- * long before any generator's own limit; a request this large is a typo. */
-#define GEN_MAX_TRIANGLES ((size_t)1 << 31)
-
 static const struct {
     const char *name;
     prt_status (*generate)(size_t triangles, uint64_t seed, prt_mesh **out);

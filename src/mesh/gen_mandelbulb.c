@@ -3,6 +3,7 @@
  * "Mandelbulb" notes; the grid resolution is calibrated to the requested triangle count. */
 #include "mesh/gen.h"
 #include "mesh/isosurface.h"
+#include "mesh/ply_writer.h"
 
 #include <math.h>
 #include <string.h>
@@ -93,17 +94,23 @@ static void bulb_field(const void *ctx, size_t n, const double *x, const double 
     }
 }
 
-/* Extract at "resolution" r: cell size 2 HALF_EXTENT / r, so r cells (rounded up) span
+/* The grid of "resolution" r: cell size 2 HALF_EXTENT / r, so r cells (rounded up) span
  * the domain. r need not be an integer, which lets the triangle count be tuned finely. */
-static prt_status extract(double r, prt_mesh **out, size_t *tris) {
+static prt_status grid(double r, gen_iso_params *p) {
     double cell = 2 * HALF_EXTENT / r, n = ceil(r - 1e-9);
     if (n > GEN_ISO_MAX_RES)
         return prt__fail(PRT_ERROR_LIMIT,
                          "mandelbulb: the request needs a %.0f^3 grid; at most %u^3 is supported",
                          n, GEN_ISO_MAX_RES);
-    gen_iso_params p = {
+    *p = (gen_iso_params){
         bulb_field, NULL, {-HALF_EXTENT, -HALF_EXTENT, -HALF_EXTENT}, cell, (uint32_t)n};
-    return gen_isosurface(&p, out, tris);
+    return PRT_OK;
+}
+
+static prt_status extract(double r, prt_mesh **out, size_t *tris) {
+    gen_iso_params p;
+    prt_status st = grid(r, &p);
+    return st ? st : gen_isosurface(&p, out, tris);
 }
 
 static double clamp_exponent(double d) {
@@ -159,29 +166,110 @@ static prt_status calibrate(size_t want, double *r_out, double *r_last, size_t *
     return PRT_OK;
 }
 
+/* Requests up to this size are checked: if the run at the calibrated resolution misses by
+ * more than 8%, it is redone once with D from the two real counts (rare except for tiny
+ * requests). Above it the extrapolation is trusted (docs/generators.md lists the measured
+ * ratios: within 1% there), so that the streaming generators, which cannot take back what they have handed on, need
+ * not count before they extract: every entry point then lands on the same grid. */
+#define CHECK_MAX ((size_t)16000000)
+
+/* The corrected resolution after a run at r gave `got` triangles, or false to keep r. */
+static bool correction(size_t want, double r, size_t got, double rc, size_t tc, double *r2) {
+    double ratio = (double)got / (double)want;
+    if (want > CHECK_MAX || (ratio >= 0.92 && ratio <= 1.08) || !got || !tc || r == rc)
+        return false;
+    double d = clamp_exponent(log((double)got / (double)tc) / log(r / rc));
+    double x = r * pow(1.0 / ratio, 1.0 / d);
+    *r2 = x < 2 ? 2 : x;
+    return true;
+}
+
+static prt_status no_surface(size_t triangles) {
+    return prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found for %zu triangles", triangles);
+}
+
 prt_status gen_mandelbulb(size_t triangles, uint64_t seed, prt_mesh **out) {
     (void)seed; /* one fractal: the seed has nothing to vary */
-    double r, rc;
+    double r, rc, r2;
     size_t tc;
     prt_status st = calibrate(triangles, &r, &rc, &tc);
     if (st) return st;
     prt_mesh *m = NULL;
     if ((st = extract(r, &m, NULL))) return st;
-    double ratio = (double)m->triangle_count / (double)triangles;
-    if ((ratio < 0.92 || ratio > 1.08) && m->triangle_count && tc && r != rc) {
-        /* The extrapolation missed: now two real counts bracket or sit near the target, so
-         * one more run with D from them lands close. Rare except for tiny requests. */
-        double d = clamp_exponent(log((double)m->triangle_count / (double)tc) / log(r / rc));
-        double r2 = r * pow(1.0 / ratio, 1.0 / d);
+    if (correction(triangles, r, m->triangle_count, rc, tc, &r2)) {
         prt_mesh_free(m);
         m = NULL;
-        if ((st = extract(r2 < 2 ? 2 : r2, &m, NULL))) return st;
+        if ((st = extract(r2, &m, NULL))) return st;
     }
     if (m->triangle_count == 0) {
         prt_mesh_free(m);
-        return prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found for %zu triangles",
-                         triangles);
+        return no_surface(triangles);
     }
     *out = m;
     return PRT_OK;
+}
+
+/* The grid gen_mandelbulb extracts for the request, found without building a mesh: the
+ * check run of small requests only counts. */
+static prt_status stream_grid(size_t triangles, gen_iso_params *p) {
+    if (triangles == 0)
+        return prt__fail(PRT_ERROR_ARGUMENT, "mandelbulb: triangle count must be at least 1");
+    if (triangles > GEN_MAX_TRIANGLES)
+        return prt__fail(PRT_ERROR_LIMIT,
+                         "mandelbulb: %zu triangles requested; at most %zu are supported",
+                         triangles, GEN_MAX_TRIANGLES);
+    double r, rc, r2;
+    size_t tc, got;
+    prt_status st = calibrate(triangles, &r, &rc, &tc);
+    if (st) return st;
+    if (triangles <= CHECK_MAX) {
+        if ((st = extract(r, NULL, &got))) return st;
+        if (correction(triangles, r, got, rc, tc, &r2)) r = r2;
+    }
+    return grid(r, p);
+}
+
+prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_budget,
+                                 tri_sink_fn sink, void *user, uint64_t *triangle_count) {
+    (void)seed;
+    if (triangle_count) *triangle_count = 0;
+    gen_iso_params p;
+    uint64_t n = 0;
+    prt_status st = stream_grid(triangles, &p);
+    if (!st) st = gen_isosurface_stream(&p, memory_budget, sink, user, &n);
+    if (!st && n == 0) st = no_surface(triangles);
+    if (!st && triangle_count) *triangle_count = n;
+    return st;
+}
+
+static prt_status ply_begin(void *w, uint64_t vertices, uint64_t triangles) {
+    return ply_writer_begin(w, vertices, triangles);
+}
+static prt_status ply_vertices(void *w, const float *xyz, size_t n) {
+    return ply_writer_vertices(w, xyz, n);
+}
+static prt_status ply_triangles(void *w, const uint32_t *idx, size_t n) {
+    return ply_writer_triangles(w, idx, n);
+}
+
+prt_status gen_mandelbulb_save_ply(size_t triangles, uint64_t seed, size_t memory_budget,
+                                   const char *path, uint64_t *triangle_count,
+                                   uint64_t *vertex_count) {
+    (void)seed;
+    if (triangle_count) *triangle_count = 0;
+    if (vertex_count) *vertex_count = 0;
+    ply_writer *w;
+    prt_status st = ply_writer_open(path, &w); /* before the work: a bad path fails at once */
+    if (st) return st;
+    gen_iso_params p;
+    gen_iso_indexed_out out = {ply_begin, ply_vertices, ply_triangles, w};
+    uint64_t nv = 0, nt = 0;
+    st = stream_grid(triangles, &p);
+    if (!st) st = gen_isosurface_indexed(&p, memory_budget, path, &out, &nv, &nt);
+    if (!st && nt == 0) st = no_surface(triangles);
+    prt_status cst = ply_writer_close(w, st == PRT_OK);
+    if (!st) st = cst;
+    if (!st && triangle_count) *triangle_count = nt;
+    if (!st && vertex_count) *vertex_count = nv;
+    return st;
 }

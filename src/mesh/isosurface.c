@@ -1,17 +1,16 @@
 /* Sparse marching cubes over bricks of GEN_BRICK^3 cells: an octree of distance tests seeds
  * the bricks near the surface, a flood fill follows the surface across brick faces, and
- * the bricks' pieces are stitched into one indexed mesh (vertices shared per grid edge). */
-#include "mesh/isosurface.h"
-#include "mesh/marching_cubes.h"
+ * the bricks' pieces are stitched into one indexed mesh (vertices shared per grid edge) or
+ * handed on as triangles without building a mesh. */
+#include "mesh/iso_brick.h"
 
 #include <math.h>
 #include <stdlib.h>
 
 #define B GEN_BRICK
-#define S (GEN_BRICK + 1)         /* samples per brick side */
-#define OWN_SLOTS (3 * B * B * B) /* edges a brick owns: 3 axes x B^3 origins */
-#define OWN_WORDS ((OWN_SLOTS + 63) / 64)
-#define MAX_BRICK_TRIS (B * B * B * GEN_MC_MAX_TRIS)
+#define S ISO_S
+#define OWN_WORDS ISO_OWN_WORDS
+#define MAX_BRICK_TRIS ISO_MAX_BRICK_TRIS
 
 /* An octree node is skipped when its centre's distance estimate exceeds this many
  * half-diagonals. Estimators overshoot (the Mandelbulb's by up to 6x in places), so this
@@ -19,22 +18,10 @@
  * fill from any brick of its component. */
 #define CULL_FACTOR 1.0
 
-/* The extracted piece of one brick. It owns the grid edges whose lower end lies in its
- * half-open box [0, B)^3 and stores the vertices of those that the surface crosses, in
- * slot order; its triangles name edges by "extended slot" (axis, x, y, z in 0..B), which
- * may belong to the +x/+y/+z neighbours. */
-typedef struct brick {
-    uint32_t id, nvert, ntri;
-    uint64_t owned[OWN_WORDS];
-    uint16_t rank[OWN_WORDS]; /* owned crossings in the words before this one */
-    float *vert;
-    uint16_t *tri;
-} brick;
+typedef iso_brick brick;
 
 typedef struct brick_result {
-    uint32_t ntri;
     uint32_t neighbours; /* bit (dz+1)*9 + (dy+1)*3 + (dx+1): bricks sharing a crossed edge */
-    brick *rec;
     int failed;
 } brick_result;
 
@@ -43,7 +30,7 @@ typedef struct iso {
     const gen_mc_table *mc;
     uint32_t nb; /* bricks per side */
     double h;    /* cell size */
-    bool count_only;
+    iso_mode mode;
     uint16_t ext_off[12]; /* extended-slot offset of each cell edge from the cell's origin */
 } iso;
 
@@ -100,7 +87,23 @@ static void sample_brick(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, fl
     force_outside_faces(s, bx, by, bz, val, 1);
 }
 
-static void process_brick(const iso *s, uint32_t id, brick_result *res) {
+/* The corner on extended slot e (its crossing between the two samples at the edge's ends),
+ * computed as the owner of the edge computes its vertex, so the bits agree whichever
+ * brick computes it. */
+static void soup_corner(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, const float *val,
+                        int e, float *out) {
+    static const size_t stride[3] = {1, S, S * S};
+    int x = e % S, y = e / S % S, z = e / (S * S) % S, a = e / (S * S * S);
+    size_t p = sidx(x, y, z);
+    float t = gen_mc_crossing(val[p], val[p + stride[a]]);
+    uint32_t g[3] = {bx * B + x, by * B + y, bz * B + z};
+    for (int k = 0; k < 3; k++) {
+        double c = (double)g[k] + (k == a ? (double)t : 0.0);
+        out[k] = (float)(s->p->lo[k] + c * s->h);
+    }
+}
+
+static void process_brick(const iso *s, uint32_t id, iso_brick_out *out, brick_result *res) {
     uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
     float val[S * S * S];
     uint16_t tri[3 * MAX_BRICK_TRIS];
@@ -138,11 +141,23 @@ static void process_brick(const iso *s, uint32_t id, brick_result *res) {
                 ntri += (uint32_t)n;
             }
     neighbours &= ~(1u << 13); /* the brick itself */
-    res->ntri = ntri;
+    out->id = id;
+    out->ntri = ntri;
+    out->rec = NULL;
+    out->soup = NULL;
     res->neighbours = neighbours;
-    res->rec = NULL;
     res->failed = 0;
-    if (s->count_only || ntri == 0) return;
+    if (s->mode == ISO_COUNT || ntri == 0) return;
+    if (s->mode == ISO_SOUP) {
+        float *f = prt__alloc((size_t)ntri * 9 * sizeof(float));
+        if (!f) {
+            res->failed = 1;
+            return;
+        }
+        for (uint32_t i = 0; i < 3 * ntri; i++) soup_corner(s, bx, by, bz, val, tri[i], f + 3 * i);
+        out->soup = f;
+        return;
+    }
 
     /* Owned crossed edges, then their vertices in slot order. */
     uint64_t owned[OWN_WORDS] = {0};
@@ -189,7 +204,7 @@ static void process_brick(const iso *s, uint32_t id, brick_result *res) {
             v++;
         }
     }
-    res->rec = r;
+    out->rec = r;
 }
 
 /* True when the samples of brick (bx, by, bz) at every 4th grid point are not all on one
@@ -313,12 +328,6 @@ static ptrdiff_t find_brick(brick *const *recs, size_t n, uint32_t id) {
     return lo < n && recs[lo]->id == id ? (ptrdiff_t)lo : -1;
 }
 
-static inline uint32_t owned_rank(const brick *r, int slot) {
-    int w = slot >> 6;
-    uint64_t below = r->owned[w] & ((1ull << (slot & 63)) - 1);
-    return r->rank[w] + (uint32_t)__builtin_popcountll(below);
-}
-
 /* Stitch the sorted records into one mesh: vertices in brick order, then each triangle's
  * extended slots resolved to the owning brick's vertex. */
 static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) {
@@ -363,17 +372,16 @@ static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) 
         }
         uint32_t *t = m->triangles + 3 * tbase[i];
         for (uint32_t j = 0; j < 3 * r->ntri; j++) {
-            int e = r->tri[j];
-            int x = e % S, y = e / S % S, z = e / (S * S) % S, a = e / (S * S * S);
-            int o = (x == B) | (y == B) << 1 | (z == B) << 2;
-            int slot = ((a * B + (z & (B - 1))) * B + (y & (B - 1))) * B + (x & (B - 1));
-            if (own[o] < 0 || !(recs[own[o]]->owned[slot >> 6] >> (slot & 63) & 1)) {
+            int o, slot;
+            iso_edge_owner(r->tri[j], &o, &slot);
+            if (own[o] < 0 || !iso_owns(recs[own[o]]->owned, slot)) {
 #pragma omp atomic write
                 missing = 1;
                 t[j] = 0;
                 continue;
             }
-            t[j] = (uint32_t)(vbase[own[o]] + owned_rank(recs[own[o]], slot));
+            t[j] = (uint32_t)(vbase[own[o]] +
+                              iso_owned_rank(recs[own[o]]->owned, recs[own[o]]->rank, slot));
         }
     }
     prt__free(vbase);
@@ -387,15 +395,21 @@ static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) 
     return PRT_OK;
 }
 
-prt_status gen_isosurface(const gen_iso_params *p, prt_mesh **out, size_t *triangles) {
-    if (out) *out = NULL;
-    if (triangles) *triangles = 0;
+static prt_status check_params(const gen_iso_params *p) {
     if (!p || !p->field || p->resolution < 2 || p->resolution > GEN_ISO_MAX_RES || !(p->cell > 0))
         return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: bad grid (%u cells per side; 2 to %u)",
                          p ? p->resolution : 0, GEN_ISO_MAX_RES);
+    return PRT_OK;
+}
+
+prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_brick_fn fn,
+                     void *user, uint64_t *triangles) {
+    if (triangles) *triangles = 0;
+    prt_status st = check_params(p);
+    if (st) return st;
     gen_mc_table mc;
     gen_mc_table_build(&mc);
-    iso s = {p, &mc, (p->resolution + B - 1) / B, p->cell, out == NULL, {0}};
+    iso s = {p, &mc, iso_bricks_per_side(p), p->cell, mode, {0}};
     for (int e = 0; e < 12; e++) {
         int o[3];
         gen_mc_edge_origin(e, o);
@@ -406,83 +420,174 @@ prt_status gen_isosurface(const gen_iso_params *p, prt_mesh **out, size_t *trian
 
     uint32_t *frontier = NULL;
     size_t nfront = 0;
-    prt_status st = seed_bricks(&s, &frontier, &nfront);
-    if (st) return st;
+    if ((st = seed_bricks(&s, &frontier, &nfront))) return st;
     uint64_t *visited = prt__calloc((nbricks + 63) / 64, sizeof *visited);
-    brick **recs = NULL;
-    size_t nrec = 0, caprec = 0, total = 0;
+    uint64_t total = 0;
     if (!visited) st = prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu bricks", nbricks);
     for (size_t i = 0; !st && i < nfront; i++)
         visited[frontier[i] >> 6] |= 1ull << (frontier[i] & 63);
+    size_t gmax = group ? group : SIZE_MAX, gcap = 0;
+    iso_brick_out *out = NULL;
+    brick_result *res = NULL;
 
-    /* Breadth-first rounds: the bricks of a round are extracted in parallel, then their
-     * unvisited neighbours form the next round. The set of bricks reached is the closure
-     * of the seeds, whatever the order, and the output is sorted by brick below. */
+    /* Breadth-first rounds: the bricks of a round are extracted in parallel, a group at a
+     * time, then their unvisited neighbours form the next round. The set of bricks reached
+     * is the closure of the seeds, whatever the order; the order is that of the frontier,
+     * which the sequential loop below builds the same way on any number of threads. */
     while (!st && nfront) {
-        brick_result *res = prt__alloc(nfront * sizeof *res);
-        if (!res) {
-            st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
-            break;
-        }
-#pragma omp parallel for schedule(dynamic, 4)
-        for (size_t i = 0; i < nfront; i++) process_brick(&s, frontier[i], &res[i]);
-
         size_t nnext = 0, capnext = 0;
         uint32_t *next = NULL;
-        for (size_t i = 0; i < nfront && !st; i++) {
-            if (res[i].failed) {
-                st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
-                break;
-            }
-            total += res[i].ntri;
-            if (res[i].rec) {
-                if (nrec == caprec) {
-                    size_t c = caprec ? 2 * caprec : 1024;
-                    brick **q = prt__realloc(recs, c * sizeof *q);
-                    if (!q) {
-                        prt__free(res[i].rec);
-                        res[i].rec = NULL;
-                        st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
-                        break;
-                    }
-                    recs = q;
-                    caprec = c;
+        for (size_t g0 = 0; !st && g0 < nfront; g0 += gmax) {
+            size_t n = PRT_MIN(gmax, nfront - g0);
+            if (n > gcap) {
+                iso_brick_out *o2 = prt__realloc(out, n * sizeof *o2);
+                if (o2) out = o2;
+                brick_result *r2 = prt__realloc(res, n * sizeof *r2);
+                if (r2) res = r2;
+                if (!o2 || !r2) {
+                    st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+                    break;
                 }
-                recs[nrec++] = res[i].rec;
-                res[i].rec = NULL;
+                gcap = n;
             }
-            uint32_t id = frontier[i], bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
-            for (uint32_t bits = res[i].neighbours; bits; bits &= bits - 1) {
-                int k = __builtin_ctz(bits);
-                int64_t x = (int64_t)bx + k % 3 - 1, y = (int64_t)by + k / 3 % 3 - 1,
-                        z = (int64_t)bz + k / 9 - 1;
-                if (x < 0 || y < 0 || z < 0 || x >= nb || y >= nb || z >= nb) continue;
-                uint32_t nid = (uint32_t)((z * nb + y) * nb + x);
-                if (visited[nid >> 6] >> (nid & 63) & 1) continue;
-                visited[nid >> 6] |= 1ull << (nid & 63);
-                if (nnext == capnext) {
-                    size_t c = capnext ? 2 * capnext : 1024;
-                    uint32_t *q = prt__realloc(next, c * sizeof *q);
-                    if (!q) {
-                        st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
-                        break;
-                    }
-                    next = q;
-                    capnext = c;
+#pragma omp parallel for schedule(dynamic, 4)
+            for (size_t i = 0; i < n; i++) process_brick(&s, frontier[g0 + i], &out[i], &res[i]);
+
+            for (size_t i = 0; i < n && !st; i++) {
+                if (res[i].failed) {
+                    st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+                    break;
                 }
-                next[nnext++] = nid;
+                total += out[i].ntri;
+                uint32_t id = frontier[g0 + i], bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
+                for (uint32_t bits = res[i].neighbours; bits; bits &= bits - 1) {
+                    int k = __builtin_ctz(bits);
+                    int64_t x = (int64_t)bx + k % 3 - 1, y = (int64_t)by + k / 3 % 3 - 1,
+                            z = (int64_t)bz + k / 9 - 1;
+                    if (x < 0 || y < 0 || z < 0 || x >= nb || y >= nb || z >= nb) continue;
+                    uint32_t nid = (uint32_t)((z * nb + y) * nb + x);
+                    if (visited[nid >> 6] >> (nid & 63) & 1) continue;
+                    visited[nid >> 6] |= 1ull << (nid & 63);
+                    if (nnext == capnext) {
+                        size_t c = capnext ? 2 * capnext : 1024;
+                        uint32_t *q = prt__realloc(next, c * sizeof *q);
+                        if (!q) {
+                            st = prt__fail(PRT_ERROR_NOMEM,
+                                           "out of memory extracting the isosurface");
+                            break;
+                        }
+                        next = q;
+                        capnext = c;
+                    }
+                    next[nnext++] = nid;
+                }
+            }
+            if (!st && fn) st = fn(user, out, n);
+            for (size_t i = 0; i < n; i++) {
+                prt__free(out[i].rec);
+                prt__free(out[i].soup);
+                out[i].rec = NULL;
+                out[i].soup = NULL;
             }
         }
-        for (size_t i = 0; i < nfront; i++) prt__free(res[i].rec); /* only left after a failure */
-        prt__free(res);
         prt__free(frontier);
         frontier = next;
         nfront = nnext;
     }
+    prt__free(out);
+    prt__free(res);
     prt__free(frontier);
     prt__free(visited);
     if (!st && triangles) *triangles = total;
-    if (!st && out) st = assemble(recs, nrec, nb, out);
-    free_bricks(recs, nrec);
+    return st;
+}
+
+/* The in-memory mesh: every record kept until the flood fill ends. */
+typedef struct collect {
+    brick **recs;
+    size_t n, cap;
+} collect;
+
+static prt_status collect_records(void *user, iso_brick_out *b, size_t n) {
+    collect *c = user;
+    for (size_t i = 0; i < n; i++) {
+        if (!b[i].rec) continue;
+        if (c->n == c->cap) {
+            size_t cap = c->cap ? 2 * c->cap : 1024;
+            brick **q = prt__realloc(c->recs, cap * sizeof *q);
+            if (!q) return prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+            c->recs = q;
+            c->cap = cap;
+        }
+        c->recs[c->n++] = b[i].rec;
+        b[i].rec = NULL;
+    }
+    return PRT_OK;
+}
+
+prt_status gen_isosurface(const gen_iso_params *p, prt_mesh **out, size_t *triangles) {
+    if (out) *out = NULL;
+    if (triangles) *triangles = 0;
+    prt_status st = check_params(p);
+    if (st) return st;
+    collect c = {NULL, 0, 0};
+    uint64_t total = 0;
+    st = iso_flood(p, out ? ISO_RECORDS : ISO_COUNT, 0, out ? collect_records : NULL, &c, &total);
+    if (!st && triangles) *triangles = (size_t)total;
+    if (!st && out) st = assemble(c.recs, c.n, iso_bricks_per_side(p), out);
+    free_bricks(c.recs, c.n);
+    return st;
+}
+
+/* The triangle stream: each group's triangles copied into batches for the sink. */
+#define SOUP_BATCH 32768 /* triangles a sink call: 1.1 MiB */
+
+typedef struct soup {
+    tri_sink_fn sink;
+    void *user;
+    float *buf;
+    size_t n;
+    uint64_t next_id;
+} soup;
+
+static prt_status soup_flush(soup *u) {
+    if (!u->n) return PRT_OK;
+    prt_status st = u->sink(u->user, u->buf, u->n, u->next_id);
+    u->next_id += u->n;
+    u->n = 0;
+    return st;
+}
+
+static prt_status soup_bricks(void *user, iso_brick_out *b, size_t n) {
+    soup *u = user;
+    for (size_t i = 0; i < n; i++)
+        for (uint32_t t = 0; t < b[i].ntri;) {
+            uint32_t k = (uint32_t)PRT_MIN((size_t)(b[i].ntri - t), SOUP_BATCH - u->n);
+            memcpy(u->buf + 9 * u->n, b[i].soup + 9 * (size_t)t, (size_t)k * 9 * sizeof(float));
+            u->n += k;
+            t += k;
+            if (u->n == SOUP_BATCH) {
+                prt_status st = soup_flush(u);
+                if (st) return st;
+            }
+        }
+    return PRT_OK;
+}
+
+prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, tri_sink_fn sink,
+                                 void *user, uint64_t *triangles) {
+    if (triangles) *triangles = 0;
+    if (!sink) return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: the sink is NULL");
+    /* A group's worst case: every brick full of triangles. */
+    const size_t brick_bytes = ISO_MAX_BRICK_TRIS * 9 * sizeof(float) + 64;
+    size_t budget = PRT_MAX(memory_budget, GEN_ISO_MIN_BUDGET);
+    size_t group = PRT_MAX((budget - SOUP_BATCH * 9 * sizeof(float)) / brick_bytes, (size_t)16);
+    soup u = {sink, user, prt__alloc(SOUP_BATCH * 9 * sizeof(float)), 0, 0};
+    if (!u.buf) return prt__fail(PRT_ERROR_NOMEM, "out of memory for the triangle batch");
+    uint64_t total = 0;
+    prt_status st = iso_flood(p, ISO_SOUP, group, soup_bricks, &u, &total);
+    if (!st) st = soup_flush(&u);
+    prt__free(u.buf);
+    if (!st && triangles) *triangles = total;
     return st;
 }

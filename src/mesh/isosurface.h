@@ -4,6 +4,7 @@
 #define PRT_MESH_ISOSURFACE_H
 
 #include "core/common.h"
+#include "mesh/tri_stream.h"
 
 /* Cells per brick edge: the unit of culling, of parallel work and of vertex ownership. */
 #define GEN_BRICK 8
@@ -35,5 +36,39 @@ typedef struct gen_iso_params {
  * skipped. Vertices are shared per grid edge; the result is the same for any thread count.
  * out == NULL counts triangles only (into *triangles) without storing anything. */
 prt_status gen_isosurface(const gen_iso_params *p, prt_mesh **out, size_t *triangles);
+
+/* Budgets below this are raised to it (a few hundred bricks in flight). */
+#define GEN_ISO_MIN_BUDGET ((size_t)16 << 20)
+
+/* The same triangles as gen_isosurface (each corner computed from the same two samples as
+ * the mesh's vertex, so the positions are bit-identical), handed to sink in batches without
+ * building a mesh. Order: bricks in the flood fill's order (breadth-first rounds from the
+ * seeds), each brick's triangles as in the mesh; the same for any thread count. Bricks are
+ * extracted in groups whose worst case fits memory_budget (at least GEN_ISO_MIN_BUDGET);
+ * the flood fill's bitmap of visited bricks (resolution^3 / 4096 bits, 128 MiB at the
+ * largest grid) and its frontier (4 bytes a brick) come on top. *triangles (may be NULL):
+ * the total. A sink status other than PRT_OK stops the extraction and is returned. */
+/* An indexed surface handed on in the order a file needs: the counts, every vertex (3 floats
+ * each), then every triangle (3 vertex indices each), in batches. */
+typedef struct gen_iso_indexed_out {
+    prt_status (*begin)(void *user, uint64_t vertices, uint64_t triangles);
+    prt_status (*vertices)(void *user, const float *xyz, size_t count);
+    prt_status (*triangles)(void *user, const uint32_t *indices, size_t count);
+    void *user;
+} gen_iso_indexed_out;
+
+/* The mesh gen_isosurface builds (the same vertices and triangles in the same order) handed
+ * to out without holding it (iso_spill.c): the bricks' pieces go to a temporary file beside
+ * temp_near ("temp_near.spill-XXXXXX", removed from the directory at once; NULL: $TMPDIR or
+ * /tmp), about 14 bytes a triangle, then are read back in the mesh's order. Memory: bricks
+ * in flight within memory_budget (at least GEN_ISO_MIN_BUDGET), 24 bytes a brick that holds
+ * surface (about 1/6 byte a triangle) and gen_isosurface_stream's bitmap and frontier.
+ * *vertices, *triangles (may be NULL): the counts. Callback errors are returned as is. */
+prt_status gen_isosurface_indexed(const gen_iso_params *p, size_t memory_budget,
+                                  const char *temp_near, const gen_iso_indexed_out *out,
+                                  uint64_t *vertices, uint64_t *triangles);
+
+prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, tri_sink_fn sink,
+                                 void *user, uint64_t *triangles);
 
 #endif

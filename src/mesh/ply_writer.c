@@ -1,0 +1,177 @@
+/* ply_writer: an indexed binary little-endian PLY streamed to disk in 8 MiB writes, for
+ * meshes that are never whole in memory (gen_mandelbulb_save_ply). */
+#include "mesh/ply_writer.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <unistd.h>
+
+#define WRITE_BUFFER ((size_t)8 << 20)
+
+struct ply_writer {
+    char *path;
+    int fd;
+    uint8_t *buf;
+    size_t n;
+    uint64_t written;              /* bytes */
+    uint64_t nv, nt, vdone, tdone; /* announced and written */
+    bool begun;
+    prt_status failed; /* the first error: later calls return it */
+};
+
+static prt_status write_all(ply_writer *w, const void *data, size_t size) {
+    const uint8_t *p = data;
+    while (size) {
+        ssize_t k = write(w->fd, p, PRT_MIN(size, (size_t)1 << 30));
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) {
+            char eb[128];
+            return w->failed = prt__fail(PRT_ERROR_IO, "%s: write failed at byte %llu: %s",
+                                         w->path, (unsigned long long)w->written,
+                                         k < 0 ? strerror_r(errno, eb, sizeof eb) : "no progress");
+        }
+        p += k;
+        size -= (size_t)k;
+        w->written += (uint64_t)k;
+    }
+    return PRT_OK;
+}
+
+static prt_status flush(ply_writer *w) {
+    prt_status st = write_all(w, w->buf, w->n);
+    w->n = 0;
+    return st;
+}
+
+PRT_INLINE void put_u32le(uint8_t *p, uint32_t v) {
+    p[0] = (uint8_t)v, p[1] = (uint8_t)(v >> 8), p[2] = (uint8_t)(v >> 16),
+    p[3] = (uint8_t)(v >> 24);
+}
+
+prt_status ply_writer_open(const char *path, ply_writer **out) {
+    *out = NULL;
+    if (!path) return prt__fail(PRT_ERROR_ARGUMENT, "ply_writer_open: path is NULL");
+    ply_writer *w = prt__calloc(1, sizeof *w);
+    size_t len = strlen(path);
+    if (w) w->path = prt__alloc(len + 1);
+    if (w && w->path) w->buf = prt__alloc(WRITE_BUFFER);
+    if (!w || !w->path || !w->buf) {
+        if (w) prt__free(w->path);
+        prt__free(w);
+        return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the write buffer", path);
+    }
+    memcpy(w->path, path, len + 1);
+    w->fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (w->fd < 0) {
+        char eb[128];
+        prt_status st = prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path,
+                                  strerror_r(errno, eb, sizeof eb));
+        prt__free(w->buf);
+        prt__free(w->path);
+        prt__free(w);
+        return st;
+    }
+    *out = w;
+    return PRT_OK;
+}
+
+prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles) {
+    if (w->failed) return w->failed;
+    if (w->begun) return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
+    if (vertices > UINT32_MAX)
+        return w->failed = prt__fail(PRT_ERROR_LIMIT,
+                                     "%s: %llu vertices: packrt indexes vertices with 32 bits",
+                                     w->path, (unsigned long long)vertices);
+    /* Indices above INT32_MAX do not fit the customary `int`: say `uint` then. */
+    const char *itype = vertices > (uint64_t)INT32_MAX + 1 ? "uint" : "int";
+    w->n = (size_t)snprintf(
+        (char *)w->buf, WRITE_BUFFER,
+        "ply\nformat binary_little_endian 1.0\ncomment written by packrt\nelement vertex %llu\n"
+        "property float x\nproperty float y\nproperty float z\nelement face %llu\n"
+        "property list uchar %s vertex_indices\nend_header\n",
+        (unsigned long long)vertices, (unsigned long long)triangles, itype);
+    w->nv = vertices;
+    w->nt = triangles;
+    w->begun = true;
+    return PRT_OK;
+}
+
+prt_status ply_writer_vertices(ply_writer *w, const float *xyz, size_t count) {
+    if (w->failed) return w->failed;
+    if (!w->begun || w->tdone || count > w->nv - w->vdone)
+        return w->failed = prt__fail(PRT_ERROR_ARGUMENT,
+                                     "%s: %zu vertices past the %llu announced (or after the "
+                                     "triangles, or before the header)",
+                                     w->path, count, (unsigned long long)w->nv);
+    for (size_t i = 0; i < 3 * count;) {
+        size_t k = PRT_MIN(3 * count - i, (WRITE_BUFFER - w->n) / 4);
+        uint8_t *p = w->buf + w->n;
+        if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__) {
+            memcpy(p, xyz + i, 4 * k);
+        } else {
+            for (size_t j = 0; j < k; j++) {
+                uint32_t b;
+                memcpy(&b, xyz + i + j, 4);
+                put_u32le(p + 4 * j, b);
+            }
+        }
+        w->n += 4 * k;
+        i += k;
+        if (w->n + 4 > WRITE_BUFFER) {
+            prt_status st = flush(w);
+            if (st) return st;
+        }
+    }
+    w->vdone += count;
+    return PRT_OK;
+}
+
+prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, size_t count) {
+    if (w->failed) return w->failed;
+    if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone)
+        return w->failed = prt__fail(PRT_ERROR_ARGUMENT,
+                                     "%s: %zu triangles past the %llu announced (or before all "
+                                     "%llu vertices)",
+                                     w->path, count, (unsigned long long)w->nt,
+                                     (unsigned long long)w->nv);
+    for (size_t t = 0; t < count; t++) {
+        const uint32_t *i = idx + 3 * t;
+        if (i[0] >= w->nv || i[1] >= w->nv || i[2] >= w->nv)
+            return w->failed = prt__fail(
+                       PRT_ERROR_ARGUMENT, "%s: triangle %llu references vertex %u of %llu",
+                       w->path, (unsigned long long)(w->tdone + t),
+                       PRT_MAX(i[0], PRT_MAX(i[1], i[2])), (unsigned long long)w->nv);
+        uint8_t *p = w->buf + w->n;
+        p[0] = 3;
+        put_u32le(p + 1, i[0]);
+        put_u32le(p + 5, i[1]);
+        put_u32le(p + 9, i[2]);
+        if ((w->n += 13) + 13 > WRITE_BUFFER) {
+            prt_status st = flush(w);
+            if (st) return st;
+        }
+    }
+    w->tdone += count;
+    return PRT_OK;
+}
+
+prt_status ply_writer_close(ply_writer *w, bool ok) {
+    prt_status st = w->failed;
+    if (ok && !st && (!w->begun || w->vdone != w->nv || w->tdone != w->nt))
+        st = prt__fail(PRT_ERROR_ARGUMENT,
+                       "%s: closed after %llu of %llu vertices and %llu of %llu triangles",
+                       w->path, (unsigned long long)w->vdone, (unsigned long long)w->nv,
+                       (unsigned long long)w->tdone, (unsigned long long)w->nt);
+    if (ok && !st) st = flush(w);
+    if (close(w->fd) != 0 && ok && !st) {
+        char eb[128];
+        st = prt__fail(PRT_ERROR_IO, "%s: close failed: %s", w->path,
+                       strerror_r(errno, eb, sizeof eb));
+    }
+    if (!ok || st) unlink(w->path); /* no half-written mesh left behind */
+    prt__free(w->buf);
+    prt__free(w->path);
+    prt__free(w);
+    return st;
+}

@@ -1,0 +1,26 @@
+/* An indexed binary PLY written front to back without holding the mesh: the counts first
+ * (the header needs them), then every vertex, then every triangle, each in batches of any
+ * size. The layout is prt_mesh_save_ply's (ply_write.c): little-endian float x y z and
+ * `list uchar int vertex_indices` (uint above 2^31 vertices), so both write the same bytes
+ * for the same mesh and prt_mesh_load reads either. */
+#ifndef PRT_MESH_PLY_WRITER_H
+#define PRT_MESH_PLY_WRITER_H
+
+#include "core/common.h"
+
+typedef struct ply_writer ply_writer;
+
+/* Create (or truncate) path; nothing is written until ply_writer_begin. */
+prt_status ply_writer_open(const char *path, ply_writer **out);
+/* Write the header for this many vertices and triangles. */
+prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles);
+/* Append vertices (3 floats each), then triangles (3 indices each, every one below the
+ * vertex count: checked). All vertices must come before the first triangle. */
+prt_status ply_writer_vertices(ply_writer *w, const float *xyz, size_t count);
+prt_status ply_writer_triangles(ply_writer *w, const uint32_t *indices, size_t count);
+/* Flush and close. ok: the caller's work succeeded; the file is kept only if ok and every
+ * announced vertex and triangle was written (else it is removed and an error returned).
+ * Frees w in every case. */
+prt_status ply_writer_close(ply_writer *w, bool ok);
+
+#endif
