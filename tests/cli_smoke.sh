@@ -62,5 +62,15 @@ head -c 3000 "$dir/s.prt" >"$dir/trunc.prt"
 check info_truncated_prt 1 "$packrt" info "$dir/trunc.prt"
 check gen_unknown_kind 2 "$packrt" gen teapot -o "$dir/t.ply"
 
+# The mandelbulb streams to disk (or only counts with --dry-run): same mesh either way.
+check gen_mandelbulb_streamed 0 "$packrt" gen mandelbulb --tris 20k --memory 1M -o "$dir/b.ply"
+written=$(grep -o '[0-9]* triangles' "$dir/out")
+check info_streamed_mandelbulb 0 "$packrt" info "$dir/b.ply"
+grep -q "closed" "$dir/out" || { fail=$((fail + 1)); echo "FAIL info sees the streamed mandelbulb closed"; }
+check gen_mandelbulb_dry_run 0 "$packrt" gen mandelbulb --tris 20k --dry-run
+[ -n "$written" ] && grep -q "$written streamed" "$dir/out" || { fail=$((fail + 1)); echo "FAIL dry run counts what gen writes"; }
+check gen_dry_run_not_streamed_kind 2 "$packrt" gen sphere --dry-run
+check gen_bad_memory 2 "$packrt" gen mandelbulb --memory lots -o "$dir/b.ply"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
