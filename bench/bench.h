@@ -175,6 +175,9 @@ void bench_embree_free(bench_embree *e);
  * u and v use packrt's convention, which is Embree's). Thread-safe. */
 void bench_embree_intersect(const bench_embree *e, prt_ray *r, prt_hit *h);
 bool bench_embree_occluded(const bench_embree *e, const prt_ray *r);
+/* Closest hits of n <= PRT_PACKET_MAX coherent rays in one rtcIntersect1M call with the
+ * coherent flag (as the primary workload's tiles), same contract as prt_intersect_packet. */
+void bench_embree_intersect_coherent(const bench_embree *e, prt_ray *rays, prt_hit *hits, uint32_t n);
 /* Same contract as prt_intersect_stream / prt_occluded_stream (threads 0: all cores). */
 void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n,
                                    int threads);
@@ -190,6 +193,15 @@ void bench_embree_stats(const bench_embree *e, prt_stats *s);
 /* e as a backend: single rays with rtcIntersect1 / rtcOccluded1, streams as chunks of
  * rtcIntersect1M / rtcOccluded1M (coherent flag for tiles) over OpenMP threads. */
 bench_backend bench_backend_embree(bench_embree *e, const char *name);
+
+/* Embree behind the prt_accel interface (bench/embree_accel.c), so code written against
+ * prt_accel, the renderer first, traces the same rays through Embree: prt_intersect1 and
+ * prt_occluded1 are rtcIntersect1 / rtcOccluded1, prt_intersect_packet is
+ * bench_embree_intersect_coherent. Its bounds are those of m's non-degenerate triangles, as
+ * packrt's accels report theirs, so default cameras frame both alike; spec "embree". It
+ * holds its own copy of m (m may be freed); prt_accel_free releases it; it cannot be saved
+ * (PRT_ERROR_UNSUPPORTED) or updated. PRT_ERROR_UNSUPPORTED without Embree. */
+prt_status bench_embree_accel(const prt_mesh *m, const bench_embree_options *options, prt_accel **out);
 
 /* ---------------------------------------------------------------------------------
  * Timing (bench/harness.c, bench/cache_flush.c)

@@ -170,6 +170,20 @@ bool bench_embree_occluded(const bench_embree *e, const prt_ray *r) {
     return q.tfar < 0.0f; /* Embree marks an occluded ray with tfar = -inf */
 }
 
+void bench_embree_intersect_coherent(const bench_embree *e, prt_ray *rays, prt_hit *hits, uint32_t n) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    _Alignas(64) struct RTCRayHit q[PRT_PACKET_MAX];
+    n = n < PRT_PACKET_MAX ? n : PRT_PACKET_MAX;
+    for (uint32_t i = 0; i < n; i++) em_rayhit(&rays[i], &q[i], i);
+    rtcIntersect1M(e->scene, &ctx, q, n, sizeof q[0]);
+    for (uint32_t i = 0; i < n; i++) {
+        em_hit(&q[i], &hits[i]);
+        if (hits[i].prim != PRT_INVALID) rays[i].tfar = hits[i].t;
+    }
+}
+
 void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n,
                                    int threads) {
     long ln = (long)n;

@@ -26,6 +26,16 @@ void bench_embree_intersect(const bench_embree *e, prt_ray *r, prt_hit *h) {
     h->t = INFINITY, h->u = h->v = 0.0f, h->prim = PRT_INVALID, h->geom = 0;
 }
 
+void bench_embree_intersect_coherent(const bench_embree *e, prt_ray *rays, prt_hit *hits, uint32_t n) {
+    for (uint32_t i = 0; i < n; i++) bench_embree_intersect(e, &rays[i], &hits[i]);
+}
+
+prt_status bench_embree_accel(const prt_mesh *m, const bench_embree_options *options, prt_accel **out) {
+    (void)m, (void)options;
+    *out = NULL;
+    return prt__fail(PRT_ERROR_UNSUPPORTED, "this build has no Embree (libembree-dev was not found by CMake)");
+}
+
 bool bench_embree_occluded(const bench_embree *e, const prt_ray *r) {
     (void)e, (void)r;
     return false;

@@ -57,6 +57,35 @@ grep -q "identical" "$dir/out" && { pass=$((pass + 1)); echo "ok   compare_lossl
   || { fail=$((fail + 1)); echo "FAIL compare_lossless_identical"; cat "$dir/out"; }
 expect compare_files test -s "$dir/cmp-aabb_float3.$ext" -a -s "$dir/cmp-quad_float3-soa4_leaf_4.$ext" -a -s "$dir/cmp-diff.$ext"
 
+# A coloured mesh renders in its colours: the face-coloured quad seen head on shows its
+# orange-brown face (200, 100, 50) and its near-black one (7, 8, 9) over the grey backdrop.
+check colours 0 "$packrt" render "$2/tests/data/good/face_colors_ascii.ply" -o "$dir/col.ppm" --size 32x32 \
+  --camera 1,0,8,1,0,2.4,30
+expect colours_show python3 - "$dir/col.ppm" <<'PY'
+import sys
+d = open(sys.argv[1], "rb").read()
+px = d[len(b"P6\n32 32\n255\n"):]
+rgb = [tuple(px[i:i + 3]) for i in range(0, len(px), 3)]
+lit = [p for p in rgb if p[0] > 80]          # the backdrop is darker, bluish grey
+dark = [p for p in rgb if max(p) < 20]        # the second face
+sys.exit(0 if len(lit) > 60 and len(dark) > 30 and all(r > g + 20 and g > b + 10 for r, g, b in lit) else 1)
+PY
+
+# -r embree: the same frames traced by Embree (when this build has it).
+if "$packrt" render "$dir/s.ply" -r embree -o "$dir/e.$ext" --size 8x8 >/dev/null 2>"$dir/err"; then
+  check embree_render 0 "$packrt" render "$dir/s.ply" -r embree -o "$dir/e.$ext" --shade shadows --size 48x32
+  grep -q "^embree " "$dir/out" && { pass=$((pass + 1)); echo "ok   embree_named_in_report"; } \
+    || { fail=$((fail + 1)); echo "FAIL embree_named_in_report"; cat "$dir/out"; }
+  check embree_compare 0 "$packrt" render "$dir/s.ply" --compare embree,aabb:float3 -o "$dir/ec.$ext" \
+    --shade ao --spp 2 --size 48x32
+  grep -Eq "identical|PSNR [4-9][0-9]" "$dir/out" && { pass=$((pass + 1)); echo "ok   embree_same_image"; } \
+    || { fail=$((fail + 1)); echo "FAIL embree_same_image"; cat "$dir/out"; }
+  check embree_prt 2 "$packrt" render "$dir/s.prt" -r embree -o "$dir/x.$ext"
+else
+  grep -q "no Embree" "$dir/err" && echo "ok   embree (skipped: this build has no Embree)" \
+    || { fail=$((fail + 1)); echo "FAIL embree_render"; cat "$dir/err"; }
+fi
+
 check bad_shade 2 "$packrt" render "$dir/s.ply" -o "$dir/x.$ext" --shade phong
 check no_output 2 "$packrt" render "$dir/s.ply"
 check bad_size 2 "$packrt" render "$dir/s.ply" -o "$dir/x.$ext" --size 12

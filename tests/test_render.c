@@ -364,6 +364,51 @@ TEST(test_coloured_gi_shows_the_colour_and_does_not_depend_on_threads) {
     prt_mesh_free(m);
 }
 
+/* Embree behind the prt_accel interface (bench/embree_accel.c: what the renderer's frame
+ * times are compared with) draws the images packrt's representations draw, from the same
+ * default framing: its hits agree but for rounding (Embree's test is not watertight, its
+ * u, v differ in the last bits), so nearly every pixel is equal and none far off; and its
+ * rays really went to Embree (its memory is Embree's, its spec "embree"). */
+TEST(test_embree_accel_renders_what_packrt_renders) {
+    if (!bench_embree_available()) SKIP("this build has no Embree");
+    prt_mesh *m = scene_mesh();
+    paint(m, COLORS_VERTEX);
+    prt_accel *a, *e;
+    CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &a));
+    CHECK_OK(bench_embree_accel(m, NULL, &e));
+    if (!a || !e) {
+        prt_accel_free(a), prt_accel_free(e), prt_mesh_free(m);
+        return;
+    }
+    float alo[3], ahi[3], elo[3], ehi[3];
+    prt_accel_bounds(a, alo, ahi);
+    prt_accel_bounds(e, elo, ehi);
+    CHECK(!memcmp(alo, elo, sizeof alo) && !memcmp(ahi, ehi, sizeof ahi));
+    prt_stats st;
+    prt_accel_stats(e, &st);
+    CHECK(!strcmp(prt_accel_spec(e), "embree") && st.bytes_tree > 0 &&
+          st.triangles == m->triangle_count);
+    CHECK(prt_accel_save(e, PRT_BINARY_DIR "/never.prt") == PRT_ERROR_UNSUPPORTED);
+    const prt_shade modes[] = {PRT_SHADE_NORMAL, PRT_SHADE_SHADOWS, PRT_SHADE_AO, PRT_SHADE_GI};
+    for (size_t k = 0; k < COUNT_OF(modes); k++) {
+        prt_render_options o = {.width = W, .height = H, .shade = modes[k], .spp = 2, .seed = 3};
+        prt_image pi = {0}, ei = {0};
+        CHECK_OK(prt_render(a, m, NULL, &o, &pi));
+        CHECK_OK(prt_render(e, m, NULL, &o, &ei));
+        int largest = -1;
+        size_t differing = 0;
+        CHECK_OK(prt_image_compare(&pi, &ei, &largest, &differing, NULL, NULL));
+        CHECK_MSG(differing <= (size_t)W * H / 100, "%s: %zu pixels differ (by up to %d)",
+                  prt_shade_name(modes[k]), differing, largest);
+        CHECK(ei.rays >= (uint64_t)W * H * 2);
+        prt_image_free(&pi);
+        prt_image_free(&ei);
+    }
+    prt_accel_free(a);
+    prt_accel_free(e);
+    prt_mesh_free(m);
+}
+
 /* Ambient occlusion of a lone convex sphere is 1 everywhere: no ray may hit the surface it
  * leaves. The ground under it darkens the lower half. */
 TEST(test_ao_is_open_on_a_convex_sphere_and_darker_near_contact) {
@@ -591,6 +636,7 @@ int main(void) {
     RUN(test_triangle_colours_match_brute_force_image);
     RUN(test_vertex_colours_interpolate_as_brute_force_image);
     RUN(test_coloured_gi_shows_the_colour_and_does_not_depend_on_threads);
+    RUN(test_embree_accel_renders_what_packrt_renders);
     RUN(test_every_representation_renders_the_same_image);
     RUN(test_image_does_not_depend_on_thread_count);
     RUN(test_ao_is_open_on_a_convex_sphere_and_darker_near_contact);

@@ -1,5 +1,6 @@
 /* packrt render FILE -r SPEC -o img.png: render a mesh or .prt file with one of the shading
  * modes (prt_render), or --compare two representations pixel by pixel. */
+#include "bench.h"
 #include "cli.h"
 
 #include <ctype.h>
@@ -19,7 +20,8 @@ static int usage(void) {
         "Render with one of the shading modes (docs/render.md). The same command gives the same\n"
         "image bit for bit, whatever --threads.\n"
         "\n"
-        "  -r SPEC          representation to build MESH with (default " DEFAULT_SPEC ")\n"
+        "  -r SPEC          representation to build MESH with (default " DEFAULT_SPEC "), or\n"
+        "                   embree: the same rays traced by Embree (timing comparisons)\n"
         "  -o FILE          output image: .png (libpng) or .ppm\n"
         "  --mesh MESH      the mesh a FILE.prt was built from: exact normals; without it they\n"
         "                   are estimated from neighbouring rays (slower, softer at creases)\n"
@@ -107,6 +109,19 @@ static int save(const prt_image *img, const char *path) {
     return s ? cli_fail("render", path, s) : 0;
 }
 
+/* Build what to render: spec through prt_build, or "embree" (bench/embree_accel.c): Embree
+ * behind the prt_accel interface, tracing the very rays the renderer casts, so frame times
+ * compare with packrt's (bench/render_results.sh). */
+static prt_status build_for_render(const prt_mesh *m, const char *spec, prt_accel **a) {
+    if (!strcmp(spec, "embree")) return bench_embree_accel(m, NULL, a);
+    cli_progress bar;
+    cli_progress_begin(&bar, "building");
+    prt_build_options bo = {.progress = cli_progress_callback, .progress_user = &bar};
+    prt_status s = prt_build(m, spec, &bo, a);
+    cli_progress_end(&bar);
+    return s;
+}
+
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
@@ -156,11 +171,7 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
     int rc = 0;
     for (int k = 0; k < 2 && !rc; k++) {
         prt_accel *a;
-        cli_progress bar;
-        cli_progress_begin(&bar, "building");
-        prt_build_options bo = {.progress = cli_progress_callback, .progress_user = &bar};
-        s = prt_build(m, spec[k], &bo, &a);
-        cli_progress_end(&bar);
+        s = build_for_render(m, spec[k], &a);
         if (s) {
             rc = cli_fail("render", spec[k], s);
             break;
@@ -298,8 +309,18 @@ int cmd_render(int argc, char **argv) {
 
     prt_mesh *m = NULL;
     prt_accel *a;
-    int rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a);
-    if (rc) return rc;
+    int rc = 0;
+    if (spec && !strcmp(spec, "embree")) {
+        prt_status s = PRT_OK;
+        if (cli_is_prt_file(path))
+            return cli_usage("render", "-r embree traces a mesh: give a mesh, not %s", path);
+        if ((s = prt_mesh_load(path, &m))) return cli_fail("render", path, s);
+        if ((s = build_for_render(m, spec, &a))) {
+            prt_mesh_free(m);
+            return cli_fail("render", spec, s);
+        }
+    } else if ((rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a)))
+        return rc;
     if (mesh_path && !m) {
         prt_status s = prt_mesh_load(mesh_path, &m);
         if (s) {
