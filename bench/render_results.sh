@@ -31,7 +31,10 @@ table() { # table MESH SPEC...
     if [ "$spec" = embree ]; then
       input=("$mesh" -r embree)
     else
-      "$packrt" build "$mesh" -r "$spec" -o "$tmp/a.prt" >&2
+      if ! "$packrt" build "$mesh" -r "$spec" -o "$tmp/a.prt" >&2; then
+        printf '| `%s` | | build failed (see the log) |\n' "$spec"
+        continue
+      fi
       input=("$tmp/a.prt" --mesh "$mesh")
     fi
     for t in 1 "$threads_all"; do
@@ -39,8 +42,11 @@ table() { # table MESH SPEC...
       for m in "${modes[@]}"; do
         # Median of 3 for the one-ray modes; sampled modes take long enough for one.
         reps=3; case $m in ao|gi) reps=1 ;; esac
-        line=$("$packrt" render "${input[@]}" -o "$tmp/img.png" --size $size --shade "$m" \
-          --threads "$t" --repeat $reps)
+        if ! line=$("$packrt" render "${input[@]}" -o "$tmp/img.png" --size $size --shade "$m" \
+          --threads "$t" --repeat $reps); then
+          printf ' failed |'
+          continue
+        fi
         s=$(sed -E 's/.*: ([0-9.]+) s, ([0-9.]+) Mrays.*/\1/' <<<"$line")
         mr=$(sed -E 's/.*: ([0-9.]+) s, ([0-9.]+) Mrays.*/\2/' <<<"$line")
         awk -v s="$s" -v mr="$mr" 'BEGIN { printf " %.2f fps (%.0f ms, %s Mrays/s) |", 1 / s, 1000 * s, mr }'
