@@ -94,7 +94,6 @@ typedef struct ooc_bnode {
     uint8_t axis;
     float split;
     uint32_t first, count; /* leaf: range in the build's reference array */
-    ooc_look look;
 } ooc_bnode;
 
 /* A triangle as the builders hold it. */
@@ -111,7 +110,7 @@ typedef struct ooc_build_params {
 } ooc_build_params;
 
 /* Build an in-core kd-tree over tris (cell = box) with SAH, empty-space cutting and the
- * leaf rules of §4.1; fills the looks. nodes[0] is the root. Refs index tris. */
+ * leaf rules of §4.1. nodes[0] is the root. Refs index tris. */
 typedef struct ooc_tree {
     ooc_bnode *nodes;
     size_t count, cap;
@@ -171,7 +170,7 @@ prt_status ooc_writer_open(ooc_writer **w, const char *path /* NULL: memory */);
 /* A leaf of n triangles (refs into tris) in cell box at kd depth `depth`: written to the
  * open triangle block (a treelet of its own at a treelet root level). */
 prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, const uint32_t *refs, uint32_t n,
-                           const float box[6], const ooc_look *look, ooc_frag *out);
+                           const float box[6], ooc_frag *out);
 /* An inner node at kd depth `depth` over two fragments (either may be empty): when depth
  * is a treelet root level (a multiple of 3) the treelet is laid out and the result is a
  * single pending subtree. */

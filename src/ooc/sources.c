@@ -1,6 +1,8 @@
 /* What feeds the out-of-core builder: a prt_mesh in memory, a mesh file, a generator. */
 #include "ooc/ooc_build.h"
 
+#include "mesh/gen.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -51,12 +53,24 @@ prt_status ooc_build_file(const char *mesh_path, ooc_build_job *job, ooc_header 
     return s;
 }
 
+typedef struct gen_ctx {
+    uint64_t triangles, seed, budget;
+} gen_ctx;
+
+static prt_status gen_producer(void *ctx, tri_sink_fn sink, void *user) {
+    const gen_ctx *g = ctx;
+    return gen_mandelbulb_stream((size_t)g->triangles, g->seed, (size_t)(g->budget / 4), sink, user, NULL);
+}
+
 prt_status ooc_build_generated(const char *kind, uint64_t triangles, uint64_t seed, ooc_build_job *job, ooc_header *h) {
     char prefix[4096];
     tmp_prefix(prefix, sizeof prefix, job->out_path);
     job->tmp_prefix = prefix;
     prt_status s;
-    {
+    if (!strcmp(kind, "mandelbulb")) {
+        gen_ctx g = {triangles, seed, job->memory_budget ? job->memory_budget : (uint64_t)4 << 30};
+        s = ooc_build(gen_producer, &g, job, h, NULL, NULL);
+    } else {
         prt_mesh *m;
         if ((s = prt_mesh_generate(kind, (size_t)triangles, seed, &m))) return s;
         job->expected = m->triangle_count;

@@ -206,14 +206,19 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             bool has[2] = {(w0 & OOC_LEFT) != 0, (w0 & OOC_RIGHT) != 0};
             uint32_t kid[2] = {left, right};
             /* Front: the side the ray is on before it crosses the plane. A ray parallel to
-             * the plane stays on its origin's side (in the plane, either side holds what
-             * touches it). */
+             * the plane stays on its origin's side, or visits both when it lies in the
+             * plane (an empty-space cut gives what touches the plane to the full side). */
             float t = (split - rx.org[axis]) * rx.inv[axis];
+            float t_back = t, t_front = t;
             int front = rx.dir[axis] > 0.0f ? 0 : 1;
-            if (rx.dir[axis] == 0.0f) t = INFINITY, front = rx.org[axis] < split ? 0 : 1;
+            if (rx.dir[axis] == 0.0f) {
+                front = rx.org[axis] < split ? 0 : 1;
+                t = INFINITY;
+                if (rx.org[axis] == split) t = 0.5f * (tmin + tmax), t_back = tmin, t_front = tmax, front = 0;
+            }
             const int back = 1 - front;
             depth++;
-            if (t >= tmax) {
+            if (!(t < tmax)) {
                 if (!has[front]) {
                     pop = true;
                     break;
@@ -229,7 +234,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             } else {
                 if (has[back]) {
                     entry *e = &stack[sp++];
-                    e->block = child_block, e->off = kid[back], e->tmin = t, e->tmax = tmax, e->axis = axis;
+                    e->block = child_block, e->off = kid[back], e->tmin = t_back, e->tmax = tmax, e->axis = axis;
                     e->nvox = nvox, e->depth = depth;
                     memcpy(e->vox, vox, sizeof vox);
                 }
@@ -238,7 +243,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                     break;
                 }
                 off = kid[front];
-                tmax = t;
+                tmax = t_front;
             }
             if (child_block != block) {
                 block = child_block;

@@ -212,7 +212,7 @@ static uint32_t need_with(const open_tris *t, const ooc_btri *tris, const uint32
 static prt_status wrap(ooc_writer *w, uint32_t depth, ooc_frag *f);
 
 prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, const uint32_t *refs, uint32_t n,
-                           const float box[6], const ooc_look *look, ooc_frag *out) {
+                           const float box[6], ooc_frag *out) {
     memset(out, 0, sizeof *out);
     if (n == 0) return PRT_OK;
     if (n > 1200) /* a leaf must fit one block; only a pile of triangles through one point gets here */
@@ -233,7 +233,7 @@ prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, 
     f->rec[0] = list | (n > OOC_MAX_LEAF ? 0 : n) << 16;
     f->rec[1] = t->id;
     memcpy(f->box, box, sizeof f->box);
-    f->look = *look;
+    ooc_look_leaf(&f->look, box, tris, refs, n);
     w->counts.leaves++;
     return wrap(w, depth, out);
 }
@@ -416,7 +416,7 @@ static prt_status tree_frag(ooc_writer *w, const ooc_tree *t, const ooc_btri *tr
     if (i < 0) return PRT_OK;
     const ooc_bnode *n = &t->nodes[i];
     if (n->child[0] < 0 && n->child[1] < 0)
-        return ooc_writer_leaf(w, depth, tris, t->refs + n->first, n->count, n->box, &n->look, out);
+        return ooc_writer_leaf(w, depth, tris, t->refs + n->first, n->count, n->box, out);
     /* Children's fragments are at most one treelet deep, so the stack stays small. */
     ooc_frag *kids = prt__alloc(2 * sizeof *kids);
     if (!kids) return prt__fail(PRT_ERROR_NOMEM, "out of memory laying out the kd-tree");

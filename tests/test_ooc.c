@@ -1,0 +1,211 @@
+/* The out-of-core kd-tree ("ooc"): the streaming build with a small memory budget and a
+ * cache smaller than the file answer exactly as an in-core BVH; LOD queries stop at
+ * voxels that contain the surface; fetcher threads load what LOD queries ask for, frame
+ * after frame, until the image is exact; bad input is an error. (Every representation's
+ * generic checks, in test_queries, test_watertight and test_prt_file, cover "ooc" too.) */
+#include "support/meshes.h"
+#include "support/repr.h"
+
+#include <math.h>
+#include <unistd.h>
+
+/* A temporary file name; up to four live at once. */
+static char *tmp_path(const char *name) {
+    static char buf[4][512];
+    static int next;
+    char *b = buf[next++ % 4];
+    snprintf(b, 512, "%s/packrt_test_ooc_%d_%s", P_tmpdir, (int)getpid(), name);
+    return b;
+}
+
+/* Hits of rays through a and b agree bit for bit; returns the number of hits. */
+static size_t same_hits(const prt_accel *a, const prt_accel *b, const prt_ray *rays, size_t n, const char *what) {
+    size_t hits = 0, differ = 0;
+    for (size_t i = 0; i < n; i++) {
+        prt_ray r1 = rays[i], r2 = rays[i];
+        prt_hit h1, h2;
+        prt_intersect1(a, &r1, &h1);
+        prt_intersect1(b, &r2, &h2);
+        hits += h2.prim != PRT_INVALID;
+        if (h1.prim != h2.prim || (h1.prim != PRT_INVALID && (h1.t != h2.t || h1.u != h2.u || h1.v != h2.v))) differ++;
+        if (prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i])) differ++;
+    }
+    CHECK_MSG(differ == 0, "%s: %zu of %zu rays differ", what, differ, n);
+    return hits;
+}
+
+/* A file build with a budget of a few thousand triangles splits out of core many times;
+ * opened with the smallest cache, exact queries evict and reload blocks as they go. */
+TEST(test_streamed_build_and_small_cache_answer_exactly) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("sphere", 150000, 3, &m));
+    const char *ply = tmp_path("sphere.ply");
+    CHECK_OK(prt_mesh_save_ply(m, ply));
+    const char *path = tmp_path("sphere.ooc");
+    prt_build_options o = {.memory_budget = 1 << 20}; /* 1 MB: 4096-triangle in-core subtrees */
+    CHECK_OK(prt_build_file(ply, "ooc", path, &o));
+    prt_open_options oo = {.cache_bytes = 1}; /* the minimum: 64 slots, fewer than the blocks */
+    prt_accel *a = NULL, *ref = NULL;
+    CHECK_OK(prt_accel_open(path, &oo, &a));
+    CHECK_OK(prt_build(m, "aabb:float3", NULL, &ref));
+    if (a && ref) {
+        prt_stats st;
+        prt_accel_stats(a, &st);
+        CHECK_MSG(st.bytes_tree + st.bytes_geometry > 64u * 65536u, "the file (%zu bytes raw) must exceed the cache",
+                  st.bytes_tree + st.bytes_geometry);
+        CHECK(st.triangles == m->triangle_count);
+        prt_ray *rays = rays_random(m, 4000, 7);
+        size_t hits = same_hits(a, ref, rays, 4000, "small cache");
+        CHECK(hits > 1000);
+        /* Many threads at once through the same small cache. */
+        prt_hit *h = calloc(4000, sizeof *h), *g = calloc(4000, sizeof *g);
+        prt_ray *r1 = malloc(4000 * sizeof *r1), *r2 = malloc(4000 * sizeof *r2);
+        memcpy(r1, rays, 4000 * sizeof *r1), memcpy(r2, rays, 4000 * sizeof *r2);
+        prt_intersect_stream(a, r1, h, 4000, 4);
+        prt_intersect_stream(ref, r2, g, 4000, 1);
+        size_t differ = 0;
+        for (size_t i = 0; i < 4000; i++) differ += h[i].prim != g[i].prim || h[i].t != g[i].t;
+        CHECK_MSG(differ == 0, "4 threads: %zu rays differ", differ);
+        CHECK_OK(prt_accel_check(a));
+        free(h), free(g), free(r1), free(r2), free(rays);
+    }
+    prt_accel_free(a);
+    prt_accel_free(ref);
+    remove(path);
+    remove(ply);
+    prt_mesh_free(m);
+}
+
+/* With a huge error bound every ray that meets the surface stops at a voxel no farther
+ * than the surface, with a unit normal; with no error bound and every block loaded, LOD
+ * queries are exact. */
+TEST(test_lod_queries_stop_at_voxels_that_contain_the_surface) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("mandelbulb", 60000, 1, &m));
+    prt_accel *a = NULL;
+    CHECK_OK(prt_build(m, "ooc", NULL, &a));
+    if (!a) {
+        prt_mesh_free(m);
+        return;
+    }
+    prt_ray *rays = rays_random(m, 2000, 11);
+    size_t voxels = 0, hits = 0, bad = 0, exact_bad = 0;
+    for (size_t i = 0; i < 2000; i++) {
+        prt_ray r = rays[i];
+        prt_hit h;
+        prt_intersect1(a, &r, &h); /* exact: also loads every block the ray needs */
+        prt_ray lr = rays[i];
+        prt_lod_hit lh;
+        bool got = prt_intersect_lod(a, &lr, 1e9f, &lh);
+        if (h.prim != PRT_INVALID) {
+            hits++;
+            if (!got || lh.hit.t > h.t) bad++;
+        }
+        if (got && lh.hit.prim == PRT_VOXEL_HIT) {
+            voxels++;
+            double len = sqrt((double)lh.normal[0] * lh.normal[0] + (double)lh.normal[1] * lh.normal[1] + (double)lh.normal[2] * lh.normal[2]);
+            if (fabs(len - 1.0) > 1e-3 || !(lh.voxel_radius > 0.0f)) bad++;
+        }
+        prt_ray er = rays[i];
+        prt_lod_hit eh;
+        prt_intersect_lod(a, &er, 0.0f, &eh);
+        if (eh.hit.prim != h.prim || (h.prim != PRT_INVALID && eh.hit.t != h.t)) exact_bad++;
+        if (prt_occluded_lod(a, &rays[i], 1e9f) != got) bad++;
+    }
+    CHECK_MSG(hits > 500 && voxels > hits / 2, "%zu hits, %zu voxel hits", hits, voxels);
+    CHECK_MSG(bad == 0, "%zu LOD answers are behind the surface, unoccluded or without a unit normal", bad);
+    CHECK_MSG(exact_bad == 0, "%zu LOD answers with error 0 differ from the exact ones", exact_bad);
+    free(rays);
+    prt_accel_free(a);
+    prt_mesh_free(m);
+}
+
+/* Opened from disk, LOD queries see nothing loaded at first; the fetchers load what they
+ * ask for between frames, and after enough frames the answers are the exact ones. */
+TEST(test_fetchers_load_requested_blocks_between_frames) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("sphere", 100000, 5, &m));
+    prt_accel *built = NULL, *a = NULL;
+    CHECK_OK(prt_build(m, "ooc", NULL, &built));
+    const char *path = tmp_path("frames.ooc");
+    if (built) CHECK_OK(prt_accel_save(built, path));
+    prt_open_options oo = {.fetchers = 2};
+    CHECK_OK(prt_accel_open(path, &oo, &a));
+    if (!a || !built) {
+        prt_accel_free(built), prt_accel_free(a), prt_mesh_free(m);
+        return;
+    }
+    prt_ray *rays = rays_random(m, 1000, 3);
+    size_t exact = 0, first = 0;
+    int frames = 0;
+    prt_cache_info info;
+    for (; frames < 2000; frames++) {
+        exact = 0;
+        for (size_t i = 0; i < 1000; i++) {
+            prt_ray r = rays[i], e = rays[i];
+            prt_lod_hit h;
+            prt_hit want;
+            prt_intersect_lod(a, &r, 0.0f, &h);
+            prt_intersect1(built, &e, &want);
+            exact += h.hit.prim == want.prim && (want.prim == PRT_INVALID || h.hit.t == want.t);
+        }
+        if (frames == 0) first = exact;
+        prt_accel_frame(a, &info);
+        if (exact == 1000) break;
+        if (info.pending) usleep(1000);
+    }
+    CHECK_MSG(exact == 1000, "after %d frames %zu of 1000 LOD answers are exact", frames, exact);
+    CHECK_MSG(first < 1000, "nothing was loaded before the first frame, yet %zu answers were exact", first);
+    CHECK(info.blocks_loaded_total > 0 && info.bytes_read_total > 0);
+    printf("     exact after %d frames (first frame %zu of 1000); %llu blocks loaded\n", frames, first,
+           (unsigned long long)info.blocks_loaded_total);
+    free(rays);
+    prt_accel_free(a);
+    prt_accel_free(built);
+    remove(path);
+    prt_mesh_free(m);
+}
+
+/* Bad input: no hittable triangle, a mesh file that does not exist or is malformed, a
+ * foreign file with the block file's magic. */
+TEST(test_bad_input_is_an_error) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(3, 2, &m));
+    if (m) {
+        float v[9] = {0, 0, 0, 1, 1, 1, 2, 2, 2}; /* collinear: both triangles degenerate */
+        memcpy(m->vertices, v, sizeof v);
+        uint32_t t[6] = {0, 1, 2, 0, 0, 1};
+        memcpy(m->triangles, t, sizeof t);
+        prt_accel *a = NULL;
+        CHECK(prt_build(m, "ooc", NULL, &a) == PRT_ERROR_MESH && a == NULL);
+        prt_mesh_free(m);
+    }
+    const char *out = tmp_path("bad.ooc");
+    CHECK(prt_build_file("/nonexistent/mesh.ply", "ooc", out, NULL) == PRT_ERROR_IO);
+    CHECK(access(out, F_OK) != 0);
+    const char *ply = tmp_path("bad.ply");
+    FILE *f = fopen(ply, "wb");
+    fputs("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 nan\n0 1 0\n3 0 1 2\n",
+          f);
+    fclose(f);
+    prt_status s = prt_build_file(ply, "ooc", out, NULL);
+    CHECK_MSG(s == PRT_ERROR_MESH || s == PRT_ERROR_FORMAT, "NaN vertex: %s", prt_status_string(s));
+    CHECK(access(out, F_OK) != 0);
+    CHECK(prt_build_file(ply, "ooc,leaf=0", out, NULL) == PRT_ERROR_ARGUMENT);
+    f = fopen(out, "wb");
+    fputs("PRTOOC1\nthis is not a block file at all, just its magic and some text", f);
+    fclose(f);
+    prt_accel *a = NULL;
+    CHECK(prt_accel_load(out, &a) == PRT_ERROR_CORRUPT && a == NULL && *prt_last_error());
+    remove(out);
+    remove(ply);
+}
+
+int main(void) {
+    RUN(test_streamed_build_and_small_cache_answer_exactly);
+    RUN(test_lod_queries_stop_at_voxels_that_contain_the_surface);
+    RUN(test_fetchers_load_requested_blocks_between_frames);
+    RUN(test_bad_input_is_an_error);
+    TEST_END();
+}
