@@ -2,6 +2,7 @@
  * pick PLY by its "ply" line or else OBJ, and collect what the parser produces in
  * growable arrays that become the prt_mesh. */
 #include "mesh/source.h"
+#include "mesh/stream_arrays.h"
 
 #include <stdio.h>
 #include <sys/mman.h>
@@ -50,6 +51,10 @@ prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect) 
         return prt__fail(PRT_ERROR_LIMIT,
                          "%s: more than %u vertices: packrt indexes vertices with 32 bits", a->name,
                          UINT32_MAX);
+    if (a->stream) { /* may move the vertices to a file; grow then finds room */
+        prt_status st = mesh_stream_vertex_room(a, a->nv + extra, expect);
+        if (st != PRT_OK) return st;
+    }
     prt_status st = grow(a->name, (void **)&a->v, &a->vcap, a->nv + extra, expect,
                          3 * sizeof(float), "vertices");
     if (st == PRT_OK && a->want_vc)
@@ -60,11 +65,19 @@ prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect) 
 prt_status mesh_arrays_triangle_room(mesh_arrays *a, size_t extra, size_t expect) {
     if (extra > SIZE_MAX - a->nt)
         return prt__fail(PRT_ERROR_NOMEM, "%s: triangle count overflows", a->name);
+    if (a->stream) { /* hands the held triangles on when a batch is full */
+        prt_status st = mesh_stream_triangle_room(a, extra);
+        if (st != PRT_OK) return st;
+    }
     prt_status st = grow(a->name, (void **)&a->t, &a->tcap, a->nt + extra, expect,
                          3 * sizeof(uint32_t), "triangles");
     if (st == PRT_OK && a->want_tc)
         st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
     return st;
+}
+
+prt_status mesh_arrays_reserve_triangles(mesh_arrays *a, size_t count, size_t expect) {
+    return a->stream ? PRT_OK : mesh_arrays_triangle_room(a, count, expect);
 }
 
 prt_status mesh_arrays_colors(mesh_arrays *a, bool vertex, bool triangle) {

@@ -176,7 +176,7 @@ static prt_status parse(obj_reader *r) {
         prt_status st = count(r, &nv, &nt);
         if (st == PRT_OK) st = mesh_source_rewind(s);
         if (st == PRT_OK) st = mesh_arrays_vertex_room(&r->a, PRT_MIN(nv, (size_t)UINT32_MAX), nv);
-        if (st == PRT_OK) st = mesh_arrays_triangle_room(&r->a, nt, nt);
+        if (st == PRT_OK) st = mesh_arrays_reserve_triangles(&r->a, nt, nt);
         if (st != PRT_OK) return st;
     }
     for (;;) {
@@ -216,10 +216,17 @@ static prt_status parse(obj_reader *r) {
     return PRT_OK;
 }
 
-prt_status mesh_obj_parse(mesh_source *s, prt_mesh **out) {
-    obj_reader r = {s, s->name, {.name = s->name}, false};
+prt_status mesh_obj_parse_arrays(mesh_source *s, mesh_arrays *a) {
+    obj_reader r = {s, s->name, *a, false};
     prt_status st = parse(&r);
-    if (st == PRT_OK) st = mesh_arrays_finish(&r.a, out);
-    mesh_arrays_free(&r.a);
+    *a = r.a;
+    return st;
+}
+
+prt_status mesh_obj_parse(mesh_source *s, prt_mesh **out) {
+    mesh_arrays a = {.name = s->name};
+    prt_status st = mesh_obj_parse_arrays(s, &a);
+    if (st == PRT_OK) st = mesh_arrays_finish(&a, out);
+    mesh_arrays_free(&a);
     return st;
 }

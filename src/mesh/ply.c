@@ -939,7 +939,8 @@ static prt_status parse(ply_reader *r) {
                                       (size_t)r->nverts)) != PRT_OK)
         return st;
     size_t faces = proven(r, face_expect(r), triangle_row_bytes(r));
-    if ((st = mesh_arrays_triangle_room(&r->a, faces, (size_t)face_expect(r))) != PRT_OK) return st;
+    if ((st = mesh_arrays_reserve_triangles(&r->a, faces, (size_t)face_expect(r))) != PRT_OK)
+        return st;
     for (uint32_t i = 0; i < r->nel; i++) {
         const ply_element *el = &r->el[i];
         if (r->format == FMT_ASCII) {
@@ -956,16 +957,23 @@ static prt_status parse(ply_reader *r) {
     return PRT_OK;
 }
 
-prt_status mesh_ply_parse(mesh_source *s, prt_mesh **out) {
+prt_status mesh_ply_parse_arrays(mesh_source *s, mesh_arrays *a) {
     ply_reader *r = prt__calloc(1, sizeof *r);
     if (!r) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory", s->name);
     r->s = s;
     r->name = s->name;
-    r->a.name = s->name;
+    r->a = *a;
     r->vertex_el = r->face_el = -1;
     prt_status st = parse(r);
-    if (st == PRT_OK) st = mesh_arrays_finish(&r->a, out);
-    mesh_arrays_free(&r->a);
+    *a = r->a;
     prt__free(r);
+    return st;
+}
+
+prt_status mesh_ply_parse(mesh_source *s, prt_mesh **out) {
+    mesh_arrays a = {.name = s->name};
+    prt_status st = mesh_ply_parse_arrays(s, &a);
+    if (st == PRT_OK) st = mesh_arrays_finish(&a, out);
+    mesh_arrays_free(&a);
     return st;
 }

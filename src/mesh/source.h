@@ -102,6 +102,9 @@ typedef struct mesh_arrays {
     uint8_t *vc, *tc;
     size_t vccap, tccap;
     bool want_vc, want_tc;
+    /* Streaming mode (stream_arrays.h) when set: triangles are handed on in batches, so
+     * nt restarts from 0 after each; vertices may live in a mapped temporary file. */
+    struct mesh_stream *stream;
 } mesh_arrays;
 
 /* Ensure room for `extra` more vertices / triangles (and their colours when on). Capacity
@@ -109,6 +112,9 @@ typedef struct mesh_arrays {
  * unless more is needed. */
 prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect);
 prt_status mesh_arrays_triangle_room(mesh_arrays *a, size_t extra, size_t expect);
+/* A reservation for the triangles the input announces: mesh_arrays_triangle_room, except
+ * in streaming mode, which holds a bounded batch however many are announced. */
+prt_status mesh_arrays_reserve_triangles(mesh_arrays *a, size_t count, size_t expect);
 /* Switch per-vertex / per-triangle colours on (room for as many as the positions and
  * triangles have), or per-vertex colours off again (vertex = false frees them). */
 prt_status mesh_arrays_colors(mesh_arrays *a, bool vertex, bool triangle);
@@ -119,5 +125,9 @@ void mesh_arrays_free(mesh_arrays *a);
 /* The parsers. s is positioned at the start of the (decompressed) stream. */
 prt_status mesh_ply_parse(mesh_source *s, prt_mesh **out);
 prt_status mesh_obj_parse(mesh_source *s, prt_mesh **out);
+/* The same, filling the caller's arrays (set up, e.g. streaming, with a->name) and leaving
+ * them to the caller, whatever the outcome, instead of making a mesh. */
+prt_status mesh_ply_parse_arrays(mesh_source *s, mesh_arrays *a);
+prt_status mesh_obj_parse_arrays(mesh_source *s, mesh_arrays *a);
 
 #endif

@@ -1,7 +1,9 @@
 /* libFuzzer target for the OBJ reader through prt_mesh_load_memory. Inputs that would be
  * read as PLY or gzip are declined (-1) so this target's corpus stays OBJ text; the rules
- * are those of fuzz_ply.c: load a valid mesh or fail naming the input, leak nothing. */
+ * are those of fuzz_ply.c: load a valid mesh or fail naming the input, leak nothing, and
+ * the streaming reader agrees (stream_check.h). */
 #include "packrt.h"
+#include "stream_check.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -14,6 +16,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     prt_memory_usage(&before, NULL);
     prt_mesh *m = NULL;
     prt_status st = prt_mesh_load_memory(data, size, "fuzz.obj", &m);
+    stream_must_agree(data, size, "fuzz.obj", st, m);
     if (st == PRT_OK) {
         if (!m || prt_mesh_validate(m) != PRT_OK) abort();
         prt_mesh_free(m);

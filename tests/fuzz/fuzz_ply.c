@@ -1,7 +1,9 @@
 /* libFuzzer target for mesh loading through prt_mesh_load_memory: gzip, format detection
  * and the PLY reader. Any input must load a valid mesh or fail with a message naming the
- * input, and leave no packrt allocation behind. */
+ * input, and leave no packrt allocation behind; the streaming reader must agree with it
+ * (stream_check.h). */
 #include "packrt.h"
+#include "stream_check.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -12,6 +14,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     prt_memory_usage(&before, NULL);
     prt_mesh *m = NULL;
     prt_status st = prt_mesh_load_memory(data, size, "fuzz.ply", &m);
+    stream_must_agree(data, size, "fuzz.ply", st, m);
     if (st == PRT_OK) {
         if (!m || prt_mesh_validate(m) != PRT_OK) abort();
         prt_mesh_free(m);
