@@ -71,8 +71,8 @@ static void same_triangles_as_the_mesh(size_t want) {
         float *s = soup_of(m);
         qsort(s, c.n, 9 * sizeof(float), cmp_tri);
         qsort(c.tris, c.n, 9 * sizeof(float), cmp_tri);
-        CHECK_MSG(!memcmp(s, c.tris, c.n * 9 * sizeof(float)),
-                  "%zu triangles: the sets differ", c.n);
+        CHECK_MSG(!memcmp(s, c.tris, c.n * 9 * sizeof(float)), "%zu triangles: the sets differ",
+                  c.n);
         free(s);
     }
     free(c.tris);
@@ -99,8 +99,7 @@ TEST(test_mandelbulb_stream_order_is_the_same_for_any_threads_and_budget) {
         CHECK(!memcmp(a.tris, b.tris, a.n * 9 * sizeof(float)));
         CHECK(!memcmp(b.tris, c.tris, a.n * 9 * sizeof(float)));
     }
-    CHECK_MSG(a.calls > 1 && a.max_batch <= 65536, "%zu calls, largest %zu", a.calls,
-              a.max_batch);
+    CHECK_MSG(a.calls > 1 && a.max_batch <= 65536, "%zu calls, largest %zu", a.calls, a.max_batch);
     free(a.tris);
     free(b.tris);
     free(c.tris);
@@ -175,8 +174,8 @@ TEST(test_mandelbulb_save_ply_writes_the_bytes_of_the_in_memory_mesh) {
 TEST(test_mandelbulb_save_ply_fails_cleanly) {
     size_t before, after;
     prt_memory_usage(&before, NULL);
-    prt_status st = gen_mandelbulb_save_ply(1000, 1, 0, PRT_BINARY_DIR "/no/such/dir/b.ply", NULL,
-                                            NULL);
+    prt_status st =
+        gen_mandelbulb_save_ply(1000, 1, 0, PRT_BINARY_DIR "/no/such/dir/b.ply", NULL, NULL);
     CHECK_MSG(st == PRT_ERROR_IO, "%s", prt_status_string(st));
     CHECK(strstr(prt_last_error(), "no/such/dir/b.ply") != NULL);
     const char *path = PRT_BINARY_DIR "/test_gen_stream_limit.ply";

@@ -169,8 +169,9 @@ static prt_status calibrate(size_t want, double *r_out, double *r_last, size_t *
 /* Requests up to this size are checked: if the run at the calibrated resolution misses by
  * more than 8%, it is redone once with D from the two real counts (rare except for tiny
  * requests). Above it the extrapolation is trusted (docs/generators.md lists the measured
- * ratios: within 1% there), so that the streaming generators, which cannot take back what they have handed on, need
- * not count before they extract: every entry point then lands on the same grid. */
+ * ratios: within 2% there), so that the streaming generators, which cannot take back what
+ * they have handed on, need not count before they extract: every entry point then lands on
+ * the same grid. */
 #define CHECK_MAX ((size_t)16000000)
 
 /* The corrected resolution after a run at r gave `got` triangles, or false to keep r. */

@@ -7,7 +7,7 @@
 #include "mesh/isosurface.h"
 #include "mesh/marching_cubes.h"
 
-#define ISO_S (GEN_BRICK + 1)                               /* samples per brick side */
+#define ISO_S (GEN_BRICK + 1)                                 /* samples per brick side */
 #define ISO_OWN_SLOTS (3 * GEN_BRICK * GEN_BRICK * GEN_BRICK) /* edges a brick owns */
 #define ISO_OWN_WORDS ((ISO_OWN_SLOTS + 63) / 64)
 #define ISO_MAX_BRICK_TRIS (GEN_BRICK * GEN_BRICK * GEN_BRICK * GEN_MC_MAX_TRIS)

@@ -162,7 +162,8 @@ static prt_status emit_vertices(spill *s, const gen_iso_indexed_out *out) {
     prt_status st = PRT_OK;
     for (size_t i = 0; i < s->ne && !st; i++) {
         const entry *e = &s->e[i];
-        st = spill_read(s, v, (size_t)e->nvert * 3 * sizeof(float), e->offset + sizeof(disk_header));
+        st =
+            spill_read(s, v, (size_t)e->nvert * 3 * sizeof(float), e->offset + sizeof(disk_header));
         if (!st && e->nvert) st = out->vertices(out->user, v, e->nvert);
     }
     prt__free(v);
@@ -182,7 +183,8 @@ static prt_status emit_triangles(spill *s, uint32_t nb, const gen_iso_indexed_ou
         /* Slide the window: drop records behind, read those up to the farthest owner. */
         w.first = PRT_MAX(w.first, i);
         if (w.end < w.first) w.end = w.first;
-        while (!st && w.end < s->ne && s->e[w.end].id <= e->id + reach) st = window_push(&w, s, w.end);
+        while (!st && w.end < s->ne && s->e[w.end].id <= e->id + reach)
+            st = window_push(&w, s, w.end);
         if (st) break;
         st = spill_read(s, slots, (size_t)e->ntri * 3 * sizeof *slots,
                         e->offset + sizeof(disk_header) + (uint64_t)e->nvert * 3 * sizeof(float));
@@ -191,19 +193,21 @@ static prt_status emit_triangles(spill *s, uint32_t nb, const gen_iso_indexed_ou
         uint32_t bx = e->id % nb, by = e->id / nb % nb, bz = e->id / nb / nb;
         for (int o = 0; o < 8; o++) {
             uint32_t x = bx + (o & 1), y = by + (o >> 1 & 1), z = bz + (o >> 2 & 1);
-            own[o] = x < nb && y < nb && z < nb ? find_entry(s->e, i, w.end, (z * nb + y) * nb + x)
-                                                : -1;
+            own[o] =
+                x < nb && y < nb && z < nb ? find_entry(s->e, i, w.end, (z * nb + y) * nb + x) : -1;
         }
         for (uint32_t j = 0; j < 3 * e->ntri; j++) {
             int o, slot;
             iso_edge_owner(slots[j], &o, &slot);
             const disk_header *h = own[o] < 0 ? NULL : window_at(&w, (size_t)own[o]);
             if (!h || !iso_owns(h->owned, slot)) {
-                st = prt__fail(PRT_ERROR_MESH,
-                               "isosurface: a crossed edge has no vertex in its owning brick (bug)");
+                st =
+                    prt__fail(PRT_ERROR_MESH,
+                              "isosurface: a crossed edge has no vertex in its owning brick (bug)");
                 break;
             }
-            batch[3 * nbatch + j % 3] = s->e[own[o]].vbase + iso_owned_rank(h->owned, h->rank, slot);
+            batch[3 * nbatch + j % 3] =
+                s->e[own[o]].vbase + iso_owned_rank(h->owned, h->rank, slot);
             if (j % 3 == 2 && ++nbatch == TRI_BATCH) {
                 st = out->triangles(out->user, batch, nbatch);
                 nbatch = 0;

@@ -27,8 +27,8 @@ static prt_status write_all(ply_writer *w, const void *data, size_t size) {
         if (k < 0 && errno == EINTR) continue;
         if (k <= 0) {
             char eb[128];
-            return w->failed = prt__fail(PRT_ERROR_IO, "%s: write failed at byte %llu: %s",
-                                         w->path, (unsigned long long)w->written,
+            return w->failed = prt__fail(PRT_ERROR_IO, "%s: write failed at byte %llu: %s", w->path,
+                                         (unsigned long long)w->written,
                                          k < 0 ? strerror_r(errno, eb, sizeof eb) : "no progress");
         }
         p += k;
@@ -78,7 +78,8 @@ prt_status ply_writer_open(const char *path, ply_writer **out) {
 
 prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles) {
     if (w->failed) return w->failed;
-    if (w->begun) return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
+    if (w->begun)
+        return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
     if (vertices > UINT32_MAX)
         return w->failed = prt__fail(PRT_ERROR_LIMIT,
                                      "%s: %llu vertices: packrt indexes vertices with 32 bits",
@@ -130,11 +131,11 @@ prt_status ply_writer_vertices(ply_writer *w, const float *xyz, size_t count) {
 prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, size_t count) {
     if (w->failed) return w->failed;
     if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone)
-        return w->failed = prt__fail(PRT_ERROR_ARGUMENT,
-                                     "%s: %zu triangles past the %llu announced (or before all "
-                                     "%llu vertices)",
-                                     w->path, count, (unsigned long long)w->nt,
-                                     (unsigned long long)w->nv);
+        return w->failed =
+                   prt__fail(PRT_ERROR_ARGUMENT,
+                             "%s: %zu triangles past the %llu announced (or before all "
+                             "%llu vertices)",
+                             w->path, count, (unsigned long long)w->nt, (unsigned long long)w->nv);
     for (size_t t = 0; t < count; t++) {
         const uint32_t *i = idx + 3 * t;
         if (i[0] >= w->nv || i[1] >= w->nv || i[2] >= w->nv)
@@ -160,8 +161,8 @@ prt_status ply_writer_close(ply_writer *w, bool ok) {
     prt_status st = w->failed;
     if (ok && !st && (!w->begun || w->vdone != w->nv || w->tdone != w->nt))
         st = prt__fail(PRT_ERROR_ARGUMENT,
-                       "%s: closed after %llu of %llu vertices and %llu of %llu triangles",
-                       w->path, (unsigned long long)w->vdone, (unsigned long long)w->nv,
+                       "%s: closed after %llu of %llu vertices and %llu of %llu triangles", w->path,
+                       (unsigned long long)w->vdone, (unsigned long long)w->nv,
                        (unsigned long long)w->tdone, (unsigned long long)w->nt);
     if (ok && !st) st = flush(w);
     if (close(w->fd) != 0 && ok && !st) {
