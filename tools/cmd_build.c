@@ -5,25 +5,71 @@
 #include <string.h>
 
 static int usage(void) {
-    printf("usage: packrt build MESH -r SPEC -o out.prt [--threads N]\n"
+    printf("usage: packrt build MESH -r SPEC -o out.prt [--threads N] [--memory BYTES]\n"
+           "       packrt build --gen KIND:TRIANGLES[:SEED] -r SPEC -o out.prt ...\n"
            "  builds representation SPEC (see `packrt list`) over MESH (PLY/OBJ, optionally gzipped)\n"
-           "  and saves it as a .prt file that `cast`, `bench` and `info` load without rebuilding\n");
+           "  and saves it as a .prt file that `cast`, `bench` and `info` load without rebuilding.\n"
+           "  -r ooc streams the mesh (or the generator's triangles) into an out-of-core block file,\n"
+           "  holding at most --memory bytes (k/M/G suffixes; default 4G) whatever the mesh's size\n");
     return 0;
 }
 
 int cmd_build(int argc, char **argv) {
-    const char *mesh_path = NULL, *spec = NULL, *out = NULL;
+    const char *mesh_path = NULL, *spec = NULL, *out = NULL, *gen = NULL;
     int threads = 0;
+    size_t memory = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
         if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
         else if (!strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--gen") && i + 1 < argc) gen = argv[++i];
+        else if (!strcmp(argv[i], "--memory") && i + 1 < argc) {
+            if (!cli_parse_count(argv[++i], &memory)) return cli_usage("build", "--memory: bad size '%s'", argv[i]);
+        }
         else if (argv[i][0] == '-') return cli_usage("build", "unknown option '%s'", argv[i]);
         else if (!mesh_path) mesh_path = argv[i];
         else return cli_usage("build", "more than one mesh given ('%s')", argv[i]);
     }
-    if (!mesh_path || !spec || !out) return cli_usage("build", "needs MESH, -r SPEC and -o out.prt");
+    if ((!mesh_path == !gen) || !spec || !out) return cli_usage("build", "needs MESH (or --gen), -r SPEC and -o out.prt");
+    if (gen || !strncmp(spec, "ooc", 3)) {
+        /* Straight to the file: out-of-core builds stream, never holding the mesh. */
+        cli_progress bar;
+        cli_progress_begin(&bar, "building");
+        prt_build_options o = {.threads = threads, .progress = cli_progress_callback, .progress_user = &bar,
+                               .memory_budget = memory};
+        prt_status s;
+        if (gen) {
+            char kind[32];
+            size_t tris = 0, seed = 1;
+            const char *c1 = strchr(gen, ':');
+            if (!c1 || (size_t)(c1 - gen) >= sizeof kind) return cli_usage("build", "--gen: expected KIND:TRIANGLES[:SEED]");
+            memcpy(kind, gen, (size_t)(c1 - gen));
+            kind[c1 - gen] = 0;
+            char num[64];
+            const char *c2 = strchr(c1 + 1, ':');
+            snprintf(num, sizeof num, "%.*s", (int)(c2 ? (size_t)(c2 - c1 - 1) : strlen(c1 + 1)), c1 + 1);
+            if (!cli_parse_count(num, &tris) || (c2 && !cli_parse_count(c2 + 1, &seed)))
+                return cli_usage("build", "--gen: expected KIND:TRIANGLES[:SEED], got '%s'", gen);
+            s = prt_build_generated(kind, tris, seed, spec, out, &o);
+        } else {
+            s = prt_build_file(mesh_path, spec, out, &o);
+        }
+        cli_progress_end(&bar);
+        if (s) return cli_fail("build", gen ? gen : mesh_path, s);
+        prt_accel *a;
+        if ((s = prt_accel_load(out, &a))) return cli_fail("build", out, s);
+        prt_stats st;
+        prt_accel_stats(a, &st);
+        double n = (double)st.triangles;
+        fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s, %.2f B/tri (tree %.2f, geometry %.2f)\n", out,
+                prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds,
+                (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) / n, (double)st.bytes_tree / n,
+                (double)st.bytes_geometry / n);
+        if (st.detail[0]) fprintf(stderr, "  %s\n", st.detail);
+        prt_accel_free(a);
+        return 0;
+    }
     prt_mesh *m;
     prt_status s = prt_mesh_load(mesh_path, &m);
     if (s) return cli_fail("build", mesh_path, s);
