@@ -75,6 +75,7 @@ static void spool_close(spool *s) {
 }
 
 static prt_status spool_write(spool *s, const ooc_btri *t, size_t n) {
+    if (n == 0) return PRT_OK;
     if (!s->f) {
         if (s->count + n > s->cap) {
             uint64_t cap = PRT_MAX(2 * s->cap, s->count + n);

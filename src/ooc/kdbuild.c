@@ -19,14 +19,28 @@ typedef struct ctx {
     const ooc_build_params *p;
 } ctx;
 
+/* A triangle reference with its box clipped to the current cell: computed once at the
+ * root, then only clipped at each split (one axis changes). */
+typedef struct item {
+    float b[6];
+    uint32_t ref;
+} item;
+
+#define MINF(a, b) ((a) < (b) ? (a) : (b))
+#define MAXF(a, b) ((a) > (b) ? (a) : (b))
+
 static void tri_box(const ooc_btri *t, const float cell[6], float b[6]) {
     for (int k = 0; k < 3; k++) {
-        float lo = fminf(fminf(t->v[k], t->v[3 + k]), t->v[6 + k]);
-        float hi = fmaxf(fmaxf(t->v[k], t->v[3 + k]), t->v[6 + k]);
-        b[k] = fmaxf(lo, cell[k]);
-        b[3 + k] = fminf(hi, cell[3 + k]);
+        float lo = MINF(MINF(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        float hi = MAXF(MAXF(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        b[k] = MAXF(lo, cell[k]);
+        b[3 + k] = MINF(hi, cell[3 + k]);
     }
 }
+
+/* The bin of a position scaled to [0, BINS]; clamped, and 0 for NaN (a cell so thin that
+ * its scale overflowed), never an out-of-range float-to-int conversion. */
+static int bin_of(float x) { return x >= (float)(BINS - 1) ? BINS - 1 : x > 0.0f ? (int)x : 0; }
 
 static float half_area(const float b[6]) {
     float dx = b[3] - b[0], dy = b[4] - b[1], dz = b[5] - b[2];
@@ -49,7 +63,7 @@ static prt_status push_node(ooc_tree *t, int32_t *idx) {
     return PRT_OK;
 }
 
-static prt_status push_refs(ooc_tree *t, const uint32_t *refs, size_t n, uint32_t *first) {
+static prt_status push_refs(ooc_tree *t, const uint32_t *refs, const item *items, size_t n, uint32_t *first) {
     if (t->nrefs + n > t->refcap) {
         size_t cap = PRT_MAX(t->refcap * 2, t->nrefs + n + 1024);
         uint32_t *r = prt__realloc(t->refs, prt__mul_size(cap, sizeof *r));
@@ -57,7 +71,9 @@ static prt_status push_refs(ooc_tree *t, const uint32_t *refs, size_t n, uint32_
         t->refs = r, t->refcap = cap;
     }
     if (t->nrefs + n > UINT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "kd-tree has more than 2^32 leaf references");
-    memcpy(t->refs + t->nrefs, refs, n * sizeof *refs);
+    if (refs) memcpy(t->refs + t->nrefs, refs, n * sizeof *refs);
+    else
+        for (size_t i = 0; i < n; i++) t->refs[t->nrefs + i] = items[i].ref;
     *first = (uint32_t)t->nrefs;
     t->nrefs += n;
     return PRT_OK;
@@ -66,15 +82,12 @@ static prt_status push_refs(ooc_tree *t, const uint32_t *refs, size_t n, uint32_
 /* Where to split: an empty-space cut when one leaves at least empty_cut of the cell's
  * volume empty, else the best SAH plane, else (over the leaf limit) the spatial median.
  * Returns false for a leaf. */
-static bool choose_split(const ctx *c, const uint32_t *refs, size_t n, const float cell[6], int *axis_out,
+static bool choose_split(const ctx *c, const item *it, size_t n, const float cell[6], int *axis_out,
                          float *split_out, int *empty_side) {
     *empty_side = -1;
     float b[6] = {FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
-    for (size_t i = 0; i < n; i++) {
-        float tb[6];
-        tri_box(&c->tris[refs[i]], cell, tb);
-        for (int k = 0; k < 3; k++) b[k] = fminf(b[k], tb[k]), b[3 + k] = fmaxf(b[3 + k], tb[3 + k]);
-    }
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) b[k] = MINF(b[k], it[i].b[k]), b[3 + k] = MAXF(b[3 + k], it[i].b[3 + k]);
     const float vol = volume(cell);
     /* Empty-space cutting (§4.1): the largest empty slab at one of the six faces. */
     float best_empty = 0.0f;
@@ -101,11 +114,8 @@ static bool choose_split(const ctx *c, const uint32_t *refs, size_t n, const flo
         uint32_t mins[BINS] = {0}, maxs[BINS] = {0};
         const float scale = BINS / ext;
         for (size_t i = 0; i < n; i++) {
-            float tb[6];
-            tri_box(&c->tris[refs[i]], cell, tb);
-            int a = (int)((tb[k] - lo) * scale), z = (int)((tb[3 + k] - lo) * scale);
-            mins[PRT_MIN(PRT_MAX(a, 0), BINS - 1)]++;
-            maxs[PRT_MIN(PRT_MAX(z, 0), BINS - 1)]++;
+            mins[bin_of((it[i].b[k] - lo) * scale)]++;
+            maxs[bin_of((it[i].b[3 + k] - lo) * scale)]++;
         }
         size_t nl = 0, nr = n;
         for (int i = 1; i < BINS; i++) {
@@ -131,19 +141,19 @@ static bool choose_split(const ctx *c, const uint32_t *refs, size_t n, const flo
     return true;
 }
 
-static prt_status build_node(const ctx *c, ooc_tree *t, uint32_t *refs, size_t n, const float cell[6], uint32_t depth,
+static prt_status build_node(const ctx *c, ooc_tree *t, item *it, size_t n, const float cell[6], uint32_t depth,
                              int32_t *out);
 
-/* Build the subtree of refs into tree t (node index in *out); refs is consumed (freed). */
-static prt_status make_leaf(ooc_tree *t, uint32_t *refs, size_t n, const float cell[6], int32_t *out) {
+/* A leaf of the items (node index in *out); the items are consumed (freed). */
+static prt_status make_leaf(ooc_tree *t, item *it, size_t n, const float cell[6], int32_t *out) {
     prt_status s = push_node(t, out);
     if (!s) {
         ooc_bnode *nd = &t->nodes[*out];
         memcpy(nd->box, cell, sizeof nd->box);
         nd->count = (uint32_t)n;
-        s = push_refs(t, refs, n, &t->nodes[*out].first);
+        s = push_refs(t, NULL, it, n, &t->nodes[*out].first);
     }
-    prt__free(refs);
+    prt__free(it);
     return s;
 }
 
@@ -163,14 +173,14 @@ static prt_status graft(ooc_tree *t, const ooc_tree *src, int32_t *root) {
         t->nodes[idx] = nd;
     }
     uint32_t first;
-    prt_status s = push_refs(t, src->refs, src->nrefs, &first);
+    prt_status s = push_refs(t, src->refs, NULL, src->nrefs, &first);
     if (s) return s;
     t->depth = PRT_MAX(t->depth, src->depth);
     *root = (int32_t)base;
     return PRT_OK;
 }
 
-static prt_status build_node(const ctx *c, ooc_tree *t, uint32_t *refs, size_t n, const float cell[6], uint32_t depth,
+static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, const float cell[6], uint32_t depth,
                              int32_t *out) {
     *out = -1;
     if (n == 0) {
@@ -186,19 +196,26 @@ static prt_status build_node(const ctx *c, ooc_tree *t, uint32_t *refs, size_t n
     /* Sift: a triangle goes to each side its clipped box reaches (a box touching the
      * plane goes to both, so hits on the plane are found from either side), except that
      * an empty-space cut leaves its empty side empty: rays in the plane visit both sides. */
-    uint32_t *side[2];
+    item *side[2];
     size_t cnt[2] = {0, 0};
-    side[0] = prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
-    side[1] = prt__alloc(prt__mul_size(n, sizeof(uint32_t)));
+    side[0] = prt__alloc(prt__mul_size(n, sizeof(item)));
+    side[1] = prt__alloc(prt__mul_size(n, sizeof(item)));
     if (!side[0] || !side[1]) {
         prt__free(side[0]), prt__free(side[1]), prt__free(refs);
         return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
     }
     for (size_t i = 0; i < n; i++) {
-        float tb[6];
-        tri_box(&c->tris[refs[i]], cell, tb);
-        if (empty != 0 && tb[axis] <= split) side[0][cnt[0]++] = refs[i];
-        if (empty != 1 && tb[3 + axis] >= split) side[1][cnt[1]++] = refs[i];
+        const item *x = &refs[i];
+        if (empty != 0 && x->b[axis] <= split) {
+            item *y = &side[0][cnt[0]++];
+            *y = *x;
+            y->b[3 + axis] = MINF(y->b[3 + axis], split);
+        }
+        if (empty != 1 && x->b[3 + axis] >= split) {
+            item *y = &side[1][cnt[1]++];
+            *y = *x;
+            y->b[axis] = MAXF(y->b[axis], split);
+        }
     }
     /* A split that separates nothing (a pile of triangles through one point) ends here. */
     if (cnt[0] == n && cnt[1] == n) {
@@ -253,9 +270,12 @@ prt_status ooc_kd_build(const ooc_btri *tris, size_t n, const float box[6], uint
                         const ooc_build_params *p, ooc_tree *out) {
     memset(out, 0, sizeof *out);
     if (n > UINT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "an in-core kd subtree holds more than 2^32 triangles");
-    uint32_t *refs = prt__alloc(prt__mul_size(PRT_MAX(n, 1), sizeof *refs));
+    item *refs = prt__alloc(prt__mul_size(PRT_MAX(n, 1), sizeof *refs));
     if (!refs) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu kd-tree references", n);
-    for (size_t i = 0; i < n; i++) refs[i] = (uint32_t)i;
+    for (size_t i = 0; i < n; i++) {
+        tri_box(&tris[i], box, refs[i].b);
+        refs[i].ref = (uint32_t)i;
+    }
     ctx c = {tris, p};
     prt_status s = PRT_OK;
     int32_t root = -1;

@@ -11,6 +11,9 @@
 #include <stdio.h>
 #include <zlib.h>
 
+/* LZ4HC level 4: level 9's ratio (Mandelbulb 1M: 72% of raw both) at a few times its
+ * speed; plain LZ4 gives 77%. Decompression is equally fast for all. */
+#define LZ4HC_LEVEL 4
 #define HASH_BITS 13 /* 8192 entries: more than the triangles or vertices one block holds */
 #define HASH_SIZE (1u << HASH_BITS)
 
@@ -77,7 +80,7 @@ static prt_status emit(ooc_writer *w, const void *p, size_t n) {
 
 /* Compress a finished block and append it. */
 static prt_status flush_block(ooc_writer *w, uint32_t id, const uint8_t *raw, uint32_t size) {
-    int z = LZ4_compress_HC((const char *)raw, w->zbuf, (int)size, LZ4_compressBound(OOC_BLOCK), 9);
+    int z = LZ4_compress_HC((const char *)raw, w->zbuf, (int)size, LZ4_compressBound(OOC_BLOCK), LZ4HC_LEVEL);
     ooc_block_entry *e = &w->table[id];
     const void *stored = raw;
     e->raw = size;
