@@ -225,84 +225,135 @@ static bool coarse_sign_change(const iso *s, uint32_t bx, uint32_t by, uint32_t 
     return inside > 0 && inside < n;
 }
 
+/* A growable list of brick ids. */
+typedef struct idlist {
+    uint32_t *id;
+    size_t n, cap;
+} idlist;
+
+static prt_status idlist_push(idlist *l, uint32_t id) {
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 1024;
+        uint32_t *q = prt__realloc(l->id, cap * sizeof *q);
+        if (!q) return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+        l->id = q;
+        l->cap = cap;
+    }
+    l->id[l->n++] = id;
+    return PRT_OK;
+}
+
+/* One level of the seeding octree: the n nodes of *cur (packed x | y << 10 | z << 20, in
+ * bricks, `size` bricks a side) are tested in parallel; for size > 1 *cur becomes the
+ * children of the nodes kept (in order, so the result does not depend on the thread
+ * count), for size 1 the kept bricks that see the surface are appended to seeds. */
+static prt_status seed_level(const iso *s, uint32_t **cur, size_t *n, uint32_t size,
+                             idlist *seeds) {
+    uint32_t nb = s->nb;
+    uint8_t *keep = prt__alloc(*n ? *n : 1);
+    if (!keep) return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+    const uint32_t *c = *cur;
+    size_t cn = *n;
+    double half = 0.5 * size * B * s->h, reach = CULL_FACTOR * sqrt(3.0) * half;
+    /* 0: far outside; 1: inside, keep refining; 2: near the surface, outside. */
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t c0 = 0; c0 < cn; c0 += 256) {
+        double p[3][256], f[256];
+        size_t c1 = PRT_MIN(cn, c0 + 256);
+        for (size_t i = c0; i < c1; i++) {
+            uint32_t q[3] = {c[i] & 1023, c[i] >> 10 & 1023, c[i] >> 20 & 1023};
+            for (int k = 0; k < 3; k++) p[k][i - c0] = s->p->lo[k] + (double)q[k] * B * s->h + half;
+        }
+        s->p->field(s->p->ctx, c1 - c0, p[0], p[1], p[2], f);
+        for (size_t i = c0; i < c1; i++) keep[i] = f[i - c0] > reach ? 0 : (f[i - c0] < 0 ? 1 : 2);
+    }
+    prt_status st = PRT_OK;
+    if (size == 1) {
+        /* Near bricks seed only where a coarse look (every 4th sample) sees the surface:
+         * a brick that merely comes near it would cost a full extraction for nothing, and
+         * one seed per component is enough for the flood fill. Not on coarse grids, where
+         * the look is too coarse to see anything. */
+        bool filter = s->p->resolution >= 16 * B;
+#pragma omp parallel for schedule(dynamic, 16)
+        for (size_t i = 0; i < cn; i++)
+            if (filter && keep[i] == 2 &&
+                !coarse_sign_change(s, c[i] & 1023, c[i] >> 10 & 1023, c[i] >> 20 & 1023))
+                keep[i] = 0;
+        for (size_t i = 0; i < cn && !st; i++)
+            if (keep[i] == 2) {
+                uint32_t x = c[i] & 1023, y = c[i] >> 10 & 1023, z = c[i] >> 20 & 1023;
+                st = idlist_push(seeds, (z * nb + y) * nb + x);
+            }
+        prt__free(keep);
+        return st;
+    }
+    size_t kept = 0;
+    for (size_t i = 0; i < cn; i++) kept += keep[i] != 0;
+    uint32_t *next = prt__alloc((kept ? kept : 1) * 8 * sizeof *next);
+    if (!next) {
+        prt__free(keep);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+    }
+    size_t m = 0;
+    uint32_t h = size >> 1;
+    for (size_t i = 0; i < cn; i++) {
+        if (!keep[i]) continue;
+        uint32_t x = c[i] & 1023, y = c[i] >> 10 & 1023, z = c[i] >> 20 & 1023;
+        for (int k = 0; k < 8; k++) {
+            uint32_t cx = x + (k & 1 ? h : 0), cy = y + (k & 2 ? h : 0), cz = z + (k & 4 ? h : 0);
+            if (cx < nb && cy < nb && cz < nb) next[m++] = cx | cy << 10 | cz << 20;
+        }
+    }
+    prt__free(keep);
+    prt__free(*cur);
+    *cur = next;
+    *n = m;
+    return PRT_OK;
+}
+
+/* Subtrees of this many bricks a side are refined to the bricks a group at a time: the
+ * inside of the surface is refined too, so a whole finest level would hold every brick of
+ * the volume (35M at a 4096^3 grid); groups of subtrees hold at most SEED_GROUP * 16^3. */
+#define SEED_SUBTREE 16u
+#define SEED_GROUP 32
+
 /* Bricks whose centre is within CULL_FACTOR half-diagonals of the surface from outside:
- * an octree over the brick grid, refined level by level (each level in parallel, kept in
- * order so the result does not depend on the thread count). Nodes whose centre is inside
- * are refined too (the field gives no distance there) but only outside bricks seed. */
+ * an octree over the brick grid, refined level by level down to SEED_SUBTREE, then each
+ * group of subtrees down to the bricks. Nodes whose centre is inside are refined too (the
+ * field gives no distance there) but only outside bricks seed. The seeds come in a fixed
+ * order, whatever the thread count. */
 static prt_status seed_bricks(const iso *s, uint32_t **seeds, size_t *nseeds) {
-    uint32_t nb = s->nb, top = 1;
-    while (top < nb) top <<= 1;
+    uint32_t top = 1;
+    while (top < s->nb) top <<= 1;
     size_t n = 1;
-    uint32_t *cur = prt__alloc(sizeof *cur); /* packed x | y << 10 | z << 20 */
+    uint32_t *cur = prt__alloc(sizeof *cur), size = top;
+    idlist out = {NULL, 0, 0};
     if (!cur) return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
     cur[0] = 0;
-    for (uint32_t size = top;; size >>= 1) {
-        uint8_t *keep = prt__alloc(n ? n : 1);
-        if (!keep) {
-            prt__free(cur);
-            return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+    prt_status st = PRT_OK;
+    for (; !st && size > SEED_SUBTREE; size >>= 1) st = seed_level(s, &cur, &n, size, &out);
+    for (size_t g0 = 0; !st && g0 < n; g0 += SEED_GROUP) {
+        size_t gn = PRT_MIN((size_t)SEED_GROUP, n - g0);
+        uint32_t *sub = prt__alloc(gn * sizeof *sub);
+        if (!sub) {
+            st = prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+            break;
         }
-        double half = 0.5 * size * B * s->h, reach = CULL_FACTOR * sqrt(3.0) * half;
-        /* 0: far outside; 1: inside, keep refining; 2: near the surface, outside. */
-#pragma omp parallel for schedule(dynamic, 1)
-        for (size_t c0 = 0; c0 < n; c0 += 256) {
-            double p[3][256], f[256];
-            size_t c1 = PRT_MIN(n, c0 + 256);
-            for (size_t i = c0; i < c1; i++) {
-                uint32_t c[3] = {cur[i] & 1023, cur[i] >> 10 & 1023, cur[i] >> 20 & 1023};
-                for (int k = 0; k < 3; k++)
-                    p[k][i - c0] = s->p->lo[k] + (double)c[k] * B * s->h + half;
-            }
-            s->p->field(s->p->ctx, c1 - c0, p[0], p[1], p[2], f);
-            for (size_t i = c0; i < c1; i++)
-                keep[i] = f[i - c0] > reach ? 0 : (f[i - c0] < 0 ? 1 : 2);
+        memcpy(sub, cur + g0, gn * sizeof *sub);
+        for (uint32_t z = size;; z >>= 1) {
+            if ((st = seed_level(s, &sub, &gn, z, &out)) || z == 1) break;
         }
-        if (size == 1) {
-            /* Near bricks seed only where a coarse look (every 4th sample) sees the
-             * surface: a brick that merely comes near it would cost a full extraction for
-             * nothing, and one seed per component is enough for the flood fill. Not on
-             * coarse grids, where the look is too coarse to see anything. */
-            bool filter = s->p->resolution >= 16 * B;
-#pragma omp parallel for schedule(dynamic, 16)
-            for (size_t i = 0; i < n; i++)
-                if (filter && keep[i] == 2 &&
-                    !coarse_sign_change(s, cur[i] & 1023, cur[i] >> 10 & 1023, cur[i] >> 20 & 1023))
-                    keep[i] = 0;
-            size_t m = 0;
-            for (size_t i = 0; i < n; i++)
-                if (keep[i] == 2) {
-                    uint32_t x = cur[i] & 1023, y = cur[i] >> 10 & 1023, z = cur[i] >> 20 & 1023;
-                    cur[m++] = (z * nb + y) * nb + x;
-                }
-            prt__free(keep);
-            *seeds = cur;
-            *nseeds = m;
-            return PRT_OK;
-        }
-        size_t kept = 0;
-        for (size_t i = 0; i < n; i++) kept += keep[i] != 0;
-        uint32_t *next = prt__alloc((kept ? kept : 1) * 8 * sizeof *next);
-        if (!next) {
-            prt__free(keep);
-            prt__free(cur);
-            return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
-        }
-        size_t m = 0;
-        uint32_t h = size >> 1;
-        for (size_t i = 0; i < n; i++) {
-            if (!keep[i]) continue;
-            uint32_t x = cur[i] & 1023, y = cur[i] >> 10 & 1023, z = cur[i] >> 20 & 1023;
-            for (int k = 0; k < 8; k++) {
-                uint32_t cx = x + (k & 1 ? h : 0), cy = y + (k & 2 ? h : 0),
-                         cz = z + (k & 4 ? h : 0);
-                if (cx < nb && cy < nb && cz < nb) next[m++] = cx | cy << 10 | cz << 20;
-            }
-        }
-        prt__free(keep);
-        prt__free(cur);
-        cur = next;
-        n = m;
+        prt__free(sub);
     }
+    prt__free(cur);
+    if (st) {
+        prt__free(out.id);
+        return st;
+    }
+    *seeds = out.id ? out.id : prt__alloc(sizeof(uint32_t));
+    *nseeds = out.n;
+    if (!*seeds) return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
+    return PRT_OK;
 }
 
 static int cmp_brick(const void *a, const void *b) {
