@@ -334,8 +334,11 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
 
 typedef struct prt_lod_hit {
     prt_hit hit;        /* hit.prim: a triangle, PRT_VOXEL_HIT, or PRT_INVALID on a miss */
-    float normal[3];    /* a voxel's shading normal (unit); zero for triangle hits */
-    float color[3];     /* a voxel's colour (0..1) */
+    /* Shading data from representations with LOD ("ooc"; zero from the others): a voxel's
+     * normal, or the hit triangle's geometric normal (unit, as the mesh winds it), and the
+     * voxel's or triangle's colour (linear, 0..1; meshes without colours are 0.74 grey). */
+    float normal[3];
+    float color[3];
     float voxel_radius; /* radius of the voxel's bounding sphere, 0 for triangles: offset
                          * secondary rays by its diameter to leave the voxel (§6.2) */
 } prt_lod_hit;
@@ -461,6 +464,12 @@ typedef struct prt_render_options {
      * that called prt_render; NULL for none. */
     void (*progress)(void *user, float fraction);
     void *progress_user;
+    /* Levels of detail (prt_intersect_lod; Áfra §6.2): camera and shadow rays accept a voxel
+     * whose projection covers at most this many pixels, ao and gi rays one that subtends at
+     * most 2 pi / spp steradians. 0: exact. With an out-of-core accel, blocks not loaded yet
+     * show as the coarser voxel above them; call prt_accel_frame between renders to load
+     * them (docs/ooc.md). */
+    float lod_pixels;
 } prt_render_options;
 
 /* An 8-bit sRGB image: 3 bytes (r, g, b) per pixel, rows top to bottom, no padding.

@@ -166,6 +166,52 @@ TEST(test_fetchers_load_requested_blocks_between_frames) {
     prt_mesh_free(m);
 }
 
+/* prt_render with levels of detail on a block file opened from disk: the first frame has
+ * nothing loaded, frames with cache updates between them converge, and the final image at
+ * one pixel of error is close to the exact render of the mesh (same camera and shading). */
+TEST(test_progressive_lod_render_converges_to_the_exact_image) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("mandelbulb", 80000, 2, &m));
+    prt_accel *built = NULL, *a = NULL, *ref = NULL;
+    CHECK_OK(prt_build(m, "ooc", NULL, &built));
+    CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &ref));
+    const char *path = tmp_path("render.ooc");
+    if (built) CHECK_OK(prt_accel_save(built, path));
+    CHECK_OK(prt_accel_open(path, NULL, &a));
+    if (!a || !ref) {
+        prt_accel_free(built), prt_accel_free(a), prt_accel_free(ref), prt_mesh_free(m);
+        return;
+    }
+    prt_render_options o = {.width = 160, .height = 120, .shade = PRT_SHADE_DIFFUSE, .lod_pixels = 1.0f};
+    prt_image img = {0}, want = {0}, first = {0};
+    prt_cache_info ci = {0};
+    int f = 0;
+    for (; f < 300; f++) {
+        CHECK_OK(prt_render(a, NULL, NULL, &o, &img));
+        if (f == 0) CHECK_OK(prt_render(a, NULL, NULL, &o, &first));
+        prt_accel_frame(a, &ci);
+        if (ci.requested == 0 && ci.pending == 0) break;
+        if (ci.requested == 0) usleep(1000);
+    }
+    CHECK_MSG(ci.requested == 0 && ci.pending == 0, "still loading after %d frames", f);
+    prt_render_options e = o;
+    e.lod_pixels = 0.0f;
+    CHECK_OK(prt_render(ref, m, NULL, &e, &want));
+    double psnr = 0, psnr_first = 0;
+    int maxd = 0;
+    CHECK_OK(prt_image_compare(&img, &want, &maxd, NULL, &psnr, NULL));
+    CHECK_OK(prt_image_compare(&first, &want, NULL, NULL, &psnr_first, NULL));
+    printf("     converged after %d frames, PSNR %.1f dB against the exact image (first frame %.1f dB), working set %.2f MB\n",
+           f + 1, psnr, psnr_first, (double)ci.working_set_bytes / 1e6);
+    CHECK_MSG(psnr > 30.0, "LOD image PSNR %.1f dB against the exact one", psnr);
+    CHECK_MSG(psnr_first < psnr - 5.0, "the first frame (nothing loaded) is as good as the last: %.1f dB", psnr_first);
+    CHECK_OK(prt_accel_check(a));
+    prt_image_free(&img), prt_image_free(&want), prt_image_free(&first);
+    prt_accel_free(a), prt_accel_free(built), prt_accel_free(ref);
+    remove(path);
+    prt_mesh_free(m);
+}
+
 /* Bad input: no hittable triangle, a mesh file that does not exist or is malformed, a
  * foreign file with the block file's magic. */
 TEST(test_bad_input_is_an_error) {
@@ -206,6 +252,7 @@ int main(void) {
     RUN(test_streamed_build_and_small_cache_answer_exactly);
     RUN(test_lod_queries_stop_at_voxels_that_contain_the_surface);
     RUN(test_fetchers_load_requested_blocks_between_frames);
+    RUN(test_progressive_lod_render_converges_to_the_exact_image);
     RUN(test_bad_input_is_an_error);
     TEST_END();
 }

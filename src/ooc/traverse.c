@@ -28,6 +28,10 @@ typedef struct walker {
     uint32_t held;  /* node block held (exact queries pin it), UINT32_MAX none */
     const uint8_t *blk;
     uint32_t size;
+    /* The closest triangle hit's geometric normal (not normalised) and colour, for LOD
+     * queries, which answer with shading data (the renderer has no mesh to look it up). */
+    float tn[3];
+    uint16_t tcolor;
 } walker;
 
 static const uint8_t *acquire(walker *w, uint32_t b, uint32_t kind, uint32_t *size) {
@@ -95,6 +99,14 @@ static bool leaf(walker *w, const prt__rayx *rx, uint32_t w0, uint32_t tb, prt__
         if (tt < hit->t || t.prim < hit->prim) {
             hit->t = tt, hit->u = u, hit->v = vv, hit->prim = t.prim;
             *found = true;
+            if (w->lod) {
+                float e1[3], e2[3];
+                for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
+                w->tn[0] = e1[1] * e2[2] - e1[2] * e2[1];
+                w->tn[1] = e1[2] * e2[0] - e1[0] * e2[2];
+                w->tn[2] = e1[0] * e2[1] - e1[1] * e2[0];
+                w->tcolor = t.color;
+            }
             if (any) break;
         }
     }
@@ -309,6 +321,12 @@ bool ooc_intersect_lod(const prt_accel *acc, prt_ray *r, float C, bool any, prt_
     if (hit.prim == PRT_VOXEL_HIT) {
         ooc_sample_unpack(sample, out->normal, out->color);
         out->voxel_radius = radius;
+    } else {
+        float l = sqrtf(w.tn[0] * w.tn[0] + w.tn[1] * w.tn[1] + w.tn[2] * w.tn[2]);
+        for (int k = 0; k < 3; k++) {
+            out->normal[k] = l > 0.0f ? w.tn[k] / l : 0.0f;
+            out->color[k] = (float)((w.tcolor >> (5 * k)) & 31) / 31.0f;
+        }
     }
     return true;
 }

@@ -25,6 +25,7 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
     uint32_t w = PRT_MIN(TILE, cam->width - x0), h = PRT_MIN(TILE, cam->height - y0), n = w * h;
     prt_ray rays[TILE * TILE];
     prt_hit hits[TILE * TILE];
+    prt_lod_hit lods[TILE * TILE];
     prt_rng rng[TILE * TILE];
     float direct[TILE * TILE][3] = {{0}}, indirect[TILE * TILE][3] = {{0}};
     float normal[TILE * TILE][3] = {{0}}, position[TILE * TILE][3] = {{0}},
@@ -39,13 +40,22 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             if (j->spp > 1) jx = prt_rng_float(&rng[i]), jy = prt_rng_float(&rng[i]);
             render_camera_ray(cam, (float)(x0 + i % w) + jx, (float)(y0 + i / w) + jy, &rays[i]);
         }
-        prt_packet p = {rays, hits, n, w};
-        prt_intersect_packet(j->scene->accel, &p);
+        if (j->scene->lod) {
+            for (uint32_t i = 0; i < n; i++) {
+                prt_ray q = rays[i];
+                prt_intersect_lod(j->scene->accel, &q, j->scene->lod_primary, &lods[i]);
+                hits[i] = lods[i].hit;
+            }
+        } else {
+            prt_packet p = {rays, hits, n, w};
+            prt_intersect_packet(j->scene->accel, &p);
+        }
         cast += n;
         for (uint32_t i = 0; i < n; i++) {
             render_sample smp;
             render_surface surf;
-            bool hit = render_shade(j->scene, &rays[i], &hits[i], &rng[i], &smp, &surf, &cast);
+            bool hit = render_shade(j->scene, &rays[i], &hits[i], j->scene->lod ? &lods[i] : NULL,
+                                    &rng[i], &smp, &surf, &cast);
             direct[i][0] += smp.direct.x, direct[i][1] += smp.direct.y,
                 direct[i][2] += smp.direct.z;
             indirect[i][0] += smp.indirect.x, indirect[i][1] += smp.indirect.y,
@@ -137,7 +147,7 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
         return st;
     }
 
-    render_scene scene = {a, m, o.shade, 0, 0, 0, {0, 0, 0}, 0, false, {0}};
+    render_scene scene = {.accel = a, .mesh = m, .shade = o.shade};
     scene.colored = m && (m->vertex_colors || m->triangle_colors);
     /* Colours in files are sRGB-encoded bytes; shading wants linear reflectance. */
     for (int i = 0; scene.colored && i < 256; i++) {
@@ -167,6 +177,15 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
     }
     scene.ao_radius = o.ao_radius > 0.0f ? o.ao_radius : 0.15f * diag;
     uint32_t spp = o.spp ? o.spp : (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI ? 16 : 1);
+    if (o.lod_pixels > 0.0f && isfinite(o.lod_pixels)) {
+        /* Áfra eq. 1-3: a voxel of radius R at distance t projects to lambda R / t pixels,
+         * lambda = (h / 2) / tan(fov / 2); accept it when that radius is at most the radius
+         * of a disc of lod_pixels pixels. Hemisphere rays: 2 pi / spp steradians each. */
+        float lambda = 0.5f * (float)h / tanf(0.5f * c->fov_y_deg * RENDER_PI / 180.0f);
+        scene.lod = true;
+        scene.lod_primary = sqrtf(o.lod_pixels / RENDER_PI) / lambda;
+        scene.lod_secondary = sqrtf(2.0f / (float)spp);
+    }
 
     render_framebuffer fb;
     if ((st = render_framebuffer_init(&fb, w, h, o.shade == PRT_SHADE_GI,

@@ -73,6 +73,10 @@ typedef struct render_scene {
     prt_vec3 light;    /* point light (shadows, gi) */
     float ao_radius;   /* occlusion ray length (ao) */
     bool colored;      /* the mesh has vertex or triangle colours */
+    /* Levels of detail (prt_render_options.lod_pixels > 0): the error bounds C of
+     * prt_intersect_lod for camera and shadow rays, and for ao and gi rays. */
+    bool lod;
+    float lod_primary, lod_secondary;
     float linear[256]; /* 8-bit sRGB colour value -> linear albedo */
 } render_scene;
 
@@ -80,6 +84,7 @@ typedef struct render_scene {
  * surface's linear albedo. */
 typedef struct render_surface {
     prt_vec3 p, n, albedo;
+    float lift; /* beyond the scene's offset: a voxel's diameter, so rays leave it (§6.2) */
 } render_surface;
 
 /* Surface of hit h of ray r (r as cast, tfar may have shrunk). With a mesh: the barycentric
@@ -89,6 +94,12 @@ typedef struct render_surface {
  * degenerate surface estimate), in which case the hit is shaded as background. */
 bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h,
                        render_surface *out, uint64_t *rays);
+
+/* The surface of a LOD hit (lh from prt_intersect_lod of ray r): its voxel's or triangle's
+ * normal and colour; a mesh triangle goes through render_surface_at for its exact colour.
+ * False for a miss. */
+bool render_surface_lod(const render_scene *s, const prt_ray *r, const prt_lod_hit *lh,
+                        render_surface *out, uint64_t *rays);
 
 /* ---- shade.c -------------------------------------------------------------------------- */
 
@@ -102,9 +113,10 @@ typedef struct render_sample {
 /* The grey albedo of surfaces without colours. */
 #define RENDER_ALBEDO 0.72f
 
-/* Shade camera ray r with hit h: fills *out, and *surf when the ray hit (return true). */
-bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt_rng *g,
-                  render_sample *out, render_surface *surf, uint64_t *rays);
+/* Shade camera ray r with hit h (with LOD: lh, h == &lh->hit; else lh NULL): fills *out,
+ * and *surf when the ray hit (return true). */
+bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh,
+                  prt_rng *g, render_sample *out, render_surface *surf, uint64_t *rays);
 
 /* ---- framebuffer.c -------------------------------------------------------------------- */
 

@@ -59,7 +59,13 @@ static prt_ray ray_from(prt_vec3 o, prt_vec3 d, float tfar) {
 /* Origin of a secondary ray: off the surface on the side the normal faces, so the ray
  * cannot hit the triangle it leaves through rounding. */
 static prt_vec3 lift(const render_scene *s, const render_surface *f) {
-    return prt_v3_add(f->p, prt_v3_scale(f->n, s->offset));
+    return prt_v3_add(f->p, prt_v3_scale(f->n, s->offset + f->lift));
+}
+
+/* Any hit, with levels of detail when the render asks for them. */
+static bool occluded(const render_scene *s, const prt_ray *r, bool camera_like) {
+    if (!s->lod) return prt_occluded1(s->accel, r);
+    return prt_occluded_lod(s->accel, r, camera_like ? s->lod_primary : s->lod_secondary);
 }
 
 /* cos(normal, light) when the point light sees the surface, else 0 (one any-hit ray). */
@@ -73,7 +79,8 @@ static float light_visible_cos(const render_scene *s, const render_surface *f, u
     if (c <= 0.0f) return 0.0f;
     prt_ray sr = ray_from(o, l, dist);
     (*rays)++;
-    return prt_occluded1(s->accel, &sr) ? 0.0f : c;
+    /* Shadows are projections from the light: the camera's bound serves (§6.2). */
+    return occluded(s, &sr, true) ? 0.0f : c;
 }
 
 /* The point light reflected by a surface of this albedo at cosine c (as g_light scaled by
@@ -83,11 +90,11 @@ static prt_vec3 reflected(prt_vec3 albedo, float c) {
                   g_light.z * (albedo.z * c));
 }
 
-bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt_rng *g,
-                  render_sample *out, render_surface *surf, uint64_t *rays) {
+bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh,
+                  prt_rng *g, render_sample *out, render_surface *surf, uint64_t *rays) {
     prt_vec3 d = prt_v3_load(r->dir);
     out->indirect = prt_v3(0.0f, 0.0f, 0.0f);
-    if (!render_surface_at(s, r, h, surf, rays)) {
+    if (lh ? !render_surface_lod(s, r, lh, surf, rays) : !render_surface_at(s, r, h, surf, rays)) {
         out->direct = backdrop(s->shade, d);
         return false;
     }
@@ -112,7 +119,7 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt
         (*rays)++;
         /* Cosine-weighted directions: the fraction of open rays estimates the cosine-weighted
          * visibility integral directly, with no weights to apply. */
-        float v = prt_occluded1(s->accel, &ar) ? 0.0f : 1.0f;
+        float v = occluded(s, &ar, false) ? 0.0f : 1.0f;
         out->direct = prt_v3(v, v, v);
         break;
     }
@@ -122,11 +129,19 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, prt
          * What it finds is lit directly (light and shadow ray) but not bounced again; a miss
          * brings the sky. */
         prt_ray br = ray_from(lift(s, f), render_cosine_dir(f->n, g), INFINITY);
-        prt_hit bh;
-        prt_intersect1(s->accel, &br, &bh);
-        (*rays)++;
+        prt_ray cast = br;
+        prt_lod_hit bh;
         render_surface y;
-        if (render_surface_at(s, &br, &bh, &y, rays))
+        bool got;
+        if (s->lod) {
+            prt_intersect_lod(s->accel, &cast, s->lod_secondary, &bh);
+            got = render_surface_lod(s, &br, &bh, &y, rays);
+        } else {
+            prt_intersect1(s->accel, &cast, &bh.hit);
+            got = render_surface_at(s, &br, &bh.hit, &y, rays);
+        }
+        (*rays)++;
+        if (got)
             out->indirect = reflected(y.albedo, light_visible_cos(s, &y, rays));
         else
             out->indirect = sky(prt_v3_load(br.dir));

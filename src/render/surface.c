@@ -110,6 +110,22 @@ static bool from_rays(const render_scene *s, const prt_ray *r, const prt_hit *h,
 
 bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h,
                        render_surface *out, uint64_t *rays) {
+    out->lift = 0.0f;
     if (h->prim == PRT_INVALID) return false;
     return s->mesh ? from_mesh(s, r, h, out) : from_rays(s, r, h, out, rays);
+}
+
+bool render_surface_lod(const render_scene *s, const prt_ray *r, const prt_lod_hit *lh,
+                        render_surface *out, uint64_t *rays) {
+    const prt_hit *h = &lh->hit;
+    prt_vec3 n = prt_v3_load(lh->normal);
+    if (h->prim == PRT_INVALID) return false;
+    if ((s->mesh && h->prim != PRT_VOXEL_HIT) || prt_v3_dot(n, n) == 0.0f)
+        return h->prim != PRT_VOXEL_HIT && render_surface_at(s, r, h, out, rays);
+    prt_vec3 d = prt_v3_load(r->dir);
+    out->p = prt_v3_add(prt_v3_load(r->org), prt_v3_scale(d, h->t));
+    out->n = prt_v3_dot(n, d) > 0.0f ? prt_v3_scale(n, -1.0f) : n;
+    out->albedo = prt_v3_load(lh->color);
+    out->lift = 2.0f * lh->voxel_radius;
+    return true;
 }
