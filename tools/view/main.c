@@ -32,11 +32,13 @@ typedef struct viewer {
     double frame_s, fps, mrays;
     int shots;
     char status[160]; /* a transient message (screenshots, errors) */
+    float lod;          /* pixels of error (0: exact) */
+    prt_cache_info cache; /* after the last frame (out-of-core files) */
 } viewer;
 
 static int usage(void) {
     printf("usage: packrt-view MESH|FILE.prt [-r SPEC] [--mesh MESH] [--size WxH] [--shade MODE]\n"
-           "                   [--spp N] [--threads N] [--frames N] [--screenshot F.png]\n"
+           "                   [--spp N] [--threads N] [--frames N] [--screenshot F.png] [--lod P]\n"
            "\n"
            "Fly through a mesh rendered by prt_render (docs/render.md).\n"
            "  W A S D      move          Q E / PgDn PgUp   down, up      Shift  4x faster\n"
@@ -46,6 +48,9 @@ static int usage(void) {
            "  F12 or P     screenshot to packrt-view-N.png (the rendered frame; with Shift: the\n"
            "               window, HUD included)\n"
            "  H            hide or show the help   Esc  quit\n"
+           "  --lod P      levels of detail: voxels covering at most P pixels (default 3 for\n"
+           "               out-of-core files, which load progressively: the HUD shows the\n"
+           "               working set and loading; 0 elsewhere: exact)\n"
            "  --frames N   render N frames and exit; runs headless under Xvfb. With\n"
            "               --screenshot F.png the last rendered frame is saved, with\n"
            "               --screenshot-window F.png the window (HUD included)\n");
@@ -101,9 +106,9 @@ static bool save_window(viewer *v, SDL_Renderer *r, const char *path) {
 
 static void draw_hud(SDL_Renderer *r, const viewer *v, bool help) {
     char l[4][160];
-    const char *lines[4] = {l[0], l[1], l[2], l[3]};
+    const char *lines[5] = {l[0], l[1], l[2], l[3], NULL};
     snprintf(l[0], sizeof l[0], "%s  [%s]%s", prt_accel_spec(v->accel), prt_shade_name(v->shade),
-             v->mesh ? "" : "  (.prt alone: normals estimated)");
+             v->mesh || v->lod > 0.0f ? "" : "  (.prt alone: normals estimated)");
     /* fps counts frames drawn (none while a refined view stands still); the frame time is
      * what the last frame cost. */
     snprintf(l[1], sizeof l[1], "%5.1f fps  frame %.0f ms  %6.2f Mrays/s  %ux%u (scale %.2f)  %s",
@@ -120,8 +125,22 @@ static void draw_hud(SDL_Renderer *r, const viewer *v, bool help) {
              (double)(v->stats.bytes_tree + v->stats.bytes_geometry + v->stats.bytes_other) / tris,
              (double)v->stats.bytes_tree / tris, (double)v->stats.bytes_geometry / tris,
              v->stats.triangles, (double)ws / 1048576.0);
-    snprintf(l[3], sizeof l[3], "%s", v->status);
-    view_hud_draw(r, lines, v->status[0] ? 4 : 3, false);
+    char l4[160];
+    int n = 3;
+    if (v->cache.blocks) {
+        /* Out-of-core (Afra Fig. 2): what the frame touched, what is held, what is coming. */
+        snprintf(l4, sizeof l4, "LOD %.1f px  working set %.1f MB  resident %.1f / %.0f MB  loading %u  loaded %.0f%% of %llu blocks",
+                 v->lod, (double)v->cache.working_set_bytes / 1048576.0, (double)v->cache.resident_bytes / 1048576.0,
+                 (double)v->cache.cache_bytes / 1048576.0, v->cache.pending,
+                 100.0 * (double)v->cache.resident_bytes / 65536.0 / (double)v->cache.blocks,
+                 (unsigned long long)v->cache.blocks);
+        lines[n++] = l4;
+    }
+    if (v->status[0]) {
+        snprintf(l[3], sizeof l[3], "%s", v->status);
+        lines[n++] = l[3];
+    }
+    view_hud_draw(r, lines, n, false);
     if (help) {
         const char *keys[] = {
             "WASD QE move  mouse drag look  wheel speed  shift fast",
@@ -168,10 +187,16 @@ static int render_frame(viewer *v, int win_w, int win_h) {
     o.denoise = true;
     o.threads = v->threads;
     o.seed = 1;
+    o.lod_pixels = v->lod;
     prt_camera cam;
     view_fly_camera(&v->fly, &cam);
     prt_status s = prt_render(v->accel, v->mesh, &cam, &o, &v->img);
     if (s) return cli_fail("view", "render", s);
+    /* Between frames: blocks loaded meanwhile become visible, new requests are queued. While
+     * anything is requested or loading the view keeps redrawing, so it sharpens as blocks
+     * arrive. */
+    prt_accel_frame(v->accel, &v->cache);
+    if (v->cache.requested || v->cache.pending) v->dirty = true;
     v->frame_s = v->img.seconds;
     v->mrays = (double)v->img.rays / fmax(v->img.seconds, 1e-9) * 1e-6;
     if (!v->refine) {
@@ -321,6 +346,7 @@ int main(int argc, char **argv) {
                *window_shot = NULL;
     int win_w = 960, win_h = 540;
     long frames = 0;
+    bool lod_given = false;
     viewer v;
     memset(&v, 0, sizeof v);
     v.shade = PRT_SHADE_SHADOWS;
@@ -367,6 +393,11 @@ int main(int argc, char **argv) {
 
     int rc = cli_open_accel("view", path, spec, DEFAULT_SPEC, &v.mesh, &v.accel);
     if (rc) return rc;
+    /* Out-of-core files render with levels of detail unless told otherwise (3 pixels, as
+     * the paper's tables). */
+    prt_cache_info probe;
+    prt_accel_frame(v.accel, &probe);
+    if (!lod_given && probe.blocks) v.lod = 3.0f;
     if (mesh_path && !v.mesh) {
         prt_status s = prt_mesh_load(mesh_path, &v.mesh);
         if (s) {
