@@ -176,7 +176,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             if (!(w0 & OOC_INNER)) {
                 bool ok = leaf(w, &rx, w0, w1, hit, any, &found);
                 if (!ok && w->lod) VOXEL_HIT();
-                if (found && (any || hit->t <= tmax)) {
+                if (found && (any || hit->t < tmax)) { /* at tmax exactly, a tie may lie beyond */
                     finish(w);
                     return true;
                 }
@@ -223,20 +223,24 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             float t = (split - rx.org[axis]) * rx.inv[axis];
             float t_back = t, t_front = t;
             int front = rx.dir[axis] > 0.0f ? 0 : 1;
+            bool front_only = t > tmax;
             if (rx.dir[axis] == 0.0f) {
                 front = rx.org[axis] < split ? 0 : 1;
-                t = INFINITY;
-                if (rx.org[axis] == split) t = 0.5f * (tmin + tmax), t_back = tmin, t_front = tmax, front = 0;
+                front_only = true;
+                if (rx.org[axis] == split) front_only = false, t = tmin, t_back = tmin, t_front = tmax, front = 0;
             }
             const int back = 1 - front;
             depth++;
-            if (!(t < tmax)) {
+            /* Strict comparisons: a plane crossed exactly at the segment's end visits both
+             * sides, so a cell of zero thickness (an empty-space cut on each side of a flat
+             * group of triangles) is not stepped over. */
+            if (front_only) {
                 if (!has[front]) {
                     pop = true;
                     break;
                 }
                 off = kid[front];
-            } else if (t <= tmin) {
+            } else if (t < tmin) {
                 if (!has[back]) {
                     pop = true;
                     break;
@@ -276,7 +280,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                 return found;
             }
             entry *e = &stack[--sp];
-            if (found && hit->t <= e->tmin) continue;
+            if (found && hit->t < e->tmin) continue;
             block = e->block, off = e->off, tmin = e->tmin, tmax = e->tmax, axis_in = e->axis;
             nvox = e->nvox;
             memcpy(vox, e->vox, sizeof vox);
