@@ -76,6 +76,49 @@ TEST(test_streamed_build_and_small_cache_answer_exactly) {
     prt_mesh_free(m);
 }
 
+/* Axis-aligned flat faces (boxes, walls and floors) make empty-space cuts on both sides of
+ * a plane full of triangles, leaving cells of zero thickness: rays from inside the scene,
+ * in every direction, must still find what a BVH finds (a coplanar tie may name another
+ * triangle at the same distance). */
+TEST(test_flat_axis_aligned_scenes_from_inside) {
+    const char *kinds[] = {"cad", "level"};
+    for (int k = 0; k < 2; k++) {
+        prt_mesh *m;
+        CHECK_OK(prt_mesh_generate(kinds[k], 30000, 4, &m));
+        prt_accel *a = NULL, *ref = NULL;
+        CHECK_OK(prt_build(m, "ooc", NULL, &a));
+        CHECK_OK(prt_build(m, "aabb:float3", NULL, &ref));
+        float lo[3], hi[3];
+        prt_mesh_bounds(m, lo, hi);
+        size_t differ = 0, hits = 0;
+        uint64_t x = 88172645463325252ull;
+        for (int i = 0; a && ref && i < 20000; i++) {
+            prt_ray r;
+            for (int c = 0; c < 3; c++) {
+                x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+                r.org[c] = lo[c] + (hi[c] - lo[c]) * (float)(x >> 40) / (float)(1 << 24);
+                x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+                r.dir[c] = (float)(x >> 40) / (float)(1 << 23) - 1.0f;
+            }
+            /* Some rays exactly axis-parallel, as walls and floors invite. */
+            if (i % 7 == 0) r.dir[i % 3] = 0.0f, r.dir[(i + 1) % 3] = 0.0f;
+            if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[1] = 1.0f;
+            r.tnear = 0.0f, r.tfar = INFINITY;
+            prt_ray r2 = r;
+            prt_hit h1, h2;
+            prt_intersect1(a, &r, &h1);
+            prt_intersect1(ref, &r2, &h2);
+            hits += h2.prim != PRT_INVALID;
+            if (h1.t != h2.t && (h1.prim != PRT_INVALID || h2.prim != PRT_INVALID) &&
+                !(h1.prim != PRT_INVALID && h2.prim != PRT_INVALID && fabsf(h1.t - h2.t) <= 1e-6f * h2.t) && differ++ < 3)
+                fprintf(stderr, "  %s ray %d: ooc prim %u t %.9g, aabb:float3 prim %u t %.9g\n", kinds[k], i, h1.prim, h1.t,
+                        h2.prim, h2.t);
+        }
+        CHECK_MSG(differ == 0 && hits > 5000, "%s: %zu of 20000 rays differ (%zu hits)", kinds[k], differ, hits);
+        prt_accel_free(a), prt_accel_free(ref), prt_mesh_free(m);
+    }
+}
+
 /* With a huge error bound every ray that meets the surface stops at a voxel no farther
  * than the surface, with a unit normal; with no error bound and every block loaded, LOD
  * queries are exact. */
@@ -250,6 +293,7 @@ TEST(test_bad_input_is_an_error) {
 
 int main(void) {
     RUN(test_streamed_build_and_small_cache_answer_exactly);
+    RUN(test_flat_axis_aligned_scenes_from_inside);
     RUN(test_lod_queries_stop_at_voxels_that_contain_the_surface);
     RUN(test_fetchers_load_requested_blocks_between_frames);
     RUN(test_progressive_lod_render_converges_to_the_exact_image);
