@@ -2,6 +2,7 @@
 #include "ooc/ooc_build.h"
 
 #include "mesh/gen.h"
+#include "mesh/ply_stream.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,13 +44,28 @@ prt_status ooc_build_mesh(const prt_mesh *m, ooc_build_job *job, ooc_header *h, 
     return s;
 }
 
+typedef struct file_ctx {
+    const char *path;
+    uint64_t budget;
+} file_ctx;
+
+static prt_status file_producer(void *ctx, tri_sink_fn sink, void *user) {
+    const file_ctx *f = ctx;
+    return mesh_ply_stream(f->path, (size_t)f->budget, sink, user, NULL);
+}
+
 prt_status ooc_build_file(const char *mesh_path, ooc_build_job *job, ooc_header *h) {
-    /* Until the PLY stream reader lands, the mesh is read whole. */
-    prt_mesh *m;
-    prt_status s = prt_mesh_load(mesh_path, &m);
-    if (s) return s;
-    s = ooc_build_mesh(m, job, h, NULL, NULL);
-    prt_mesh_free(m);
+    char prefix[4096];
+    tmp_prefix(prefix, sizeof prefix, job->out_path);
+    job->tmp_prefix = prefix;
+    /* The reader holds the vertex array (a face may name any vertex): a quarter of the
+     * budget, the rest is the builder's. */
+    uint64_t budget = job->memory_budget ? job->memory_budget : (uint64_t)4 << 30;
+    file_ctx f = {mesh_path, budget / 4};
+    ooc_build_job own = *job;
+    own.memory_budget = budget - budget / 4;
+    prt_status s = ooc_build(file_producer, &f, &own, h, NULL, NULL);
+    job->tmp_prefix = NULL;
     return s;
 }
 
@@ -68,8 +84,12 @@ prt_status ooc_build_generated(const char *kind, uint64_t triangles, uint64_t se
     job->tmp_prefix = prefix;
     prt_status s;
     if (!strcmp(kind, "mandelbulb")) {
-        gen_ctx g = {triangles, seed, job->memory_budget ? job->memory_budget : (uint64_t)4 << 30};
-        s = ooc_build(gen_producer, &g, job, h, NULL, NULL);
+        /* The generator's bricks in flight get a quarter of the budget, the builder the rest. */
+        uint64_t budget = job->memory_budget ? job->memory_budget : (uint64_t)4 << 30;
+        gen_ctx g = {triangles, seed, budget};
+        ooc_build_job own = *job;
+        own.memory_budget = budget - budget / 4;
+        s = ooc_build(gen_producer, &g, &own, h, NULL, NULL);
     } else {
         prt_mesh *m;
         if ((s = prt_mesh_generate(kind, (size_t)triangles, seed, &m))) return s;
