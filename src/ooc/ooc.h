@@ -18,6 +18,7 @@
 #define OOC_MAX_BLOCKS (1u << 26) /* block ids are 26 bits in LOD nodes: 4 TiB of blocks */
 #define OOC_MAX_DEPTH 96       /* kd depth limit (build and traversal stack) */
 #define OOC_MAX_LEAF 255       /* triangles a leaf can name (8-bit count, Table 4) */
+#define OOC_LEVELS (OOC_MAX_DEPTH / 3 + 2) /* treelet levels */
 #define OOC_TREELET_MAX 256    /* bytes: 7 nodes of at most 16 bytes and 4 voxels of 24 */
 
 enum { OOC_BLOCK_NODES = 1, OOC_BLOCK_TRIS = 2 };

@@ -38,11 +38,16 @@ struct ooc_writer {
     uint64_t offset;       /* next block's file offset */
     ooc_block_entry *table;
     uint32_t nblocks, tcap;
-    uint32_t node_id; /* open node block */
-    uint32_t node_used;
-    uint8_t node[OOC_BLOCK];
+    /* One open node block per treelet level (kd depth / 3), as §4.3 groups blocks by LOD
+     * level: a ray that stops at a level's voxels loads blocks of that level only, not
+     * the finer treelets of neighbouring subtrees. Ids are taken when a block is flushed. */
+    struct open_nodes {
+        uint32_t used;
+        uint8_t *bytes; /* OOC_BLOCK, allocated on first use */
+    } level[OOC_LEVELS];
     open_tris *tris;
     char *zbuf;
+    uint32_t level_id[OOC_LEVELS];
     ooc_header counts;
 };
 
@@ -92,11 +97,13 @@ static prt_status flush_block(ooc_writer *w, uint32_t id, const uint8_t *raw, ui
     return emit(w, stored, e->size);
 }
 
-static prt_status flush_nodes(ooc_writer *w) {
-    if (!w->node_used) return PRT_OK;
-    prt_status s = flush_block(w, w->node_id, w->node, w->node_used);
-    w->node_used = 0;
-    return s ? s : new_block(w, OOC_BLOCK_NODES, &w->node_id);
+/* Flush level L's open block; its id was reserved when its first treelet came in. */
+static prt_status flush_nodes(ooc_writer *w, int L) {
+    struct open_nodes *o = &w->level[L];
+    if (!o->used) return PRT_OK;
+    prt_status s = flush_block(w, w->level_id[L], o->bytes, o->used);
+    o->used = 0;
+    return s;
 }
 
 static uint32_t tri_section(const open_tris *t) { return (4 + t->list_bytes + 3) & ~3u; }
@@ -140,7 +147,6 @@ prt_status ooc_writer_open(ooc_writer **out, const char *path) {
     }
     static const uint8_t zero[OOC_HEADER_BYTES];
     prt_status s = emit(w, zero, sizeof zero); /* the header is written last */
-    if (!s) s = new_block(w, OOC_BLOCK_NODES, &w->node_id);
     if (!s) s = new_block(w, OOC_BLOCK_TRIS, &w->tris->id);
     if (s) {
         ooc_writer_free(w);
@@ -157,6 +163,7 @@ void ooc_writer_free(ooc_writer *w) {
     prt__free(w->table);
     prt__free(w->tris);
     prt__free(w->zbuf);
+    for (int L = 0; L < OOC_LEVELS; L++) prt__free(w->level[L].bytes);
     prt__free(w);
 }
 
@@ -246,22 +253,28 @@ static uint32_t node_bytes(const ooc_fnode *n, int level) {
     return n->kind == OOC_F_INNER && level == 2 ? 16 : 8;
 }
 
-/* Place a pair of pending treelets (either may be empty) side by side in a node block. */
-static prt_status place_pair(ooc_writer *w, const ooc_pending *a, const ooc_pending *b, uint32_t *block, uint32_t off[2]) {
+/* Place a pair of pending treelets (either may be empty) side by side in the open node
+ * block of their level. */
+static prt_status place_pair(ooc_writer *w, int L, const ooc_pending *a, const ooc_pending *b, uint32_t *block,
+                             uint32_t off[2]) {
     uint32_t need = (a ? a->size : 0) + (b ? b->size : 0);
+    struct open_nodes *o = &w->level[L];
     prt_status s;
-    if (w->node_used + need > OOC_BLOCK && (s = flush_nodes(w))) return s;
-    *block = w->node_id;
+    if (!o->bytes && !(o->bytes = prt__alloc(OOC_BLOCK))) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a node block");
+    if (o->used + need > OOC_BLOCK && (s = flush_nodes(w, L))) return s;
+    if (o->used == 0 && (s = new_block(w, OOC_BLOCK_NODES, &w->level_id[L]))) return s;
+    *block = w->level_id[L];
     const ooc_pending *p[2] = {a, b};
     for (int k = 0; k < 2; k++) {
-        off[k] = w->node_used;
-        if (p[k]) memcpy(w->node + w->node_used, p[k]->bytes, p[k]->size), w->node_used += p[k]->size;
+        off[k] = o->used;
+        if (p[k]) memcpy(o->bytes + o->used, p[k]->bytes, p[k]->size), o->used += p[k]->size;
     }
     return PRT_OK;
 }
 
 typedef struct lay {
     ooc_writer *w;
+    int child_level; /* treelet level of the LOD nodes' children */
     const ooc_frag *f;
     ooc_pending *out;
     uint32_t pos;               /* next node byte */
@@ -320,7 +333,7 @@ static prt_status lay_node(lay *L, int i, int level) {
         p[k] = &L->f->pend[L->f->node[c].ext];
     }
     uint32_t block, off[2];
-    prt_status s = place_pair(L->w, p[0], p[1], &block, off);
+    prt_status s = place_pair(L->w, L->child_level, p[0], p[1], &block, off);
     if (s) return s;
     uint32_t left = p[0] ? off[0] : off[1];
     w0 |= OOC_LOD | left | ((off[1] - left) / 4) << 18 | (p[0] ? OOC_LEFT : 0) | (p[1] ? OOC_RIGHT : 0);
@@ -340,8 +353,8 @@ static prt_status lay_node(lay *L, int i, int level) {
 }
 
 /* Lay out fragment f (a treelet rooted at its node 0) into one pending treelet. */
-static prt_status lay_treelet(ooc_writer *w, const ooc_frag *f, ooc_pending *out) {
-    lay L = {.w = w, .f = f, .out = out};
+static prt_status lay_treelet(ooc_writer *w, uint32_t depth, const ooc_frag *f, ooc_pending *out) {
+    lay L = {.w = w, .f = f, .out = out, .child_level = (int)PRT_MIN(depth / 3 + 1, (uint32_t)OOC_LEVELS - 1)};
     memset(out, 0, sizeof *out);
     prt_status s = lay_node(&L, 0, 0);
     if (s) return s;
@@ -363,7 +376,7 @@ static prt_status lay_treelet(ooc_writer *w, const ooc_frag *f, ooc_pending *out
 static prt_status wrap(ooc_writer *w, uint32_t depth, ooc_frag *f) {
     if (depth % 3 != 0 || f->count == 0) return PRT_OK;
     ooc_pending p;
-    prt_status s = lay_treelet(w, f, &p);
+    prt_status s = lay_treelet(w, depth, f, &p);
     if (s) return s;
     ooc_fnode root = f->node[0];
     memset(f, 0, sizeof *f);
@@ -439,13 +452,13 @@ prt_status ooc_writer_finish(ooc_writer *w, const ooc_frag *root, ooc_header *h,
     if (!root->count || root->node[0].kind != OOC_F_EXT)
         return prt__fail(PRT_ERROR_MESH, "the block file has no triangles that can be hit");
     uint32_t block, off[2];
-    prt_status s = place_pair(w, &root->pend[root->node[0].ext], NULL, &block, off);
-    if (!s) s = flush_nodes(w);
+    prt_status s = place_pair(w, 0, &root->pend[root->node[0].ext], NULL, &block, off);
+    for (int L = 0; L < OOC_LEVELS && !s; L++) s = flush_nodes(w, L);
     if (!s) s = flush_tris(w);
     if (s) return s;
-    /* The open node and triangle blocks hold nothing: empty entries, dropped at the end. */
-    uint32_t empty[2] = {w->node_id, w->tris->id};
-    for (int k = 0; k < 2; k++) w->table[empty[k]].offset = w->offset, w->table[empty[k]].size = 0, w->table[empty[k]].raw = 0;
+    /* The open triangle block holds nothing: an empty entry, dropped when it is the last. */
+    ooc_block_entry *e = &w->table[w->tris->id];
+    e->offset = w->offset, e->size = 0, e->raw = 0;
     while (w->nblocks && w->table[w->nblocks - 1].raw == 0) w->nblocks--;
     memcpy(h->magic, OOC_MAGIC, 8);
     h->version = OOC_VERSION;
