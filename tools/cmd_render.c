@@ -328,6 +328,7 @@ int cmd_render(int argc, char **argv) {
     prt_mesh *m = NULL;
     prt_accel *a;
     int rc = 0;
+    const double t_open = omp_get_wtime(); /* "first image after opening the file" counts from here */
     if (spec && !strcmp(spec, "embree")) {
         prt_status s = PRT_OK;
         if (cli_is_prt_file(path))
@@ -358,11 +359,13 @@ int cmd_render(int argc, char **argv) {
                 path);
     }
     prt_image img = {0};
-    double t;
+    double t = 0;
     if (o.lod_pixels > 0.0f) {
         /* Progressive: each frame uses the blocks loaded so far and asks for more; the cache
          * update between frames (Afra 5.3) hands the requests to the fetcher threads. */
-        double t0 = omp_get_wtime(), first = 0;
+        double first = 0;
+        int steady = 0; /* frames rendered after convergence, for the median (--repeat) */
+        double tsteady[64];
         for (int f = 0; f < frames && !rc; f++) {
             prt_status s = prt_render(a, m, camp, &o, &img);
             if (s) {
@@ -371,15 +374,28 @@ int cmd_render(int argc, char **argv) {
             }
             prt_cache_info ci;
             prt_accel_frame(a, &ci);
-            if (f == 0) first = omp_get_wtime() - t0;
-            printf("frame %3d: %.3f s, %.2f Mrays/s, working set %.1f MB, resident %.1f MB, requested %u, loading %u\n", f + 1,
-                   img.seconds, (double)img.rays / img.seconds * 1e-6, (double)ci.working_set_bytes / 1e6,
-                   (double)ci.resident_bytes / 1e6, ci.requested, ci.pending);
+            double since = omp_get_wtime() - t_open;
+            /* The first image with something on it: frame 1 has no block loaded at all. */
+            if (!first && ci.working_set_bytes) first = since;
+            printf("frame %3d: %.3f s, %.2f Mrays/s, working set %.1f MB, resident %.1f MB, requested %u, loading %u, "
+                   "%.2f s since opening\n",
+                   f + 1, img.seconds, (double)img.rays / img.seconds * 1e-6, (double)ci.working_set_bytes / 1e6,
+                   (double)ci.resident_bytes / 1e6, ci.requested, ci.pending, since);
             t = img.seconds;
-            if (ci.requested == 0 && ci.pending == 0) break;
-            if (ci.requested == 0) usleep(2000); /* only loads in flight: let them land */
+            if (ci.requested == 0 && ci.pending == 0) {
+                /* Converged: time --repeat more frames of the same view and keep the median. */
+                if (steady < 64) tsteady[steady] = img.seconds;
+                if (++steady >= repeat) break;
+            } else if (ci.requested == 0)
+                usleep(2000); /* only loads in flight: let them land */
         }
-        printf("first image %.3f s after opening the frame loop, last frame after %.3f s\n", first, omp_get_wtime() - t0);
+        if (steady > 1) {
+            int n = steady < 64 ? steady : 64;
+            qsort(tsteady, (size_t)n, sizeof tsteady[0], cmp_double);
+            t = n % 2 ? tsteady[n / 2] : 0.5 * (tsteady[n / 2 - 1] + tsteady[n / 2]);
+        }
+        printf("first image %.3f s after opening the file; converged after %.3f s; median of %d converged frames %.3f s\n",
+               first, omp_get_wtime() - t_open, steady, t);
         prt_status ck = rc ? PRT_OK : prt_accel_check(a);
         if (ck) rc = cli_fail("render", path, ck);
     } else {

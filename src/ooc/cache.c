@@ -116,7 +116,9 @@ const uint8_t *ooc_cache_get(ooc_cache *c, uint32_t b, uint32_t *size) {
     for (;;) {
         uint32_t s = atomic_load_explicit(&c->map[b], memory_order_acquire);
         if (s && pin(c, b, s - 1)) {
-            atomic_store_explicit(&c->slots[s - 1].stamp, atomic_load_explicit(&c->frame, memory_order_relaxed), memory_order_relaxed);
+            uint32_t f = atomic_load_explicit(&c->frame, memory_order_relaxed);
+            if (atomic_load_explicit(&c->slots[s - 1].stamp, memory_order_relaxed) != f)
+                atomic_store_explicit(&c->slots[s - 1].stamp, f, memory_order_relaxed);
             return slot_ptr(c, s - 1);
         }
         if (atomic_load(&c->bstate[b]) == BLOCK_BAD) return NULL;
@@ -172,7 +174,11 @@ const uint8_t *ooc_cache_try(ooc_cache *c, uint32_t b, uint32_t *size) {
     /* No pin: during a frame only exact queries evict, and they are not mixed with it. */
     uint32_t s = atomic_load_explicit(&c->map[b], memory_order_acquire);
     if (s) {
-        atomic_store_explicit(&c->slots[s - 1].stamp, atomic_load_explicit(&c->frame, memory_order_relaxed), memory_order_relaxed);
+        /* Store only when it changes: a shared line written by every ray would bounce
+         * between the cores. */
+        uint32_t f = atomic_load_explicit(&c->frame, memory_order_relaxed);
+        if (atomic_load_explicit(&c->slots[s - 1].stamp, memory_order_relaxed) != f)
+            atomic_store_explicit(&c->slots[s - 1].stamp, f, memory_order_relaxed);
         return slot_ptr(c, s - 1);
     }
     if (atomic_fetch_add_explicit(&c->want[b], 1, memory_order_relaxed) == 0) {

@@ -22,7 +22,7 @@ _Static_assert(sizeof(ooc_tri) == 12, "triangles are 12 bytes (§4.6)");
 
 #define DEFAULT_CACHE ((uint64_t)1 << 30)
 #define DEFAULT_FETCHERS 4
-#define OOC_VERIFY_AT_OPEN ((uint64_t)256 << 20)
+#define OOC_VERIFY_AT_OPEN ((uint64_t)16 << 20) /* reading more would delay the first image */
 
 prt_status ooc_parse_spec(prt_spec *spec, ooc_build_params *p) {
     int leaf, cut;
