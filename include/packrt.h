@@ -350,6 +350,10 @@ typedef struct prt_lod_hit {
  * used after the next prt_accel_frame). Returns true on a hit (r->tfar shrinks to it).
  * Other representations answer exactly (as prt_intersect1). */
 bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h);
+/* prt_intersect_lod for n rays, traced as packets of 4x4 where the representation has them
+ * ("ooc": 16 consecutive rays with the same direction signs walk the tree together, §6.1):
+ * the same answers as one call per ray. */
+void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hits, uint32_t n, float error);
 /* Any-hit with levels of detail: a voxel blocks the ray as a triangle does. */
 bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error);
 

@@ -163,6 +163,74 @@ TEST(test_lod_queries_stop_at_voxels_that_contain_the_surface) {
     prt_mesh_free(m);
 }
 
+/* Packets of 4x4 give each ray the answer it gets alone, at every error bound: coherent
+ * camera rays (a 64x64 image in 4x4 blocks) and incoherent random ones, some with a zero
+ * direction component (traced alone inside the packet). */
+TEST(test_lod_packets_answer_as_single_rays) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("mandelbulb", 60000, 3, &m));
+    prt_accel *a = NULL;
+    CHECK_OK(prt_build(m, "ooc", NULL, &a));
+    if (!a) {
+        prt_mesh_free(m);
+        return;
+    }
+    enum { N = 4096 };
+    prt_ray *rays = malloc(N * sizeof *rays), *r1 = malloc(N * sizeof *r1);
+    prt_lod_hit *hp = malloc(N * sizeof *hp);
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    prt_camera cam;
+    prt_camera_default(lo, hi, &cam);
+    prt_ray *rnd = rays_random(m, N, 5);
+    const float errors[] = {0.0f, 1e-3f, 1e-2f, 1e9f};
+    size_t differ = 0, voxels = 0;
+    for (int set = 0; set < 2; set++) {
+        for (int i = 0; i < N; i++) {
+            if (set == 0) { /* camera rays, 4x4 blocks of a 64x64 image in order */
+                int blk = i / 16, x = (blk % 16) * 4 + i % 4, y = (blk / 16) * 4 + (i % 16) / 4;
+                float d[3], u[3] = {0, 1, 0}, f[3], rt[3];
+                for (int k = 0; k < 3; k++) f[k] = cam.target[k] - cam.eye[k];
+                rt[0] = f[1] * u[2] - f[2] * u[1], rt[1] = f[2] * u[0] - f[0] * u[2], rt[2] = f[0] * u[1] - f[1] * u[0];
+                float fl = sqrtf(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]), rl = sqrtf(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
+                for (int k = 0; k < 3; k++)
+                    d[k] = f[k] / fl + 0.36f * ((x + 0.5f) / 32.0f - 1.0f) * rt[k] / rl + 0.36f * (1.0f - (y + 0.5f) / 32.0f) * u[k];
+                rays[i] = (prt_ray){{cam.eye[0], cam.eye[1], cam.eye[2]}, 0.0f, {d[0], d[1], d[2]}, INFINITY};
+            } else {
+                rays[i] = rnd[i];
+                if (i % 5 == 0) rays[i].dir[i % 3] = 0.0f;
+            }
+        }
+        for (size_t e = 0; e < COUNT_OF(errors); e++) {
+            /* Warm the cache with exact queries, so LOD answers depend on the error only. */
+            for (int i = 0; i < N; i++) {
+                prt_ray q = rays[i];
+                prt_hit h;
+                prt_intersect1(a, &q, &h);
+            }
+            memcpy(r1, rays, N * sizeof *r1);
+            prt_intersect_lod_packet(a, r1, hp, N, errors[e]);
+            for (int i = 0; i < N; i++) {
+                prt_ray q = rays[i];
+                prt_lod_hit hs;
+                prt_intersect_lod(a, &q, errors[e], &hs);
+                voxels += hs.hit.prim == PRT_VOXEL_HIT;
+                if (hs.hit.prim != hp[i].hit.prim || (hs.hit.prim != PRT_INVALID && (hs.hit.t != hp[i].hit.t ||
+                    memcmp(hs.normal, hp[i].normal, sizeof hs.normal)))) {
+                    if (differ++ < 3)
+                        fprintf(stderr, "  set %d error %g ray %d: single prim %u t %.9g, packet prim %u t %.9g\n", set,
+                                (double)errors[e], i, hs.hit.prim, (double)hs.hit.t, hp[i].hit.prim, (double)hp[i].hit.t);
+                }
+            }
+        }
+    }
+    CHECK_MSG(differ == 0, "%zu packet answers differ from single rays", differ);
+    CHECK_MSG(voxels > 1000, "only %zu voxel answers: the LOD bound was not exercised", voxels);
+    free(rays), free(r1), free(hp), free(rnd);
+    prt_accel_free(a);
+    prt_mesh_free(m);
+}
+
 /* Opened from disk, LOD queries see nothing loaded at first; the fetchers load what they
  * ask for between frames, and after enough frames the answers are the exact ones. */
 TEST(test_fetchers_load_requested_blocks_between_frames) {
@@ -295,6 +363,7 @@ int main(void) {
     RUN(test_streamed_build_and_small_cache_answer_exactly);
     RUN(test_flat_axis_aligned_scenes_from_inside);
     RUN(test_lod_queries_stop_at_voxels_that_contain_the_surface);
+    RUN(test_lod_packets_answer_as_single_rays);
     RUN(test_fetchers_load_requested_blocks_between_frames);
     RUN(test_progressive_lod_render_converges_to_the_exact_image);
     RUN(test_bad_input_is_an_error);

@@ -152,6 +152,16 @@ bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit 
     return h->hit.prim != PRT_INVALID;
 }
 
+void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hits, uint32_t n, float error) {
+    bool valid = true;
+    for (uint32_t i = 0; i < n && valid; i++) valid = prt__ray_valid(&rays[i]);
+    if (valid && a->ops->lod_packet) {
+        a->ops->lod_packet(a, rays, hits, n, error);
+        return;
+    }
+    for (uint32_t i = 0; i < n; i++) prt_intersect_lod(a, &rays[i], error, &hits[i]);
+}
+
 bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
     if (PRT_UNLIKELY(!prt__ray_valid(r))) return false;
     if (a->ops->lod_query) {

@@ -290,6 +290,7 @@ const prt_accel_ops prt__ooc_ops = {
     .load = ooc_load,
     .destroy = ooc_destroy,
     .lod_query = lod_query,
+    .lod_packet = ooc_intersect_lod_packet,
     .frame = ooc_frame,
     .check = ooc_check,
 };

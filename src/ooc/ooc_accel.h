@@ -20,6 +20,9 @@ typedef struct ooc_accel {
 void ooc_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 bool ooc_occluded1(const prt_accel *a, const prt_ray *r);
 bool ooc_intersect_lod(const prt_accel *a, prt_ray *r, float C, bool any, prt_lod_hit *out);
+/* Closest LOD hits of n rays, 16 at a time as packets (rays whose direction signs differ
+ * from the packet's are traced alone); the same answers as ooc_intersect_lod. */
+void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
 
 /* Open a block file image (memory) or file (fd >= 0); checks header and table. */
 prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file_size, const char *name,

@@ -245,12 +245,14 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                     pop = true;
                     break;
                 }
-                off = kid[back];
-                axis_in = axis;
+                off = kid[back]; /* entered before the plane: the entry face is the cell's */
             } else {
                 if (has[back]) {
+                    /* The back part is entered through the plane (§6.1's entry axis), unless
+                     * the plane is crossed exactly where the segment starts. */
                     entry *e = &stack[sp++];
-                    e->block = child_block, e->off = kid[back], e->tmin = t_back, e->tmax = tmax, e->axis = axis;
+                    e->block = child_block, e->off = kid[back], e->tmin = t_back, e->tmax = tmax;
+                    e->axis = t_back > tmin ? axis : axis_in;
                     e->nvox = nvox, e->depth = depth;
                     memcpy(e->vox, vox, sizeof vox);
                 }
@@ -333,4 +335,333 @@ bool ooc_intersect_lod(const prt_accel *acc, prt_ray *r, float C, bool any, prt_
         }
     }
     return true;
+}
+
+/* --- 4x4 packets (§6.1: primary rays in packets of 4x4, Wald 2004) ----------------------
+ * The rays of a packet share their direction signs, so they visit a node's children in the
+ * same order: one walk fetches each node and block once for all of them, with a segment
+ * [tmin, tmax] and an entry axis per ray, and a mask of the rays still looking. A ray
+ * leaves the mask when it stops at a voxel (its own LOD test) or finds its hit in front of
+ * its segment's end. */
+
+#define PK 16
+
+typedef struct pentry {
+    uint32_t block, off;
+    uint32_t mask;
+    int depth, nvox;
+    uint32_t vox[6];
+    float vox_radius;
+    float tmin[PK], tmax[PK];
+    int8_t axis[PK];
+} pentry;
+
+typedef struct packet_state {
+    prt__rayx rx[PK];
+    prt__hitx hit[PK];
+    uint32_t sample[PK];
+    float radius[PK];
+    float tn[PK][3];
+    uint16_t tcolor[PK];
+} packet_state;
+
+/* The rays of mask that stop at the current voxel (entering at tmin, through axis). */
+static uint32_t voxel_hits(packet_state *ps, uint32_t mask, const float *tmin, const int8_t *axis, int nvox,
+                           const uint32_t *vox, float vox_radius) {
+    if (!nvox) return 0;
+    uint32_t stopped = 0;
+    for (uint32_t m = mask; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        float t = fmaxf(tmin[i], ps->rx[i].tnear);
+        if (!(t < ps->hit[i].t)) continue;
+        ps->hit[i].t = t, ps->hit[i].prim = PRT_VOXEL_HIT, ps->hit[i].u = ps->hit[i].v = 0.0f;
+        int a = axis[i];
+        ps->sample[i] = vox[nvox == 6 ? 2 * a + (ps->rx[i].dir[a] < 0.0f) : 0];
+        ps->radius[i] = vox_radius;
+        stopped |= 1u << i;
+    }
+    return stopped;
+}
+
+/* Intersect a leaf's triangles with the rays of mask; false when its block is missing. */
+static bool packet_leaf(walker *w, packet_state *ps, uint32_t mask, uint32_t w0, uint32_t tb) {
+    uint32_t size;
+    const uint8_t *p = acquire(w, tb, OOC_BLOCK_TRIS, &size);
+    if (!p) return false;
+    uint16_t sec[2];
+    memcpy(sec, p, 4);
+    uint32_t list = w0 & 0xFFFF, n = (w0 >> 16) & 0xFF;
+    const uint32_t ntri = (uint32_t)(sec[1] - sec[0]) / sizeof(ooc_tri), nvert = (size - sec[1]) / 12;
+    if (n == 0) {
+        uint16_t n16 = 0;
+        if (list + 2 <= sec[0]) memcpy(&n16, p + list, 2);
+        n = n16, list += 2;
+    }
+    bool ok = list + 2 * n <= sec[0];
+    for (uint32_t j = 0; ok && j < n; j++) {
+        uint16_t ti;
+        memcpy(&ti, p + list + 2 * j, 2);
+        ooc_tri t;
+        if (ti >= ntri) break;
+        memcpy(&t, p + sec[0] + (size_t)ti * sizeof(ooc_tri), sizeof t);
+        if (t.v[0] >= nvert || t.v[1] >= nvert || t.v[2] >= nvert) {
+            ok = false;
+            break;
+        }
+        float v[3][3];
+        for (int k = 0; k < 3; k++) memcpy(v[k], p + sec[1] + 12u * t.v[k], 12);
+        for (uint32_t m = mask; m; m &= m - 1) {
+            int i = __builtin_ctz(m);
+            float tt, u, vv;
+            prt__hitx *h = &ps->hit[i];
+            if (!prt__tri_hit(&ps->rx[i], v[0], v[1], v[2], h->t, &tt, &u, &vv)) continue;
+            if (tt < h->t || t.prim < h->prim) {
+                h->t = tt, h->u = u, h->v = vv, h->prim = t.prim;
+                float e1[3], e2[3];
+                for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
+                ps->tn[i][0] = e1[1] * e2[2] - e1[2] * e2[1];
+                ps->tn[i][1] = e1[2] * e2[0] - e1[0] * e2[2];
+                ps->tn[i][2] = e1[0] * e2[1] - e1[1] * e2[0];
+                ps->tcolor[i] = t.color;
+            }
+        }
+    }
+    release(w, tb);
+    if (!ok) atomic_fetch_add(&w->a->cache.failures, 1);
+    return ok;
+}
+
+/* Walk the rays of `mask` (same direction signs, no zero component) through the tree. */
+static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin, float *tmax, int8_t *axis_in) {
+    static _Thread_local pentry stack[OOC_MAX_DEPTH + 2];
+    int sp = 0;
+    uint32_t block = w->a->h.root_block, off = w->a->h.root_offset;
+    int nvox = 0, depth = 0;
+    uint32_t vox[6] = {0};
+    float vox_radius = 0.0f;
+    for (;;) {
+        bool pop = false;
+        if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
+            mask &= ~voxel_hits(ps, mask, tmin, axis_in, nvox, vox, vox_radius);
+            pop = true;
+        }
+        while (!pop && mask) {
+            uint32_t w0, w1;
+            memcpy(&w0, w->blk + off, 4);
+            memcpy(&w1, w->blk + off + 4, 4);
+            if (!(w0 & OOC_INNER)) {
+                if (!packet_leaf(w, ps, mask, w0, w1)) {
+                    mask &= ~voxel_hits(ps, mask, tmin, axis_in, nvox, vox, vox_radius);
+                } else {
+                    /* Rays with a hit before their segment's end are done. */
+                    for (uint32_t m = mask; m; m &= m - 1) {
+                        int i = __builtin_ctz(m);
+                        if (ps->hit[i].prim != PRT_INVALID && ps->hit[i].t < tmax[i]) mask &= ~(1u << i);
+                    }
+                }
+                pop = true;
+                break;
+            }
+            const int axis = (int)(w0 & 3);
+            float split;
+            memcpy(&split, &w1, 4);
+            uint32_t base = off, child_block = block;
+            if (axis == 3 || depth >= OOC_MAX_DEPTH) {
+                atomic_fetch_add(&w->a->cache.failures, 1);
+                pop = true;
+                break;
+            }
+            if (w0 & OOC_LOD) {
+                if (off + 16 > w->size) {
+                    pop = true;
+                    break;
+                }
+                uint32_t w3;
+                float radius;
+                memcpy(&radius, w->blk + off + 8, 4);
+                memcpy(&w3, w->blk + off + 12, 4);
+                uint32_t vo = off + 4 * (w3 >> 26);
+                if (vo + 4 <= w->size) {
+                    uint32_t s0;
+                    memcpy(&s0, w->blk + vo, 4);
+                    nvox = (s0 >> 31) ? 1 : 6;
+                    if (vo + 4u * (uint32_t)nvox > w->size) nvox = 0;
+                    else memcpy(vox, w->blk + vo, 4u * (uint32_t)nvox);
+                    vox_radius = radius;
+                }
+                /* Each ray's own LOD test (§6.2). */
+                uint32_t small = 0;
+                for (uint32_t m = mask; m; m &= m - 1) {
+                    int i = __builtin_ctz(m);
+                    if (radius <= tmin[i] * w->C) small |= 1u << i;
+                }
+                if (small) mask &= ~voxel_hits(ps, small, tmin, axis_in, nvox, vox, vox_radius);
+                if (!mask) {
+                    pop = true;
+                    break;
+                }
+                child_block = w3 & ((1u << 26) - 1);
+                base = 0;
+            }
+            uint32_t left = base + (w0 & 0xFFFC), right = left + 4 * ((w0 >> 18) & 0x7FF);
+            bool has[2] = {(w0 & OOC_LEFT) != 0, (w0 & OOC_RIGHT) != 0};
+            uint32_t kid[2] = {left, right};
+            const int first = __builtin_ctz(mask);
+            const int front = ps->rx[first].dir[axis] > 0.0f ? 0 : 1, back = 1 - front;
+            /* Per ray: the front part [tmin, min(tmax, t)], the back part [max(tmin, t), tmax];
+             * strict comparisons as in walk(). */
+            uint32_t fmask = 0, bmask = 0;
+            float t[PK];
+            for (uint32_t m = mask; m; m &= m - 1) {
+                int i = __builtin_ctz(m);
+                t[i] = (split - ps->rx[i].org[axis]) * ps->rx[i].inv[axis];
+                if (!(t[i] < tmin[i])) fmask |= 1u << i;
+                if (!(t[i] > tmax[i])) bmask |= 1u << i;
+            }
+            if (!has[front]) fmask = 0;
+            if (!has[back]) bmask = 0;
+            depth++;
+            if (bmask && fmask) {
+                pentry *e = &stack[sp++];
+                e->block = child_block, e->off = kid[back], e->mask = bmask, e->depth = depth;
+                e->nvox = nvox, e->vox_radius = vox_radius;
+                memcpy(e->vox, vox, sizeof vox);
+                for (uint32_t m = bmask; m; m &= m - 1) {
+                    int i = __builtin_ctz(m);
+                    e->tmin[i] = fmaxf(tmin[i], t[i]), e->tmax[i] = tmax[i];
+                    e->axis[i] = (int8_t)(t[i] > tmin[i] ? axis : axis_in[i]);
+                }
+                for (uint32_t m = fmask; m; m &= m - 1) {
+                    int i = __builtin_ctz(m);
+                    tmax[i] = fminf(tmax[i], t[i]);
+                }
+                mask = fmask;
+                off = kid[front];
+            } else if (fmask) {
+                for (uint32_t m = fmask; m; m &= m - 1) {
+                    int i = __builtin_ctz(m);
+                    tmax[i] = fminf(tmax[i], t[i]);
+                }
+                mask = fmask;
+                off = kid[front];
+            } else if (bmask) {
+                /* Rays that cross the plane inside their segment enter the back part
+                 * through it; the others entered it where they entered the cell. */
+                for (uint32_t m = bmask; m; m &= m - 1) {
+                    int i = __builtin_ctz(m);
+                    if (t[i] > tmin[i]) axis_in[i] = (int8_t)axis;
+                    tmin[i] = fmaxf(tmin[i], t[i]);
+                }
+                mask = bmask;
+                off = kid[back];
+            } else {
+                pop = true;
+                break;
+            }
+            if (child_block != block) {
+                block = child_block;
+                if (!enter_block(w, block) || off + 8 > w->size) {
+                    mask &= ~voxel_hits(ps, mask, tmin, axis_in, nvox, vox, vox_radius);
+                    pop = true;
+                    break;
+                }
+            } else if (off + 8 > w->size) {
+                pop = true;
+                break;
+            }
+        }
+        /* Pop: the rays of the entry that are still looking and have no hit before it. */
+        for (;;) {
+            if (sp == 0) {
+                finish(w);
+                return;
+            }
+            pentry *e = &stack[--sp];
+            uint32_t m2 = 0;
+            for (uint32_t m = e->mask; m; m &= m - 1) {
+                int i = __builtin_ctz(m);
+                if (ps->hit[i].prim == PRT_VOXEL_HIT) continue; /* stopped at a voxel */
+                if (ps->hit[i].prim != PRT_INVALID && ps->hit[i].t < e->tmin[i]) continue;
+                m2 |= 1u << i;
+                tmin[i] = e->tmin[i], tmax[i] = e->tmax[i], axis_in[i] = e->axis[i];
+            }
+            if (!m2) continue;
+            mask = m2;
+            block = e->block, off = e->off, depth = e->depth, nvox = e->nvox, vox_radius = e->vox_radius;
+            memcpy(vox, e->vox, sizeof vox);
+            break;
+        }
+    }
+}
+
+void ooc_intersect_lod_packet(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C) {
+    const ooc_accel *a = (const ooc_accel *)acc;
+    for (uint32_t base = 0; base < n; base += PK) {
+        uint32_t cnt = PRT_MIN(n - base, (uint32_t)PK);
+        packet_state ps;
+        float tmin[PK], tmax[PK];
+        int8_t axis_in[PK];
+        uint32_t mask = 0, single = 0;
+        int sign[3] = {0, 0, 0};
+        for (uint32_t i = 0; i < cnt; i++) {
+            const prt_ray *r = &rays[base + i];
+            prt__rayx_init(&ps.rx[i], r);
+            ps.hit[i].t = r->tfar, ps.hit[i].prim = PRT_INVALID, ps.hit[i].u = ps.hit[i].v = 0.0f;
+            ps.tcolor[i] = 0, ps.tn[i][0] = ps.tn[i][1] = ps.tn[i][2] = 0.0f, ps.radius[i] = 0.0f;
+            /* Rays the packet cannot take: zero direction components, or signs that differ
+             * from the first ray's, are traced alone. */
+            bool alone = false;
+            for (int k = 0; k < 3; k++) {
+                int sg = r->dir[k] > 0.0f ? 1 : r->dir[k] < 0.0f ? -1 : 0;
+                if (sg == 0 || (sign[k] && sg != sign[k])) alone = true;
+                else if (!sign[k] && !alone) sign[k] = sg;
+            }
+            if (alone) {
+                single |= 1u << i;
+                continue;
+            }
+            /* Clip to the root cell. */
+            float lo = r->tnear, hi = r->tfar, best = -INFINITY;
+            int ax = 0;
+            for (int k = 0; k < 3; k++) {
+                float t0 = (a->h.bounds[k] - r->org[k]) * ps.rx[i].inv[k], t1 = (a->h.bounds[3 + k] - r->org[k]) * ps.rx[i].inv[k];
+                if (t0 > t1) {
+                    float s = t0;
+                    t0 = t1, t1 = s;
+                }
+                if (t0 > best) best = t0, ax = k;
+                lo = fmaxf(lo, t0), hi = fminf(hi, t1 * (t1 >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG));
+            }
+            tmin[i] = lo, tmax[i] = hi, axis_in[i] = (int8_t)ax;
+            if (lo <= hi) mask |= 1u << i;
+        }
+        if (mask) {
+            walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
+            packet_walk(&w, &ps, mask, tmin, tmax, axis_in);
+        }
+        for (uint32_t i = 0; i < cnt; i++) {
+            prt_ray *r = &rays[base + i];
+            prt_lod_hit *o = &out[base + i];
+            if (single >> i & 1) {
+                ooc_intersect_lod(acc, r, C, false, o);
+                continue;
+            }
+            memset(o, 0, sizeof *o);
+            o->hit.t = INFINITY, o->hit.prim = PRT_INVALID;
+            const prt__hitx *h = &ps.hit[i];
+            if (h->prim == PRT_INVALID) continue;
+            o->hit.t = h->t, o->hit.u = h->u, o->hit.v = h->v, o->hit.prim = h->prim;
+            r->tfar = h->t;
+            if (h->prim == PRT_VOXEL_HIT) {
+                ooc_sample_unpack(ps.sample[i], o->normal, o->color);
+                o->voxel_radius = ps.radius[i];
+            } else {
+                float l = sqrtf(ps.tn[i][0] * ps.tn[i][0] + ps.tn[i][1] * ps.tn[i][1] + ps.tn[i][2] * ps.tn[i][2]);
+                for (int k = 0; k < 3; k++) {
+                    o->normal[k] = l > 0.0f ? ps.tn[i][k] / l : 0.0f;
+                    o->color[k] = (float)((ps.tcolor[i] >> (5 * k)) & 31) / 31.0f;
+                }
+            }
+        }
+    }
 }

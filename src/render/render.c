@@ -41,11 +41,17 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             render_camera_ray(cam, (float)(x0 + i % w) + jx, (float)(y0 + i / w) + jy, &rays[i]);
         }
         if (j->scene->lod) {
-            for (uint32_t i = 0; i < n; i++) {
-                prt_ray q = rays[i];
-                prt_intersect_lod(j->scene->accel, &q, j->scene->lod_primary, &lods[i]);
-                hits[i] = lods[i].hit;
-            }
+            /* 4x4 packets (Afra §6.1): the tile's rays regrouped by 4x4 pixel blocks. */
+            prt_ray q[TILE * TILE];
+            prt_lod_hit qh[TILE * TILE];
+            uint32_t order[TILE * TILE], m = 0;
+            for (uint32_t by = 0; by < h; by += 4)
+                for (uint32_t bx = 0; bx < w; bx += 4)
+                    for (uint32_t y = by; y < by + 4 && y < h; y++)
+                        for (uint32_t x = bx; x < bx + 4 && x < w; x++) order[m++] = y * w + x;
+            for (uint32_t i = 0; i < n; i++) q[i] = rays[order[i]];
+            prt_intersect_lod_packet(j->scene->accel, q, qh, n, j->scene->lod_primary);
+            for (uint32_t i = 0; i < n; i++) lods[order[i]] = qh[i], hits[order[i]] = qh[i].hit;
         } else {
             prt_packet p = {rays, hits, n, w};
             prt_intersect_packet(j->scene->accel, &p);
