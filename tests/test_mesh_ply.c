@@ -406,6 +406,37 @@ TEST(test_face_colours_binary_before_the_index_list_float_with_alpha) {
     check_face_colors(GOOD "face_colors_float_binary_le.ply");
 }
 
+/* Binary faces with uchar colours after the index list and another scalar after them
+ * (the fast path's row layout), a 4-gon among triangles (which leaves the fast path for a
+ * row): every triangle gets its own face's colour. */
+TEST(test_face_colours_binary_after_the_list_with_a_polygon_among_triangles) {
+    const char *head = "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n"
+                       "property float y\nproperty float z\nelement face 3\n"
+                       "property list uchar int vertex_indices\nproperty uchar red\n"
+                       "property uchar green\nproperty uchar blue\nproperty float quality\n"
+                       "end_header\n";
+    unsigned char buf[512];
+    size_t n = strlen(head);
+    memcpy(buf, head, n);
+    memcpy(buf + n, QUAD_V, sizeof QUAD_V), n += sizeof QUAD_V;
+    const int32_t faces[3][5] = {{3, 0, 1, 2}, {4, 0, 1, 2, 3}, {3, 1, 2, 3}};
+    const uint8_t colors[3][3] = {{1, 2, 3}, {40, 50, 60}, {250, 251, 252}};
+    for (int f = 0; f < 3; f++) {
+        buf[n++] = (uint8_t)faces[f][0];
+        memcpy(buf + n, &faces[f][1], 4 * (size_t)faces[f][0]), n += 4 * (size_t)faces[f][0];
+        memcpy(buf + n, colors[f], 3), n += 3;
+        float quality = 0.5f;
+        memcpy(buf + n, &quality, 4), n += 4;
+    }
+    static const uint32_t tris[12] = {0, 1, 2, 0, 1, 2, 0, 2, 3, 1, 2, 3};
+    static const uint8_t want[12] = {1, 2, 3, 40, 50, 60, 40, 50, 60, 250, 251, 252};
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load_memory(buf, n, "faces.ply", &m));
+    CHECK(same_mesh(m, QUAD_V, 4, tris, 4));
+    CHECK(m && same_bytes(m->triangle_colors, want, 12));
+    prt_mesh_free(m);
+}
+
 TEST(test_colourless_files_load_without_colour_arrays) {
     prt_mesh *m = NULL;
     CHECK_OK(prt_mesh_load(GOOD "quad_binary_le.ply", &m));
@@ -493,6 +524,7 @@ int main(void) {
     RUN(test_float_vertex_colours_binary_clamped_and_diffuse_names);
     RUN(test_face_colours_ascii_after_the_index_list);
     RUN(test_face_colours_binary_before_the_index_list_float_with_alpha);
+    RUN(test_face_colours_binary_after_the_list_with_a_polygon_among_triangles);
     RUN(test_colourless_files_load_without_colour_arrays);
     RUN(test_vertex_and_face_colours_survive_save_load_and_gzip);
     TEST_END();

@@ -690,30 +690,52 @@ static prt_status binary_vertices_fixed(ply_reader *r, const ply_element *el) {
     return PRT_OK;
 }
 
-/* Faces written as the usual `list uchar int|uint vertex_indices` and nothing else, in
- * host byte order: triangles are copied 13 bytes at a time, and anything else (a
- * polygon, a bad index, the end of the window) drops to binary_row for one row. */
+/* Faces written as the usual `list uchar int|uint vertex_indices`, alone or followed by
+ * fixed-size scalars (such as the uchar red, green, blue prt_mesh_save_ply writes), in
+ * host byte order: triangles are copied a row at a time (13 bytes without colours), and
+ * anything else (a polygon, a bad index, the end of the window) drops to binary_row for
+ * one row. */
 static prt_status binary_faces(ply_reader *r, const ply_element *el) {
     mesh_source *s = r->s;
     const ply_prop *p = &r->prop[el->first];
-    const bool fast = el->nprops == 1 && p->count_type == T_U8 &&
-                      (p->type == T_I32 || p->type == T_U32) && !r->swap;
+    bool fast = p->count_type == T_U8 && (p->type == T_I32 || p->type == T_U32) && !r->swap;
+    size_t R = 13, coff[3] = {0, 0, 0};
+    for (uint32_t k = el->first + 1; k < el->first + el->nprops && fast; k++) {
+        const ply_prop *q = &r->prop[k];
+        if (q->count_type != T_NONE ||
+            (is_color_role(q->role) && q->role != ROLE_A && q->type != T_U8))
+            fast = false;
+        if (q->role >= ROLE_R && q->role <= ROLE_B) coff[q->role - ROLE_R] = R;
+        R += k_size[q->type];
+    }
+    const bool colors = r->face_colors;
     const uint64_t lim = p->type == T_I32 ? PRT_MIN(r->nverts, (uint64_t)INT32_MAX + 1) : r->nverts;
     uint64_t row = 0;
     while (row < el->count) {
         size_t n =
-            fast ? (size_t)PRT_MIN(el->count - row, (uint64_t)(mesh_source_avail(s) / 13)) : 0;
+            fast ? (size_t)PRT_MIN(el->count - row, (uint64_t)(mesh_source_avail(s) / R)) : 0;
         if (n) { /* (with n = 0 the array may still be NULL: no arithmetic on it) */
             prt_status st = mesh_arrays_triangle_room(&r->a, n, (size_t)face_expect(r));
             if (st != PRT_OK) return st;
             const uint8_t *q = s->cur;
             uint32_t *t = r->a.t + 3 * r->a.nt;
             size_t done = 0;
-            for (; done < n && q[0] == 3; done++, q += 13, t += 3) {
-                uint32_t i[3];
-                memcpy(i, q + 1, 12);
-                if (PRT_UNLIKELY(i[0] >= lim || i[1] >= lim || i[2] >= lim)) break;
-                t[0] = i[0], t[1] = i[1], t[2] = i[2];
+            if (R == 13) {
+                for (; done < n && q[0] == 3; done++, q += 13, t += 3) {
+                    uint32_t i[3];
+                    memcpy(i, q + 1, 12);
+                    if (PRT_UNLIKELY(i[0] >= lim || i[1] >= lim || i[2] >= lim)) break;
+                    t[0] = i[0], t[1] = i[1], t[2] = i[2];
+                }
+            } else {
+                uint8_t *c = colors ? r->a.tc + 3 * r->a.nt : NULL;
+                for (; done < n && q[0] == 3; done++, q += R, t += 3) {
+                    uint32_t i[3];
+                    memcpy(i, q + 1, 12);
+                    if (PRT_UNLIKELY(i[0] >= lim || i[1] >= lim || i[2] >= lim)) break;
+                    t[0] = i[0], t[1] = i[1], t[2] = i[2];
+                    if (colors) c[0] = q[coff[0]], c[1] = q[coff[1]], c[2] = q[coff[2]], c += 3;
+                }
             }
             r->a.nt += done;
             s->cur = q;
