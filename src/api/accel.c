@@ -200,6 +200,12 @@ prt_status prt_accel_save(const prt_accel *a, const char *path) {
 
 prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out) {
     *out = NULL;
+    if (ooc_is_block_file(data, size)) {
+        ooc_accel *a;
+        prt_status s = ooc_open(data, size, -1, 0, "block file in memory", NULL, verify_crc, &a);
+        if (!s) *out = &a->base;
+        return s;
+    }
     prt_file_info info;
     prt_reader r;
     prt_status s = prt__file_open(data, size, verify_crc, &info, &r);
@@ -227,7 +233,7 @@ prt_status prt_accel_load_memory(const void *data, size_t size, prt_accel **out)
     *out = NULL;
     if (ooc_is_block_file(data, size)) {
         ooc_accel *a;
-        prt_status s = ooc_open(data, size, -1, 0, "block file in memory", NULL, &a);
+        prt_status s = ooc_open(data, size, -1, 0, "block file in memory", NULL, true, &a);
         if (!s) *out = &a->base;
         return s;
     }

@@ -208,7 +208,7 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
     char head[8];
     if (pread(fd, head, sizeof head, 0) == (ssize_t)sizeof head && ooc_is_block_file(head, sizeof head)) {
         ooc_accel *a;
-        prt_status s = ooc_open(NULL, 0, fd, (uint64_t)st.st_size, path, o, &a);
+        prt_status s = ooc_open(NULL, 0, fd, (uint64_t)st.st_size, path, o, true, &a);
         if (s) close(fd);
         else *out = &a->base;
         return s;

@@ -53,6 +53,7 @@ typedef struct ooc_cache {
     int want_fetchers; /* started by the first cache update */
     bool quit;
     bool sync_ready;
+    bool verify; /* check each block's crc32 (off only for fuzzing) */
     uint32_t max_jobs; /* per update, from the expected bandwidth */
     /* Counters. */
     _Atomic uint64_t loads, bytes_read, bytes_raw, failures;

@@ -76,7 +76,7 @@ static prt_status read_at(int fd, const uint8_t *mem, uint64_t size, uint64_t of
 }
 
 prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file_size, const char *name,
-                    const prt_open_options *opt, ooc_accel **out) {
+                    const prt_open_options *opt, bool verify_crc, ooc_accel **out) {
     *out = NULL;
     uint64_t size = mem ? mem_size : file_size;
     ooc_header h;
@@ -85,7 +85,7 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
     if (memcmp(h.magic, OOC_MAGIC, 8)) return corrupt(name, "bad magic");
     if (h.version != OOC_VERSION)
         return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: block file version %u; this packrt reads version %u", name, h.version, OOC_VERSION);
-    if ((uint32_t)crc32(0L, (const Bytef *)&h, (uInt)offsetof(ooc_header, header_crc)) != h.header_crc)
+    if (verify_crc && (uint32_t)crc32(0L, (const Bytef *)&h, (uInt)offsetof(ooc_header, header_crc)) != h.header_crc)
         return corrupt(name, "header checksum mismatch");
     if (h.block_size != OOC_BLOCK) return corrupt(name, "block size is not 64 KiB");
     if (h.block_count == 0 || h.block_count > OOC_MAX_BLOCKS) return corrupt(name, "block count out of range");
@@ -109,7 +109,7 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
         return prt__fail(PRT_ERROR_NOMEM, "out of memory for a block table of %u blocks", h.block_count);
     }
     if ((s = read_at(fd, mem, size, h.table_offset, o->table, (size_t)tbytes, name))) goto fail;
-    if ((uint32_t)crc32(0L, (const Bytef *)o->table, (uInt)tbytes) != h.table_crc) {
+    if (verify_crc && (uint32_t)crc32(0L, (const Bytef *)o->table, (uInt)tbytes) != h.table_crc) {
         s = corrupt(name, "block table checksum mismatch");
         goto fail;
     }
@@ -126,7 +126,7 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
     }
     /* A file small enough to read in a moment has every block's checksum checked now, so a
      * corrupt one is refused at open; larger ones are checked block by block as read. */
-    if (size <= OOC_VERIFY_AT_OPEN) {
+    if (verify_crc && size <= OOC_VERIFY_AT_OPEN) {
         static _Thread_local uint8_t buf[OOC_BLOCK];
         for (uint32_t b = 0; b < h.block_count && !s; b++) {
             const ooc_block_entry *e = &o->table[b];
@@ -153,6 +153,7 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
                             (uint32_t)PRT_MIN(slots, (uint64_t)OOC_MAX_BLOCKS), opt ? opt->fetchers : 0)))
         goto fail;
     o->cache.want_fetchers = opt && opt->fetchers ? opt->fetchers : DEFAULT_FETCHERS;
+    o->cache.verify = verify_crc;
     o->fd = fd;
     o->base.ops = &prt__ooc_ops;
     snprintf(o->base.spec, sizeof o->base.spec, "%s", h.spec);
@@ -185,7 +186,7 @@ static prt_status ooc_build_op(const prt_mesh *m, prt_spec *spec, const prt_buil
     double t0 = prt__now();
     if ((s = ooc_build_mesh(m, &job, &h, &image, &image_size))) return s;
     ooc_accel *o;
-    if ((s = ooc_open(image, image_size, -1, 0, "built block file", NULL, &o))) {
+    if ((s = ooc_open(image, image_size, -1, 0, "built block file", NULL, true, &o))) {
         prt__free(image);
         return s;
     }

@@ -24,9 +24,10 @@ bool ooc_intersect_lod(const prt_accel *a, prt_ray *r, float C, bool any, prt_lo
  * from the packet's are traced alone); the same answers as ooc_intersect_lod. */
 void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
 
-/* Open a block file image (memory) or file (fd >= 0); checks header and table. */
+/* Open a block file image (memory) or file (fd >= 0); checks header and table.
+ * verify_crc=false skips every checksum, so fuzzing reaches the structural checks. */
 prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file_size, const char *name,
-                    const prt_open_options *o, ooc_accel **out);
+                    const prt_open_options *o, bool verify_crc, ooc_accel **out);
 
 /* True when these bytes start a block file. */
 bool ooc_is_block_file(const void *head, size_t n);

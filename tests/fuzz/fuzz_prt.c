@@ -1,4 +1,4 @@
-/* libFuzzer target for .prt images: the structural checks behind the checksums (which are
+/* libFuzzer target for .prt images and out-of-core block files: the structural checks behind the checksums (which are
  * skipped here, or the fuzzer would never get past them), then a few rays through whatever
  * loaded, so a check that lets a bad offset through shows up as a crash. */
 #include "api/accel.h"
@@ -19,6 +19,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
             prt_hit h;
             prt_intersect1(a, &r, &h);
             prt_occluded1(a, &r);
+            /* Levels of detail too (the out-of-core block files' second walk): a coarse
+             * bound, then none. */
+            prt_lod_hit lh;
+            prt_ray q = r;
+            q.tfar = INFINITY;
+            prt_intersect_lod(a, &q, i & 1 ? 0.0f : 0.05f, &lh);
+            prt_intersect_lod_packet(a, &q, &lh, 1, 0.01f);
         }
         prt_accel_free(a);
     }
