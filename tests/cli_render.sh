@@ -71,6 +71,10 @@ dark = [p for p in rgb if max(p) < 20]        # the second face
 sys.exit(0 if len(lit) > 60 and len(dark) > 30 and all(r > g + 20 and g > b + 10 for r, g, b in lit) else 1)
 PY
 
+check info_colours 0 "$packrt" info "$2/tests/data/good/face_colors_ascii.ply" -r aabb:float3
+grep -q "^colours *per triangle" "$dir/out" && { pass=$((pass + 1)); echo "ok   info_names_the_colours"; } \
+  || { fail=$((fail + 1)); echo "FAIL info_names_the_colours"; cat "$dir/out"; }
+
 # -r embree: the same frames traced by Embree (when this build has it).
 if "$packrt" render "$dir/s.ply" -r embree -o "$dir/e.$ext" --size 8x8 >/dev/null 2>"$dir/err"; then
   check embree_render 0 "$packrt" render "$dir/s.ply" -r embree -o "$dir/e.$ext" --shade shadows --size 48x32

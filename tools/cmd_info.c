@@ -84,6 +84,10 @@ int cmd_info(int argc, char **argv) {
     printf("mesh         %s\ntriangles    %zu (degenerate, never hit: %zu)\nvertices     %zu\n", path, m->triangle_count,
            prt_mesh_count_degenerate(m), m->vertex_count);
     printf("bounds       (%g, %g, %g) - (%g, %g, %g)\n", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    printf("colours      %s\n", m->vertex_colors && m->triangle_colors ? "per vertex and per triangle"
+                                : m->vertex_colors                    ? "per vertex"
+                                : m->triangle_colors                  ? "per triangle"
+                                                                      : "none");
     connectivity(m);
     printf("memory per representation:\n");
     int rc = 0;
