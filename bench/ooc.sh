@@ -26,6 +26,12 @@ if [ ! -x "$build/packrt" ]; then
   cmake --build "$build" -j"$(nproc)" >/dev/null
 fi
 log=$(mktemp)
+# The median frame time after convergence, or the last frame's time marked as not converged
+# (the working set outgrew the cache, or --frames ran out first).
+median() {
+  grep -o 'median of [0-9]* converged frames [0-9.]* s' "$1" |
+    awk '{ if ($3 > 0) print $6; else printf "%s (not converged after %d frames)", $6, n }' n="$(grep -c '^frame' "$1")"
+}
 trap 'rm -f "$log"' EXIT
 t6=() t5=() f7=() f8=()
 largest=""
@@ -49,29 +55,32 @@ for n in $sizes; do
     set -- $mode
     "$build/packrt" render "$f" -o "$data/bulb-$n-$1.png" --lod 3 --shade "$1" --spp "$2" --size 1024x768 \
       --cache "$cache" --repeat "$reps" --frames 400 >"$log" 2>&1
-    med=$(grep -o 'median of [0-9]* converged frames [0-9.]* s' "$log" | awk '{print $6}')
+    med=$(median "$log")
     first=$(grep -o 'first image [0-9.]* s' "$log" | awk '{print $3}')
     conv=$(grep -o 'converged after [0-9.]* s' "$log" | awk '{print $3}')
     ws=$(grep '^frame' "$log" | tail -1 | grep -o 'working set [0-9.]* MB' | awk '{print $3}')
-    fps=$(awk -v t="$med" 'BEGIN { if (t > 0) printf "%.1f", 1 / t; else print "?" }')
-    row+=" | $fps fps, $ws MB (first image $first s, converged $conv s)"
+    case "$med" in
+      *not*) fps="last frame $med" ;;
+      *) fps="$(awk -v t="$med" 'BEGIN { printf "%.1f", 1 / t }') fps" ;;
+    esac
+    row+=" | $fps, $ws MB (first image $first s, converged $conv s)"
     if [ "$1" = diffuse ]; then pfps=$fps pws=$ws; fi
   done
   t5+=("$row |")
   # Fig. 7: primary rays with 3 pixels of error and at full detail (0.01 pixels: no voxel
   # is ever small enough to stop a ray before its triangles).
   "$build/packrt" render "$f" -o "$data/bulb-$n-full.png" --lod 0.01 --size 1024x768 --cache "$cache" \
-    --repeat "$reps" --frames 400 >"$log" 2>&1
-  full=$(grep -o 'median of [0-9]* converged frames [0-9.]* s' "$log" | awk '{print $6}')
+    --repeat "$reps" --frames "${FULL_FRAMES:-60}" >"$log" 2>&1
+  full=$(median "$log")
   wsf=$(grep '^frame' "$log" | tail -1 | grep -o 'working set [0-9.]* MB' | awk '{print $3}')
-  f7+=("| $n | $pfps fps, $pws MB | ${full:-?} s, $wsf MB |")
+  f7+=("| $n | $pfps, $pws MB | ${full:-?} s, $wsf MB |")
   largest=$f
 done
 # Fig. 8: the largest model against pixels of error.
 for p in 0.5 1 2 3 5 10 20; do
   "$build/packrt" render "$largest" -o "$data/bulb-poe-$p.png" --lod "$p" --size 1024x768 --cache "$cache" \
-    --repeat "$reps" --frames 400 >"$log" 2>&1
-  med=$(grep -o 'median of [0-9]* converged frames [0-9.]* s' "$log" | awk '{print $6}')
+    --repeat "$reps" --frames "${PoE_FRAMES:-120}" >"$log" 2>&1
+  med=$(median "$log")
   ws=$(grep '^frame' "$log" | tail -1 | grep -o 'working set [0-9.]* MB' | awk '{print $3}')
   f8+=("| $p | $med s | $ws MB |")
 done
