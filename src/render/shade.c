@@ -79,7 +79,17 @@ static float light_visible_cos(const render_scene *s, const render_surface *f, u
     if (c <= 0.0f) return 0.0f;
     prt_ray sr = ray_from(o, l, dist);
     (*rays)++;
-    /* Shadows are projections from the light: the camera's bound serves (§6.2). */
+    if (s->lod) {
+        /* Shadows are projections from the light (§6.2): cast from the light, so the LOD
+         * bound measures voxels by their distance from it, as the camera's does from the
+         * eye (cast from the surface, every ray would want full detail near its start).
+         * The ray stops short of the surface by two voxels of the size accepted there:
+         * the voxel that holds the point itself must not shadow it. */
+        float stop = dist * (1.0f - 2.0f * s->lod_primary);
+        if (!(stop > 0.0f)) return c;
+        prt_ray lr = ray_from(s->light, prt_v3_scale(l, -1.0f), stop);
+        return occluded(s, &lr, true) ? 0.0f : c;
+    }
     return occluded(s, &sr, true) ? 0.0f : c;
 }
 
