@@ -49,7 +49,9 @@ for n in $sizes; do
   bpt=$( (grep -o '[0-9.]* B/tri *(tree *[0-9.]*, geometry *[0-9.]*' "$log" || true) | head -1 | tr -s ' ')
   file=$( (grep -o 'block file [0-9.]* MB ([0-9]*% of [0-9.]* MB raw)' "$log" || true) | head -1)
   rss=$(awk '/Maximum resident/ {printf "%.0f", $6 / 1024}' "$log")
-  t6+=("| $n (${tris:-?}) | ${file:-?} | ${bpt:-?}) | ${built:-?} s | ${rss:+$rss MB}${rss:-(kept file)} |")
+  peak="(kept file)"
+  if [ -n "$rss" ]; then peak="$rss MB"; fi
+  t6+=("| $n (${tris:-?}) | ${file:-?} | ${bpt:-?}) | ${built:-?} s | $peak |")
   # Table 5: the three ray mixes at 3 pixels of error.
   row="| $n"
   for mode in "diffuse 1" "shadows 1" "gi 2"; do
