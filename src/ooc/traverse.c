@@ -63,6 +63,45 @@ static void finish(walker *w) {
     w->held = UINT32_MAX;
 }
 
+/* A LOD node at off of the current block: its radius, child block and voxel (copied into
+ * vox / *nvox / *vox_radius when it lies inside the block). False when the node itself
+ * does not fit the block. */
+static bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *child_block, uint32_t vox[6], int *nvox,
+                     float *vox_radius) {
+    if (off + 16 > w->size) return false;
+    uint32_t w3;
+    memcpy(radius, w->blk + off + 8, 4);
+    memcpy(&w3, w->blk + off + 12, 4);
+    uint32_t vo = off + 4 * (w3 >> 26);
+    if (vo + 4 <= w->size) {
+        uint32_t s0;
+        memcpy(&s0, w->blk + vo, 4);
+        *nvox = (s0 >> 31) ? 1 : 6;
+        if (vo + 4u * (uint32_t)*nvox > w->size) *nvox = 0;
+        else memcpy(vox, w->blk + vo, 4u * (uint32_t)*nvox);
+        *vox_radius = *radius;
+    }
+    *child_block = w3 & ((1u << 26) - 1);
+    return true;
+}
+
+/* A leaf's triangle list in triangle block p: its offset and count (a count over 255 is
+ * stored as the list's first entry), and the block's triangle and vertex counts. False
+ * when the list does not fit the block's list section. */
+static bool leaf_list(const uint8_t *p, uint32_t size, uint32_t w0, uint32_t *list, uint32_t *n, uint32_t *ntri,
+                      uint32_t *nvert) {
+    uint16_t sec[2];
+    memcpy(sec, p, 4);
+    *list = w0 & 0xFFFF, *n = (w0 >> 16) & 0xFF;
+    *ntri = (uint32_t)(sec[1] - sec[0]) / sizeof(ooc_tri), *nvert = (size - sec[1]) / 12;
+    if (*n == 0) {
+        uint16_t n16 = 0;
+        if (*list + 2 <= sec[0]) memcpy(&n16, p + *list, 2);
+        *n = n16, *list += 2;
+    }
+    return *list + 2 * *n <= sec[0];
+}
+
 /* Intersect a leaf's triangles; false when its block is missing (LOD) or corrupt. */
 static bool leaf(walker *w, const prt__rayx *rx, uint32_t w0, uint32_t tb, prt__hitx *hit, bool any, bool *found) {
     uint32_t size;
@@ -70,15 +109,8 @@ static bool leaf(walker *w, const prt__rayx *rx, uint32_t w0, uint32_t tb, prt__
     if (!p) return false;
     uint16_t sec[2];
     memcpy(sec, p, 4);
-    uint32_t list = w0 & 0xFFFF, n = (w0 >> 16) & 0xFF;
-    const uint32_t ntri = (uint32_t)(sec[1] - sec[0]) / sizeof(ooc_tri), nvert = (size - sec[1]) / 12;
-    bool ok = true;
-    if (n == 0) { /* more than 255: the count is the list's first entry */
-        uint16_t n16 = 0;
-        if (list + 2 <= sec[0]) memcpy(&n16, p + list, 2);
-        n = n16, list += 2;
-    }
-    if (list + 2 * n > sec[0]) ok = false;
+    uint32_t list, n, ntri, nvert;
+    bool ok = leaf_list(p, size, w0, &list, &n, &ntri, &nvert);
     for (uint32_t i = 0; ok && i < n; i++) {
         uint16_t ti;
         memcpy(&ti, p + list + 2 * i, 2);
@@ -115,6 +147,31 @@ static bool leaf(walker *w, const prt__rayx *rx, uint32_t w0, uint32_t tb, prt__
     return ok;
 }
 
+/* The ray's segment inside the root cell, and the axis of the slab it enters last (the
+ * entry axis). False when it misses the cell. */
+static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, float tfar, float *tmin_out, float *tmax_out,
+                      int *axis_out) {
+    float tmin = tnear, tmax = tfar, best_near = -INFINITY;
+    int axis = 0;
+    for (int k = 0; k < 3; k++) {
+        if (rx->dir[k] == 0.0f) { /* parallel to the slab: inside it or a miss */
+            if (rx->org[k] < a->h.bounds[k] || rx->org[k] > a->h.bounds[3 + k]) return false;
+            continue;
+        }
+        float t0 = (a->h.bounds[k] - rx->org[k]) * rx->inv[k], t1 = (a->h.bounds[3 + k] - rx->org[k]) * rx->inv[k];
+        if (t0 > t1) {
+            float s = t0;
+            t0 = t1, t1 = s;
+        }
+        if (t0 > best_near) best_near = t0, axis = k;
+        tmin = fmaxf(tmin, t0);
+        /* Conservative against the rounding of the slab distances (Ize 2013, as box.h). */
+        tmax = fminf(tmax, t1 * (t1 >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG));
+    }
+    *tmin_out = tmin, *tmax_out = tmax, *axis_out = axis;
+    return tmin <= tmax;
+}
+
 /* The walk shared by all queries. Returns true on a hit: a triangle (hit->prim) or, for
  * LOD queries, a voxel (hit->prim = PRT_VOXEL_HIT, *sample its shading sample). */
 static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t *sample, float *voxel_radius) {
@@ -122,26 +179,9 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
     prt__rayx rx;
     prt__rayx_init(&rx, r);
     hit->t = r->tfar, hit->prim = PRT_INVALID, hit->u = hit->v = 0.0f;
-    /* Clip to the root cell; the entry axis is the slab entered last. */
-    float tmin = r->tnear, tmax = r->tfar;
-    int axis_in = 0;
-    float best_near = -INFINITY;
-    for (int k = 0; k < 3; k++) {
-        if (rx.dir[k] == 0.0f) { /* parallel to the slab: inside it or a miss */
-            if (rx.org[k] < a->h.bounds[k] || rx.org[k] > a->h.bounds[3 + k]) return false;
-            continue;
-        }
-        float t0 = (a->h.bounds[k] - rx.org[k]) * rx.inv[k], t1 = (a->h.bounds[3 + k] - rx.org[k]) * rx.inv[k];
-        if (t0 > t1) {
-            float s = t0;
-            t0 = t1, t1 = s;
-        }
-        if (t0 > best_near) best_near = t0, axis_in = k;
-        tmin = fmaxf(tmin, t0);
-        /* Conservative against the rounding of the slab distances (Ize 2013, as box.h). */
-        tmax = fminf(tmax, t1 * (t1 >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG));
-    }
-    if (!(tmin <= tmax)) return false;
+    float tmin, tmax;
+    int axis_in;
+    if (!clip_root(a, &rx, r->tnear, r->tfar, &tmin, &tmax, &axis_in)) return false;
 
     entry stack[OOC_MAX_DEPTH + 2];
     int sp = 0;
@@ -193,25 +233,12 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                 break;
             }
             if (w0 & OOC_LOD) {
-                if (off + 16 > w->size) {
+                float radius;
+                if (!lod_node(w, off, &radius, &child_block, vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
                 }
-                uint32_t w3;
-                float radius;
-                memcpy(&radius, w->blk + off + 8, 4);
-                memcpy(&w3, w->blk + off + 12, 4);
-                uint32_t vo = off + 4 * (w3 >> 26);
-                if (vo + 4 <= w->size) {
-                    uint32_t s0;
-                    memcpy(&s0, w->blk + vo, 4);
-                    nvox = (s0 >> 31) ? 1 : 6;
-                    if (vo + 4u * (uint32_t)nvox > w->size) nvox = 0;
-                    else memcpy(vox, w->blk + vo, 4u * (uint32_t)nvox);
-                    vox_radius = radius;
-                }
                 if (w->lod && radius <= tmin * w->C) VOXEL_HIT();
-                child_block = w3 & ((1u << 26) - 1);
                 base = 0;
             }
             uint32_t left = base + (w0 & 0xFFFC), right = left + 4 * ((w0 >> 18) & 0x7FF);
@@ -390,14 +417,8 @@ static bool packet_leaf(walker *w, packet_state *ps, uint32_t mask, uint32_t w0,
     if (!p) return false;
     uint16_t sec[2];
     memcpy(sec, p, 4);
-    uint32_t list = w0 & 0xFFFF, n = (w0 >> 16) & 0xFF;
-    const uint32_t ntri = (uint32_t)(sec[1] - sec[0]) / sizeof(ooc_tri), nvert = (size - sec[1]) / 12;
-    if (n == 0) {
-        uint16_t n16 = 0;
-        if (list + 2 <= sec[0]) memcpy(&n16, p + list, 2);
-        n = n16, list += 2;
-    }
-    bool ok = list + 2 * n <= sec[0];
+    uint32_t list, n, ntri, nvert;
+    bool ok = leaf_list(p, size, w0, &list, &n, &ntri, &nvert);
     for (uint32_t j = 0; ok && j < n; j++) {
         uint16_t ti;
         memcpy(&ti, p + list + 2 * j, 2);
@@ -472,22 +493,10 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
                 break;
             }
             if (w0 & OOC_LOD) {
-                if (off + 16 > w->size) {
+                float radius;
+                if (!lod_node(w, off, &radius, &child_block, vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
-                }
-                uint32_t w3;
-                float radius;
-                memcpy(&radius, w->blk + off + 8, 4);
-                memcpy(&w3, w->blk + off + 12, 4);
-                uint32_t vo = off + 4 * (w3 >> 26);
-                if (vo + 4 <= w->size) {
-                    uint32_t s0;
-                    memcpy(&s0, w->blk + vo, 4);
-                    nvox = (s0 >> 31) ? 1 : 6;
-                    if (vo + 4u * (uint32_t)nvox > w->size) nvox = 0;
-                    else memcpy(vox, w->blk + vo, 4u * (uint32_t)nvox);
-                    vox_radius = radius;
                 }
                 /* Each ray's own LOD test (§6.2). */
                 uint32_t small = 0;
@@ -500,7 +509,6 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
                     pop = true;
                     break;
                 }
-                child_block = w3 & ((1u << 26) - 1);
                 base = 0;
             }
             uint32_t left = base + (w0 & 0xFFFC), right = left + 4 * ((w0 >> 18) & 0x7FF);
@@ -620,20 +628,9 @@ void ooc_intersect_lod_packet(const prt_accel *acc, prt_ray *rays, prt_lod_hit *
                 single |= 1u << i;
                 continue;
             }
-            /* Clip to the root cell. */
-            float lo = r->tnear, hi = r->tfar, best = -INFINITY;
-            int ax = 0;
-            for (int k = 0; k < 3; k++) {
-                float t0 = (a->h.bounds[k] - r->org[k]) * ps.rx[i].inv[k], t1 = (a->h.bounds[3 + k] - r->org[k]) * ps.rx[i].inv[k];
-                if (t0 > t1) {
-                    float s = t0;
-                    t0 = t1, t1 = s;
-                }
-                if (t0 > best) best = t0, ax = k;
-                lo = fmaxf(lo, t0), hi = fminf(hi, t1 * (t1 >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG));
-            }
-            tmin[i] = lo, tmax[i] = hi, axis_in[i] = (int8_t)ax;
-            if (lo <= hi) mask |= 1u << i;
+            int ax;
+            if (clip_root(a, &ps.rx[i], r->tnear, r->tfar, &tmin[i], &tmax[i], &ax)) mask |= 1u << i;
+            axis_in[i] = (int8_t)ax;
         }
         if (mask) {
             walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
