@@ -9,14 +9,14 @@ cd "$(dirname "$0")/.."
 scripts/deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$(nproc)" --target packrt >/dev/null
-# All 107 representations would take the better part of an hour here; without -r, bench
-# the fastest and the smallest BVHs of each kind and the other three families
+# All 108 representations would take the better part of an hour here; without -r, bench
+# the fastest and the smallest BVHs of each kind and the other four families
 # (`packrt bench --matrix` or -r all for the rest).
 picks=()
 case " $* " in
   *" -r "*) ;;
   *) for s in quad:float3-soa4 wide8:float3-soa8 quad-half:float3-soa4 wide8:idx8-soa4 wide8:idx32-soa4 \
-              wide8:idx8-bitpack-soa4 aabb-compressed:idx8-bitpack-soa4 aabb:float3 raystrips lossygrid cgrid; do
+              wide8:idx8-bitpack-soa4 aabb-compressed:idx8-bitpack-soa4 aabb:float3 raystrips lossygrid cgrid ooc; do
        picks+=(-r "$s")
      done ;;
 esac
