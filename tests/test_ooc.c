@@ -102,6 +102,8 @@ TEST(test_flat_axis_aligned_scenes_from_inside) {
             }
             /* Some rays exactly axis-parallel, as walls and floors invite. */
             if (i % 7 == 0) r.dir[i % 3] = 0.0f, r.dir[(i + 1) % 3] = 0.0f;
+            /* And some with a component so small its reciprocal overflows. */
+            if (i % 11 == 0) r.dir[(i + 2) % 3] = (i & 1 ? 1e-40f : -1e-39f);
             if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[1] = 1.0f;
             r.tnear = 0.0f, r.tfar = INFINITY;
             prt_ray r2 = r;

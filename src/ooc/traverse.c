@@ -12,6 +12,11 @@
 
 #include <math.h>
 
+/* Plain comparisons rather than fminf/fmaxf, which this build calls out of line; the
+ * operands here are never NaN (zero direction components are handled before). */
+#define MINF(a, b) ((a) < (b) ? (a) : (b))
+#define MAXF(a, b) ((a) > (b) ? (a) : (b))
+
 typedef struct entry {
     uint32_t block, off;
     float tmin, tmax;
@@ -154,7 +159,7 @@ static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, floa
     float tmin = tnear, tmax = tfar, best_near = -INFINITY;
     int axis = 0;
     for (int k = 0; k < 3; k++) {
-        if (rx->dir[k] == 0.0f) { /* parallel to the slab: inside it or a miss */
+        if (rx->dir[k] == 0.0f || isinf(rx->inv[k])) { /* parallel to the slab (or as good as): inside it or a miss */
             if (rx->org[k] < a->h.bounds[k] || rx->org[k] > a->h.bounds[3 + k]) return false;
             continue;
         }
@@ -164,9 +169,9 @@ static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, floa
             t0 = t1, t1 = s;
         }
         if (t0 > best_near) best_near = t0, axis = k;
-        tmin = fmaxf(tmin, t0);
+        tmin = MAXF(tmin, t0);
         /* Conservative against the rounding of the slab distances (Ize 2013, as box.h). */
-        tmax = fminf(tmax, t1 * (t1 >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG));
+        tmax = MINF(tmax, t1 * (t1 >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG));
     }
     *tmin_out = tmin, *tmax_out = tmax, *axis_out = axis;
     return tmin <= tmax;
@@ -195,7 +200,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
 #define VOXEL_HIT()                                                                                                         \
     do {                                                                                                                    \
         if (nvox && tmin < hit->t) {                                                                                        \
-            hit->t = fmaxf(tmin, r->tnear), hit->prim = PRT_VOXEL_HIT, hit->u = hit->v = 0.0f;                             \
+            hit->t = MAXF(tmin, r->tnear), hit->prim = PRT_VOXEL_HIT, hit->u = hit->v = 0.0f;                             \
             *sample = vox[nvox == 6 ? 2 * axis_in + (rx.dir[axis_in] < 0.0f) : 0];                                          \
             *voxel_radius = vox_radius;                                                                                     \
             finish(w);                                                                                                      \
@@ -251,7 +256,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             float t_back = t, t_front = t;
             int front = rx.dir[axis] > 0.0f ? 0 : 1;
             bool front_only = t > tmax;
-            if (rx.dir[axis] == 0.0f) {
+            if (rx.dir[axis] == 0.0f || isinf(rx.inv[axis])) { /* (as good as) parallel */
                 front = rx.org[axis] < split ? 0 : 1;
                 front_only = true;
                 if (rx.org[axis] == split) front_only = false, t = tmin, t_back = tmin, t_front = tmax, front = 0;
@@ -399,7 +404,7 @@ static uint32_t voxel_hits(packet_state *ps, uint32_t mask, const float *tmin, c
     uint32_t stopped = 0;
     for (uint32_t m = mask; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        float t = fmaxf(tmin[i], ps->rx[i].tnear);
+        float t = MAXF(tmin[i], ps->rx[i].tnear);
         if (!(t < ps->hit[i].t)) continue;
         ps->hit[i].t = t, ps->hit[i].prim = PRT_VOXEL_HIT, ps->hit[i].u = ps->hit[i].v = 0.0f;
         int a = axis[i];
@@ -536,19 +541,19 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
                 memcpy(e->vox, vox, sizeof vox);
                 for (uint32_t m = bmask; m; m &= m - 1) {
                     int i = __builtin_ctz(m);
-                    e->tmin[i] = fmaxf(tmin[i], t[i]), e->tmax[i] = tmax[i];
+                    e->tmin[i] = MAXF(tmin[i], t[i]), e->tmax[i] = tmax[i];
                     e->axis[i] = (int8_t)(t[i] > tmin[i] ? axis : axis_in[i]);
                 }
                 for (uint32_t m = fmask; m; m &= m - 1) {
                     int i = __builtin_ctz(m);
-                    tmax[i] = fminf(tmax[i], t[i]);
+                    tmax[i] = MINF(tmax[i], t[i]);
                 }
                 mask = fmask;
                 off = kid[front];
             } else if (fmask) {
                 for (uint32_t m = fmask; m; m &= m - 1) {
                     int i = __builtin_ctz(m);
-                    tmax[i] = fminf(tmax[i], t[i]);
+                    tmax[i] = MINF(tmax[i], t[i]);
                 }
                 mask = fmask;
                 off = kid[front];
@@ -558,7 +563,7 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
                 for (uint32_t m = bmask; m; m &= m - 1) {
                     int i = __builtin_ctz(m);
                     if (t[i] > tmin[i]) axis_in[i] = (int8_t)axis;
-                    tmin[i] = fmaxf(tmin[i], t[i]);
+                    tmin[i] = MAXF(tmin[i], t[i]);
                 }
                 mask = bmask;
                 off = kid[back];
@@ -620,7 +625,8 @@ void ooc_intersect_lod_packet(const prt_accel *acc, prt_ray *rays, prt_lod_hit *
              * from the first ray's, are traced alone. */
             bool alone = false;
             for (int k = 0; k < 3; k++) {
-                int sg = r->dir[k] > 0.0f ? 1 : r->dir[k] < 0.0f ? -1 : 0;
+                /* A component so small that its reciprocal overflows counts as zero. */
+                int sg = isinf(ps.rx[i].inv[k]) ? 0 : r->dir[k] > 0.0f ? 1 : r->dir[k] < 0.0f ? -1 : 0;
                 if (sg == 0 || (sign[k] && sg != sign[k])) alone = true;
                 else if (!sign[k] && !alone) sign[k] = sg;
             }
