@@ -244,13 +244,13 @@ prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_
 }
 
 static prt_status ply_begin(void *w, uint64_t vertices, uint64_t triangles) {
-    return ply_writer_begin(w, vertices, triangles);
+    return ply_writer_begin(w, vertices, triangles, false, false);
 }
 static prt_status ply_vertices(void *w, const float *xyz, size_t n) {
-    return ply_writer_vertices(w, xyz, n);
+    return ply_writer_vertices(w, xyz, NULL, n);
 }
 static prt_status ply_triangles(void *w, const uint32_t *idx, size_t n) {
-    return ply_writer_triangles(w, idx, n);
+    return ply_writer_triangles(w, idx, NULL, n);
 }
 
 prt_status gen_mandelbulb_save_ply(size_t triangles, uint64_t seed, size_t memory_budget,

@@ -16,7 +16,7 @@ struct ply_writer {
     size_t n;
     uint64_t written;              /* bytes */
     uint64_t nv, nt, vdone, tdone; /* announced and written */
-    bool begun;
+    bool begun, vrgb, trgb;
     prt_status failed; /* the first error: later calls return it */
 };
 
@@ -76,7 +76,8 @@ prt_status ply_writer_open(const char *path, ply_writer **out) {
     return PRT_OK;
 }
 
-prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles) {
+prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles, bool vertex_colors,
+                            bool triangle_colors) {
     if (w->failed) return w->failed;
     if (w->begun)
         return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
@@ -86,25 +87,45 @@ prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles
                                      w->path, (unsigned long long)vertices);
     /* Indices above INT32_MAX do not fit the customary `int`: say `uint` then. */
     const char *itype = vertices > (uint64_t)INT32_MAX + 1 ? "uint" : "int";
+    const char *rgb = "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     w->n = (size_t)snprintf(
         (char *)w->buf, WRITE_BUFFER,
         "ply\nformat binary_little_endian 1.0\ncomment written by packrt\nelement vertex %llu\n"
-        "property float x\nproperty float y\nproperty float z\nelement face %llu\n"
-        "property list uchar %s vertex_indices\nend_header\n",
-        (unsigned long long)vertices, (unsigned long long)triangles, itype);
+        "property float x\nproperty float y\nproperty float z\n%selement face %llu\n"
+        "property list uchar %s vertex_indices\n%send_header\n",
+        (unsigned long long)vertices, vertex_colors ? rgb : "", (unsigned long long)triangles, itype,
+        triangle_colors ? rgb : "");
+    w->vrgb = vertex_colors, w->trgb = triangle_colors;
     w->nv = vertices;
     w->nt = triangles;
     w->begun = true;
     return PRT_OK;
 }
 
-prt_status ply_writer_vertices(ply_writer *w, const float *xyz, size_t count) {
+prt_status ply_writer_vertices(ply_writer *w, const float *xyz, const uint8_t *rgb, size_t count) {
     if (w->failed) return w->failed;
-    if (!w->begun || w->tdone || count > w->nv - w->vdone)
+    if (!w->begun || w->tdone || count > w->nv - w->vdone || !rgb != !w->vrgb)
         return w->failed = prt__fail(PRT_ERROR_ARGUMENT,
                                      "%s: %zu vertices past the %llu announced (or after the "
-                                     "triangles, or before the header)",
+                                     "triangles, or before the header, or colours not as announced)",
                                      w->path, count, (unsigned long long)w->nv);
+    if (rgb) { /* rows of 15 bytes: position and colour interleaved */
+        for (size_t i = 0; i < count; i++) {
+            uint8_t *p = w->buf + w->n;
+            for (int k = 0; k < 3; k++) {
+                uint32_t b;
+                memcpy(&b, xyz + 3 * i + k, 4);
+                put_u32le(p + 4 * k, b);
+            }
+            memcpy(p + 12, rgb + 3 * i, 3);
+            if ((w->n += 15) + 15 > WRITE_BUFFER) {
+                prt_status st = flush(w);
+                if (st) return st;
+            }
+        }
+        w->vdone += count;
+        return PRT_OK;
+    }
     for (size_t i = 0; i < 3 * count;) {
         size_t k = PRT_MIN(3 * count - i, (WRITE_BUFFER - w->n) / 4);
         uint8_t *p = w->buf + w->n;
@@ -128,13 +149,13 @@ prt_status ply_writer_vertices(ply_writer *w, const float *xyz, size_t count) {
     return PRT_OK;
 }
 
-prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, size_t count) {
+prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, const uint8_t *rgb, size_t count) {
     if (w->failed) return w->failed;
-    if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone)
+    if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone || !rgb != !w->trgb)
         return w->failed =
                    prt__fail(PRT_ERROR_ARGUMENT,
                              "%s: %zu triangles past the %llu announced (or before all "
-                             "%llu vertices)",
+                             "%llu vertices, or colours not as announced)",
                              w->path, count, (unsigned long long)w->nt, (unsigned long long)w->nv);
     for (size_t t = 0; t < count; t++) {
         const uint32_t *i = idx + 3 * t;
@@ -148,7 +169,9 @@ prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, size_t count
         put_u32le(p + 1, i[0]);
         put_u32le(p + 5, i[1]);
         put_u32le(p + 9, i[2]);
-        if ((w->n += 13) + 13 > WRITE_BUFFER) {
+        size_t row = 13;
+        if (rgb) memcpy(p + 13, rgb + 3 * t, 3), row = 16;
+        if ((w->n += row) + 16 > WRITE_BUFFER) {
             prt_status st = flush(w);
             if (st) return st;
         }

@@ -1,8 +1,9 @@
 /* An indexed binary PLY written front to back without holding the mesh: the counts first
  * (the header needs them), then every vertex, then every triangle, each in batches of any
- * size. The layout is prt_mesh_save_ply's (ply_write.c): little-endian float x y z and
- * `list uchar int vertex_indices` (uint above 2^31 vertices), so both write the same bytes
- * for the same mesh and prt_mesh_load reads either. */
+ * size. Little-endian float x y z and `list uchar int vertex_indices` (uint above 2^31
+ * vertices), each optionally followed by uchar red green blue. prt_mesh_save_ply
+ * (ply_write.c) writes through it too, so a streamed and an in-memory mesh give the same
+ * bytes. */
 #ifndef PRT_MESH_PLY_WRITER_H
 #define PRT_MESH_PLY_WRITER_H
 
@@ -12,12 +13,14 @@ typedef struct ply_writer ply_writer;
 
 /* Create (or truncate) path; nothing is written until ply_writer_begin. */
 prt_status ply_writer_open(const char *path, ply_writer **out);
-/* Write the header for this many vertices and triangles. */
-prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles);
+/* Write the header for this many vertices and triangles, each with an RGB colour or not. */
+prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles, bool vertex_colors,
+                            bool triangle_colors);
 /* Append vertices (3 floats each), then triangles (3 indices each, every one below the
- * vertex count: checked). All vertices must come before the first triangle. */
-prt_status ply_writer_vertices(ply_writer *w, const float *xyz, size_t count);
-prt_status ply_writer_triangles(ply_writer *w, const uint32_t *indices, size_t count);
+ * vertex count: checked), with 3 colour bytes each when the header announced them (else
+ * rgb is NULL). All vertices must come before the first triangle. */
+prt_status ply_writer_vertices(ply_writer *w, const float *xyz, const uint8_t *rgb, size_t count);
+prt_status ply_writer_triangles(ply_writer *w, const uint32_t *indices, const uint8_t *rgb, size_t count);
 /* Flush and close. ok: the caller's work succeeded; the file is kept only if ok and every
  * announced vertex and triangle was written (else it is removed and an error returned).
  * Frees w in every case. */
