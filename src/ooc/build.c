@@ -37,7 +37,7 @@ typedef struct builder {
     ooc_btri *batch;
     size_t nbatch;
     spool root;
-    uint64_t built, degenerate;
+    uint64_t degenerate;
     uint32_t depth;
     prt_status sink_status;
 } builder;

@@ -269,14 +269,14 @@ void ooc_cache_frame(ooc_cache *c, ooc_frame_info *info) {
     if (info) *info = fi;
 }
 
-prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, uint64_t mem_size, const ooc_block_entry *table,
+prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_block_entry *table,
                           uint32_t nblocks, uint32_t nslots, int fetchers) {
     memset(c, 0, sizeof *c);
     pthread_mutex_init(&c->mu, NULL);
     pthread_cond_init(&c->loaded, NULL);
     pthread_cond_init(&c->work, NULL);
     c->sync_ready = true;
-    c->fd = fd, c->mem = mem, c->mem_size = mem_size, c->table = table, c->nblocks = nblocks;
+    c->fd = fd, c->mem = mem, c->table = table, c->nblocks = nblocks;
     nslots = PRT_MAX(nslots, OOC_MIN_SLOTS);
     if (nslots > nblocks) nslots = PRT_MAX(nblocks, 1u);
     c->nslots = nslots;

@@ -27,7 +27,6 @@ typedef struct ooc_slot {
 typedef struct ooc_cache {
     int fd;                    /* file source, or -1 */
     const uint8_t *mem;        /* memory source (a whole block file image), or NULL */
-    uint64_t mem_size;
     const ooc_block_entry *table;
     uint32_t nblocks;
     uint32_t nslots;
@@ -63,7 +62,7 @@ typedef struct ooc_cache {
 #define OOC_MIN_SLOTS 64u /* a few per thread in flight, pinned, plus fetch jobs */
 
 /* slots: at least OOC_MIN_SLOTS; fetchers: threads for ooc_cache_try's requests (0: none). */
-prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, uint64_t mem_size, const ooc_block_entry *table,
+prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_block_entry *table,
                           uint32_t nblocks, uint32_t nslots, int fetchers);
 void ooc_cache_free(ooc_cache *c);
 /* Start want_fetchers fetcher threads unless running (LOD rendering needs them). */

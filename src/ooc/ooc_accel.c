@@ -145,11 +145,11 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
         goto fail;
     }
     o->h = h;
-    o->mem = mem, o->mem_size = mem_size;
+    o->mem = mem;
     o->file_bytes = size;
     uint64_t cache = opt && opt->cache_bytes ? opt->cache_bytes : DEFAULT_CACHE;
     uint64_t slots = cache / OOC_BLOCK;
-    if ((s = ooc_cache_init(&o->cache, fd, mem, mem_size, o->table, h.block_count,
+    if ((s = ooc_cache_init(&o->cache, fd, mem, o->table, h.block_count,
                             (uint32_t)PRT_MIN(slots, (uint64_t)OOC_MAX_BLOCKS), opt ? opt->fetchers : 0)))
         goto fail;
     o->cache.want_fetchers = opt && opt->fetchers ? opt->fetchers : DEFAULT_FETCHERS;

@@ -12,7 +12,6 @@ typedef struct ooc_accel {
     ooc_cache cache;
     void *image;            /* a block file built in memory, owned; NULL for a file */
     const uint8_t *mem;     /* the image's bytes (built, or the caller's memory) */
-    uint64_t mem_size;
     int fd;
     uint64_t file_bytes;
 } ooc_accel;

@@ -277,9 +277,8 @@ typedef struct lay {
     int child_level; /* treelet level of the LOD nodes' children */
     const ooc_frag *f;
     ooc_pending *out;
-    uint32_t pos;               /* next node byte */
-    uint32_t vox_pos;           /* next voxel byte (after all nodes) */
-    uint32_t vox_fix[4], vox_at[4], vox_words[4][6], vox_n[4];
+    uint32_t pos; /* next node byte; the voxels follow the nodes */
+    uint32_t vox_at[4], vox_words[4][6], vox_n[4]; /* each LOD node's offset and voxel */
     int nvox;
 } lay;
 
