@@ -21,6 +21,7 @@
  * watertight 8-wide test. A ray is finished once its closest hit (or the end of its
  * segment) lies before the exit plane of the slice; the packet stops when all are. */
 #include "cgrid/cgrid.h"
+#include "cgrid/packet.h"
 #include "geom/triangle.h"
 
 #include <math.h>
@@ -28,25 +29,8 @@
 
 #define CG_MAX_SLOPE 8.0f
 #define CG_CHUNK 64 /* candidate triangles gathered before testing */
-#define CG_MAILBOX 1024
 
-static _Thread_local uint32_t mb_tri[CG_MAILBOX], mb_stamp[CG_MAILBOX], mb_epoch;
-
-static inline uint32_t mailbox_begin(void) {
-    if (++mb_epoch == 0) {
-        memset(mb_stamp, 0, sizeof mb_stamp);
-        mb_epoch = 1;
-    }
-    return mb_epoch;
-}
-
-/* True when tri was already seen by the packet with this epoch; marks it seen. */
-static inline bool mailbox_seen(uint32_t epoch, uint32_t tri) {
-    uint32_t h = (tri * 2654435761u) >> 22; /* 10 bits */
-    if (mb_stamp[h] == epoch && mb_tri[h] == tri) return true;
-    mb_stamp[h] = epoch, mb_tri[h] = tri;
-    return false;
-}
+_Thread_local uint32_t prt__cg_mb_tri[CG_MAILBOX], prt__cg_mb_stamp[CG_MAILBOX], prt__cg_mb_epoch;
 
 typedef struct pray {
     float ogK, invK; /* grid K coordinate of the origin, 1 / direction along K */
@@ -56,57 +40,6 @@ typedef struct pray {
     int send;        /* slice where the segment ends (an index along K) */
     uint16_t block, lane; /* its place in the ray blocks */
 } pray;
-
-/* Eight rays of one axis permutation (same kx, ky, kz) in SOA form, for the triangle test
- * over rays: one triangle against 8 rays with the same operations, in the same order, as
- * prt__tri_hit does for each (so packets give the single rays' bits). */
-typedef struct rblock {
-    vf8 org[3], sx, sy, sz, tnear;
-    vf8 t; /* each lane's closest hit so far: the test's tfar */
-    int kx, ky, kz;
-    uint32_t live; /* lanes still traced */
-    uint16_t ray[8]; /* lane -> index into the frustum's rays */
-} rblock;
-
-PRT_NOINLINE static void rblock_fix_edges(vi8 zero, const vf8 *ax, const vf8 *ay, const vf8 *bx, const vf8 *by,
-                                          const vf8 *cx, const vf8 *cy, vf8 *u, vf8 *v, vf8 *w) {
-    for (int i = 0; i < 8; i++)
-        if (zero[i]) {
-            float uu, vv, ww;
-            prt__tri_edges_double((*ax)[i], (*ay)[i], (*bx)[i], (*by)[i], (*cx)[i], (*cy)[i], &uu, &vv, &ww);
-            (*u)[i] = uu, (*v)[i] = vv, (*w)[i] = ww;
-        }
-}
-
-/* Watertight test of triangle p against the block's rays; mask of lanes hit in
- * [tnear, t]. Mirrors prt__tri_hit operation by operation. */
-static inline int rblock_hit(const rblock *B, const float *p, vf8 *t_out, vf8 *u_out, vf8 *v_out) {
-    const int kx = B->kx, ky = B->ky, kz = B->kz;
-    const vf8 az0 = vf8_set1(p[kz]) - B->org[kz], bz0 = vf8_set1(p[3 + kz]) - B->org[kz],
-              cz0 = vf8_set1(p[6 + kz]) - B->org[kz];
-    const vf8 ax = (vf8_set1(p[kx]) - B->org[kx]) - B->sx * az0, ay = (vf8_set1(p[ky]) - B->org[ky]) - B->sy * az0;
-    const vf8 bx = (vf8_set1(p[3 + kx]) - B->org[kx]) - B->sx * bz0, by = (vf8_set1(p[3 + ky]) - B->org[ky]) - B->sy * bz0;
-    const vf8 cx = (vf8_set1(p[6 + kx]) - B->org[kx]) - B->sx * cz0, cy = (vf8_set1(p[6 + ky]) - B->org[ky]) - B->sy * cz0;
-    vf8 u = cx * by - cy * bx;
-    vf8 v = ax * cy - ay * cx;
-    vf8 w = bx * ay - by * ax;
-    const vf8 zero = vf8_set1(0.0f);
-    const vi8 any_zero = (u == zero) | (v == zero) | (w == zero);
-    if (PRT_UNLIKELY(vi8_mask(any_zero))) rblock_fix_edges(any_zero, &ax, &ay, &bx, &by, &cx, &cy, &u, &v, &w);
-    const vi8 mixed = (vf8_min(vf8_min(u, v), w) < zero) & (vf8_max(vf8_max(u, v), w) > zero);
-    const vf8 det = u + v + w;
-    const vi8 inside = ~mixed & (det != zero);
-    if (!(vi8_mask(inside) & (int)B->live)) return 0;
-    const vf8 T = u * (B->sz * az0) + v * (B->sz * bz0) + w * (B->sz * cz0);
-    const vf8 t = T / det;
-    const int mask = vi8_mask(inside & (t >= B->tnear) & (t <= B->t)) & (int)B->live;
-    if (mask) {
-        *t_out = t;
-        *u_out = v / det;
-        *v_out = w / det;
-    }
-    return mask;
-}
 
 typedef struct frustum {
     pray *rays;
@@ -146,16 +79,7 @@ static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
 
 /* True when all three vertices lie outside one of the four frustum planes. */
 static inline bool frustum_culls(const frustum *f, const float *p) {
-    const cg_grid *g = f->g;
-    int out = 0xf;
-    for (int v = 0; v < 3 && out; v++) {
-        const float *q = p + 3 * v;
-        float gu = (q[f->U] - g->lo[f->U]) * g->inv_cell, gv = (q[f->V] - g->lo[f->V]) * g->inv_cell,
-              gk = (q[f->K] - g->lo[f->K]) * g->inv_cell;
-        vf4 d = f->plane_u * vf4_set1(gu) + f->plane_v * vf4_set1(gv) + f->plane_k * vf4_set1(gk) + f->plane_c;
-        out &= vi4_mask(d < vf4_set1(-f->cull_eps));
-    }
-    return out != 0;
+    return cg_planes_cull(f->g, f->K, f->U, f->V, f->plane_u, f->plane_v, f->plane_k, f->plane_c, f->cull_eps, p);
 }
 
 _Static_assert(sizeof(prt_ray) == 32 && offsetof(prt_ray, tnear) == 12 && offsetof(prt_ray, dir) == 16 &&
@@ -179,12 +103,6 @@ static inline void transpose8(vf8 c[8]) {
         c[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
         c[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
     }
-}
-
-/* floor(x) for the 4 lanes, clamped to [-1, top + 1] first so the conversion is defined. */
-static inline vi4 floor4_clamped(vf4 x, vf4 top) {
-    x = vf4_min(vf4_max(x, vf4_set1(-1.0f)), top + vf4_set1(1.0f));
-    return __builtin_convertvector(x + vf4_set1(1.0f), vi4) - (vi4){1, 1, 1, 1};
 }
 
 /* Trace rays idx[0..n) of the packet: frustum set through slices, the rest by DDA. */
@@ -408,7 +326,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         B->live |= 1u << l;
         pr[i].block = (uint16_t)(B - blocks), pr[i].lane = (uint16_t)l;
     }
-    const uint32_t epoch = c->opt.mailbox ? mailbox_begin() : 0;
+    const uint32_t epoch = c->opt.mailbox ? cg_mailbox_begin() : 0;
     uint32_t cand[CG_CHUNK], nc = 0;
     uint64_t cells = 0, culled = 0, mailboxed = 0;
 
@@ -452,7 +370,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                     cells++;
                     for (uint32_t ri = g->cell_start[ci], re = g->cell_start[ci + 1]; ri < re; ri++) {
                         uint32_t tri = g->refs[ri];
-                        if (epoch && mailbox_seen(epoch, tri)) {
+                        if (epoch && cg_mailbox_seen(epoch, tri)) {
                             mailboxed++;
                             continue;
                         }
