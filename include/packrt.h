@@ -279,6 +279,16 @@ bool prt_occluded1(const prt_accel *a, const prt_ray *r);
 /* Closest hits for a packet of coherent rays (as prt_intersect1 for each ray). */
 void prt_intersect_packet(const prt_accel *a, prt_packet *p);
 
+/* Any hit for a packet of coherent rays, such as shadow rays from a pixel block's hit
+ * points to one point light: occluded[i] = 1 when a triangle is hit with t in
+ * [rays[i].tnear, rays[i].tfar], else 0, exactly as prt_occluded1 answers rays[i] (invalid
+ * rays are 0). Reads p->rays, p->count and p->width (rows of width rays, as for
+ * prt_intersect_packet); p->hits is not used and may be NULL. Rays past PRT_PACKET_MAX are
+ * answered one by one. occluded: caller-owned, p->count entries. Representations without
+ * packet traversal answer with prt_occluded1 per ray; "cgrid" traces frustums (Wald 2006
+ * §4.6; docs/cgrid.md). */
+void prt_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
+
 /* Closest hits for n rays on `threads` threads (0: all cores). rays[i].tfar is shrunk as
  * by prt_intersect1. */
 void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n, int threads);

@@ -128,13 +128,15 @@ TEST(test_canonical_spec_spells_every_option_and_bad_options_fail) {
     prt_mesh *m = mesh_grid(4);
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "cgrid", NULL, &a));
-    if (a) CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on"), "%s", prt_accel_spec(a));
+    if (a) CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,spread=8"), "%s", prt_accel_spec(a));
     prt_accel_free(a);
     a = NULL;
-    CHECK_OK(prt_build(m, "cgrid,cull=off,packet=4,lambda=3", NULL, &a));
-    if (a) CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=3,macro=6,packet=4,mailbox=on,cull=off"), "%s", prt_accel_spec(a));
+    CHECK_OK(prt_build(m, "cgrid,cull=off,spread=0,packet=4,lambda=3", NULL, &a));
+    if (a)
+        CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=3,macro=6,packet=4,mailbox=on,cull=off,spread=0"), "%s",
+                  prt_accel_spec(a));
     prt_accel_free(a);
-    const char *bad[] = {"cgrid,packet=3", "cgrid,lambda=0", "cgrid,macro=99", "cgrid,mailbox=maybe", "cgrid,foo=1",
+    const char *bad[] = {"cgrid,packet=3", "cgrid,lambda=0", "cgrid,macro=99", "cgrid,mailbox=maybe", "cgrid,spread=-1", "cgrid,foo=1",
                          "cgrid:float3"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
         a = NULL;

@@ -112,6 +112,18 @@ void prt_intersect_packet(const prt_accel *a, prt_packet *p) {
     for (uint32_t i = 0; i < n; i++) prt_intersect1(a, &p->rays[i], &p->hits[i]);
 }
 
+void prt_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded) {
+    uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
+    if (a->ops->occluded_packet && n) {
+        prt_packet q = *p;
+        q.count = n;
+        a->ops->occluded_packet(a, &q, occluded);
+    } else {
+        n = 0;
+    }
+    for (uint32_t i = n; i < p->count; i++) occluded[i] = prt_occluded1(a, &p->rays[i]);
+}
+
 /* Chunks of 256 rays: big enough to amortise scheduling, small enough to balance. */
 #define STREAM_CHUNK 256
 

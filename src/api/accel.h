@@ -16,6 +16,9 @@ typedef struct prt_accel_ops {
     void (*intersect1)(const prt_accel *a, prt_ray *r, prt_hit *h);
     bool (*occluded1)(const prt_accel *a, const prt_ray *r);
     void (*intersect_packet)(const prt_accel *a, prt_packet *p); /* NULL: generic fallback */
+    /* prt_occluded_packet for p->count <= PRT_PACKET_MAX rays (not yet checked for
+     * validity); NULL: prt_occluded1 per ray. */
+    void (*occluded_packet)(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
     void (*stats)(const prt_accel *a, prt_stats *s);             /* fills bytes, nodes, leaves, depth */
     prt_status (*save)(const prt_accel *a, prt_writer *w);
     /* Load from a checked container; sections point into memory that outlives the accel. */

@@ -49,6 +49,7 @@ typedef struct cg_options {
     int packet;  /* 0: trace the caller's packets as given; 1: single rays; N: N x N sub-packets */
     int mailbox; /* per-packet mailboxing */
     int cull;    /* per-packet frustum culling of triangles */
+    int spread;  /* shadow packets whose hit points spread over more cells are split (§4.6); 0: never */
 } cg_options;
 
 typedef struct cg_file_header {
@@ -102,6 +103,8 @@ void cg_dda_closest(const cg_grid *g, const prt_ray *r, prt__hitx *hit);
 
 /* Frustum packet traversal (prt_accel_ops.intersect_packet). */
 void cg_intersect_packet(const prt_accel *a, prt_packet *p);
+/* Shadow packets, any hit per ray (prt_accel_ops.occluded_packet; shadow.c). */
+void cg_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
 
 /* Stats and counters for tools (bench, tests): reset and read the calling thread's. */
 void prt__cgrid_counters_reset(void);

@@ -1,9 +1,10 @@
 /* The cgrid family behind prt_accel_ops:
- *   "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on"
+ *   "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,spread=8"
  * lambda: cells per triangle (§3); macro: macrocell size M, 0 for none (§2.4); packet: 0
  * traces the caller's packets as given, 1 every ray by the single-ray DDA, N = 2, 4, 8, 16
  * cuts the caller's packets into N x N sub-packets; mailbox and cull switch the two
- * per-packet optimisations of §2.3 (for the paper's Table 1).
+ * per-packet optimisations of §2.3 (for the paper's Table 1); spread: shadow packets whose
+ * hit points spread over more than this many cells are split (§4.6, shadow.c), 0 never.
  * update() rebuilds the grid in place from new vertex positions (same triangles).
  * Saved as sections CGHD (grid header), CGCS (cell starts), CGRF (references), CGTR
  * (triangle vertices of the saved frame) and CGIX (triangle indices, for update after a
@@ -31,7 +32,8 @@ static prt_status parse_options(prt_spec *spec, cg_options *o) {
     if ((s = prt__spec_int(spec, "lambda", 6, 1, 64, &o->lambda)) || (s = prt__spec_int(spec, "macro", 6, 0, 32, &o->macro)) ||
         (s = prt__spec_int(spec, "packet", 0, 0, 16, &o->packet)) ||
         (s = prt__spec_enum(spec, "mailbox", g_onoff, 2, 1, &o->mailbox)) ||
-        (s = prt__spec_enum(spec, "cull", g_onoff, 2, 1, &o->cull)) || (s = prt__spec_check_unused(spec)))
+        (s = prt__spec_enum(spec, "cull", g_onoff, 2, 1, &o->cull)) ||
+        (s = prt__spec_int(spec, "spread", 8, 0, 4096, &o->spread)) || (s = prt__spec_check_unused(spec)))
         return s;
     if (o->packet & (o->packet - 1))
         return prt__fail(PRT_ERROR_ARGUMENT, "option packet=%d: expected 0 (as given), 1 (single rays), 2, 4, 8 or 16",
@@ -49,6 +51,8 @@ static prt_status parse_options(prt_spec *spec, cg_options *o) {
     prt__spec_set(&canon, "packet", num);
     prt__spec_set(&canon, "mailbox", g_onoff[o->mailbox]);
     prt__spec_set(&canon, "cull", g_onoff[o->cull]);
+    snprintf(num, sizeof num, "%d", o->spread);
+    prt__spec_set(&canon, "spread", num);
     *spec = canon;
     return PRT_OK;
 }
@@ -220,6 +224,7 @@ const prt_accel_ops prt__cgrid_ops = {
     .intersect1 = cg_intersect1,
     .occluded1 = cg_occluded1,
     .intersect_packet = cg_intersect_packet,
+    .occluded_packet = cg_occluded_packet,
     .stats = cg_stats,
     .save = cg_save,
     .load = cg_load,
