@@ -308,42 +308,91 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
     prt_mesh_free(m);
 }
 
-/* Packets (2x2 blocks, or runs of four) give every ray exactly its single-ray hit: coherent
- * camera rays over the grid, in packets of several widths and counts. */
+/* Specs whose packets are traced as packets: 2x2 (the default) and 4x4. */
+static const char *const g_packet_specs[] = {
+    "raystrips",
+    "raystrips,packet=4x4",
+    "raystrips,leaf=2,split=f32,strip=meshopt",
+    "raystrips,leaf=2,split=f32,strip=meshopt,packet=4x4",
+    "raystrips,leaf=1,packet=4x4",
+    "raystrips,chunk=4,leaf=2,split=q16,packet=4x4",
+    "raystrips,leaf=4,split=f32,chunk=1024,packet=4x4",
+};
+
+/* Every packet of `per` consecutive rays (width w) gives each ray exactly its single-ray
+ * hit and shrinks its tfar the same. Returns the number of rays that hit. */
+static size_t expect_packets_match_single_rays(const prt_accel *a, const char *spec, const prt_ray *rays, uint32_t n,
+                                               uint32_t w, uint32_t per) {
+    prt_ray *r1 = malloc(n * sizeof *r1), *r2 = malloc(n * sizeof *r2);
+    prt_hit *h1 = malloc(n * sizeof *h1), *h2 = malloc(n * sizeof *h2);
+    memcpy(r1, rays, n * sizeof *rays), memcpy(r2, rays, n * sizeof *rays);
+    for (uint32_t k = 0; k < n; k++) prt_intersect1(a, &r1[k], &h1[k]);
+    for (uint32_t k = 0; k < n; k += per) {
+        prt_packet p = {r2 + k, h2 + k, n - k < per ? n - k : per, w};
+        prt_intersect_packet(a, &p);
+    }
+    size_t diff = 0, hits = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        diff += memcmp(&h1[k], &h2[k], sizeof h1[k]) != 0 || memcmp(&r1[k], &r2[k], sizeof r1[k]) != 0;
+        hits += h1[k].prim != PRT_INVALID;
+    }
+    CHECK_MSG(diff == 0, "%s, packets of %u, width %u: %zu of %u packet rays differ", spec, per, w, diff, n);
+    free(r1), free(r2), free(h1), free(h2);
+    return hits;
+}
+
+/* Packets (4x4 or 2x2 blocks, or runs of 16 or 4) give every ray exactly its single-ray hit:
+ * coherent camera rays over the grid (some off its edges), in packets of several widths
+ * and counts. */
 TEST(test_packets_give_the_single_ray_hits) {
     prt_mesh *m = mesh_grid(40);
     const uint32_t res = 32, n = res * res;
-    prt_ray *rays = malloc(n * sizeof *rays), *r1 = malloc(n * sizeof *rays), *r2 = malloc(n * sizeof *rays);
-    prt_hit *h1 = malloc(n * sizeof *h1), *h2 = malloc(n * sizeof *h2);
+    prt_ray *rays = malloc(n * sizeof *rays);
     for (uint32_t y = 0; y < res; y++)
         for (uint32_t x = 0; x < res; x++) {
             const float tx = -0.1f + 1.2f * (float)x / res, tz = -0.1f + 1.2f * (float)y / res;
             rays[y * res + x] = (prt_ray){{0.5f, 1.5f, -0.8f}, 0, {tx - 0.5f, -1.5f, tz + 0.8f}, INFINITY};
         }
-    const uint32_t widths[][2] = {{2, 4}, {4, 16}, {8, 64}, {16, 256}, {4, 12}, {3, 9}, {1, 7}};
-    for (size_t i = 0; i < COUNT_OF(g_specs); i++) {
+    const uint32_t widths[][2] = {{2, 4}, {4, 16}, {8, 64}, {16, 256}, {12, 48}, {6, 36}, {4, 12}, {3, 9}, {1, 7}, {1, 16}};
+    for (size_t i = 0; i < COUNT_OF(g_packet_specs); i++) {
         prt_accel *a;
-        if (!repr_build(m, g_specs[i], &a)) continue;
-        memcpy(r1, rays, n * sizeof *rays);
-        for (uint32_t k = 0; k < n; k++) prt_intersect1(a, &r1[k], &h1[k]);
-        size_t hits = 0;
-        for (uint32_t k = 0; k < n; k++) hits += h1[k].prim != PRT_INVALID;
+        if (!repr_build(m, g_packet_specs[i], &a)) continue;
         for (size_t w = 0; w < COUNT_OF(widths); w++) {
-            memcpy(r2, rays, n * sizeof *rays);
-            for (uint32_t k = 0; k < n; k += widths[w][1]) {
-                prt_packet p = {r2 + k, h2 + k, n - k < widths[w][1] ? n - k : widths[w][1], widths[w][0]};
-                prt_intersect_packet(a, &p);
-            }
-            size_t diff = 0;
-            for (uint32_t k = 0; k < n; k++)
-                diff += memcmp(&h1[k], &h2[k], sizeof h1[k]) != 0 || memcmp(&r1[k], &r2[k], sizeof r1[k]) != 0;
-            CHECK_MSG(diff == 0 && hits > n / 2, "%s, width %u: %zu of %u packet rays differ (%zu hits)", g_specs[i],
-                      widths[w][0], diff, n, hits);
+            const size_t hits = expect_packets_match_single_rays(a, g_packet_specs[i], rays, n, widths[w][0], widths[w][1]);
+            CHECK_MSG(hits > n / 2 && hits < n, "%s: %zu of %u rays hit", g_packet_specs[i], hits, n);
         }
         prt_accel_free(a);
     }
-    free(rays), free(r1), free(r2), free(h1), free(h2);
+    free(rays);
     prt_mesh_free(m);
+}
+
+/* Packets of unrelated rays: random rays over a soup and a grid diverge at the first node,
+ * enter different chunks and strips, and many miss; a packet whose rays all miss, and
+ * packets holding invalid rays (NaN direction, tnear > tfar), answer as single rays do. */
+TEST(test_packets_of_diverging_and_missing_rays_give_the_single_ray_hits) {
+    prt_mesh *meshes[] = {mesh_random_soup(1500, 31), mesh_grid(30)};
+    const uint32_t n = 1024;
+    for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
+        prt_ray *rays = rays_random(meshes[mi], n, 32 + (uint64_t)mi);
+        /* Rays 0..15 point away from the mesh (all miss); a few invalid ones elsewhere. */
+        for (uint32_t k = 0; k < 16; k++)
+            for (int c = 0; c < 3; c++) rays[k].dir[c] = -rays[k].dir[c];
+        rays[40].dir[1] = NAN, rays[77].tnear = 2.0f, rays[77].tfar = 1.0f;
+        for (size_t i = 0; i < COUNT_OF(g_packet_specs); i++) {
+            prt_accel *a;
+            if (!repr_build(meshes[mi], g_packet_specs[i], &a)) continue;
+            const uint32_t widths[][2] = {{4, 16}, {2, 4}, {16, 16}, {1, 5}};
+            for (size_t w = 0; w < COUNT_OF(widths); w++) {
+                const size_t hits =
+                    expect_packets_match_single_rays(a, g_packet_specs[i], rays, n, widths[w][0], widths[w][1]);
+                CHECK_MSG(hits > n / 8 && hits < n - 16, "%s: %zu of %u rays hit", g_packet_specs[i], hits, n);
+            }
+            prt_accel_free(a);
+        }
+        free(rays);
+        prt_mesh_free(meshes[mi]);
+    }
 }
 
 /* Threads stripify contiguous runs of chunks: the records and nodes do not depend on the
@@ -404,6 +453,7 @@ int main(void) {
     RUN(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit);
     RUN(test_damaged_records_and_nodes_behind_the_checksums_are_errors);
     RUN(test_packets_give_the_single_ray_hits);
+    RUN(test_packets_of_diverging_and_missing_rays_give_the_single_ray_hits);
     RUN(test_build_is_the_same_on_one_and_two_threads);
     RUN(test_single_triangle_and_bad_options);
     TEST_END();

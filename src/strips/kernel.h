@@ -82,6 +82,21 @@ typedef struct rs_visit {
     float dmin, dmax;
 } rs_visit;
 
+/* The two planes of s-kd node `node` on axis k of strip s (box lo/hi, read for q16 only). */
+static inline void rs_planes(const rs_accel *a, const rs_strip *s, uint32_t node, int k, const float *lo,
+                             const float *hi, float *p1, float *p2) {
+    if (a->q16) {
+        uint16_t q[2];
+        memcpy(q, (const uint16_t *)s->splits + 2 * node, sizeof q);
+        const float step = rs_q16_step(lo[k], hi[k]);
+        *p1 = rs_q16_plane(q[0], lo[k], hi[k], step), *p2 = rs_q16_plane(q[1], lo[k], hi[k], step);
+    } else {
+        float f[2];
+        memcpy(f, (const float *)s->splits + 2 * node, sizeof f);
+        *p1 = f[0], *p2 = f[1];
+    }
+}
+
 /* The strip at rec whose box is lo/hi (read for q16 only), entered over [dmin, dmax].
  * any: true at the first hit. Otherwise best->t shrinks with every nearer hit; returns
  * whether one was found. Algorithm 1 with the reverse flag; lg = log2(leaf). */
@@ -100,16 +115,7 @@ static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const u
             const uint32_t fl = s.flags[node];
             const int k = (int)(fl & 3u);
             float p1, p2;
-            if (a->q16) {
-                uint16_t q[2];
-                memcpy(q, (const uint16_t *)s.splits + 2 * node, sizeof q);
-                const float step = rs_q16_step(lo[k], hi[k]);
-                p1 = rs_q16_plane(q[0], lo[k], hi[k], step), p2 = rs_q16_plane(q[1], lo[k], hi[k], step);
-            } else {
-                float f[2];
-                memcpy(f, (const float *)s.splits + 2 * node, sizeof f);
-                p1 = f[0], p2 = f[1];
-            }
+            rs_planes(a, &s, node, k, lo, hi, &p1, &p2);
             /* lower half: x <= p1, upper half: x >= p2; the near one is the lower when the ray
              * runs up the axis. NaN distances (origin on a plane the ray runs along) clip
              * nothing. */

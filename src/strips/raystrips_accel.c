@@ -1,5 +1,5 @@
 /* The Ray-Strips family behind prt_accel_ops (Lauterbach, Yoon, Manocha 2007): parses
- * "raystrips[,chunk=N,leaf=1|2|4|8,split=f32|q16,strip=meshopt|rt,packet=2x2|none]", builds
+ * "raystrips[,chunk=N,leaf=1|2|4|8,split=f32|q16,strip=meshopt|rt,packet=2x2|4x4|none]", builds
  * chunks, strips, the records and the top-level BVH, and saves them as sections META, NODE,
  * STRP and VERT. */
 #include "bvh/layouts/quad_plan.h"
@@ -20,7 +20,8 @@ _Static_assert(sizeof(rs_meta) == 64, "META section is 64 bytes");
 static const char *const g_split_names[] = {"f32", "q16"};
 static const char *const g_strip_names[] = {"meshopt", "rt"};
 /* packet=none leaves prt_intersect_packet to the API's single-ray loop (to measure both). */
-static const char *const g_packet_names[] = {"2x2", "none"};
+static const char *const g_packet_names[] = {"2x2", "none", "4x4"};
+static const uint8_t g_packet_rays[] = {4, 0, 16};
 
 extern const prt_accel_ops prt__raystrips_ops, prt__raystrips_ops_single;
 
@@ -203,7 +204,7 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     if ((s = prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 8, 1, 8, &leaf)) ||
         (s = prt__spec_enum(spec, "split", g_split_names, 2, 1, &split)) ||
         (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip)) ||
-        (s = prt__spec_enum(spec, "packet", g_packet_names, 2, 0, &packet)) || (s = prt__spec_check_unused(spec)))
+        (s = prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet)) || (s = prt__spec_check_unused(spec)))
         return s;
     if (leaf & (leaf - 1)) return prt__fail(PRT_ERROR_ARGUMENT, "raystrips: leaf=%d: 1, 2, 4 or 8 triangles", leaf);
     if (m->triangle_count >= RS_MAX_TRIANGLES)
@@ -246,7 +247,8 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
             a->base.bounds[3 + k] = fmaxf(a->base.bounds[3 + k], a->nodes[0].box[8 * k + 4 + i]);
         }
     }
-    a->base.ops = packet ? &prt__raystrips_ops_single : &prt__raystrips_ops;
+    a->packet = g_packet_rays[packet];
+    a->base.ops = a->packet ? &prt__raystrips_ops : &prt__raystrips_ops_single;
     a->base.triangles_built = n;
     *out = &a->base;
     return PRT_OK;
@@ -279,7 +281,7 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 8, 1, 8, &leaf) ||
         prt__spec_enum(spec, "split", g_split_names, 2, 1, &split) ||
         prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip) ||
-        prt__spec_enum(spec, "packet", g_packet_names, 2, 0, &packet) || prt__spec_check_unused(spec))
+        prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
     if (meta.leaf != leaf || meta.q16 != split || meta.reserved[0] || meta.reserved[1] ||
         nsize != meta.node_count * sizeof(rs_node) || meta.node_count == 0 || meta.node_count >= RS_LEAF ||
@@ -298,7 +300,8 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         prt__free(a);
         return s;
     }
-    a->base.ops = packet ? &prt__raystrips_ops_single : &prt__raystrips_ops;
+    a->packet = g_packet_rays[packet];
+    a->base.ops = a->packet ? &prt__raystrips_ops : &prt__raystrips_ops_single;
     *out = &a->base;
     return PRT_OK;
 }

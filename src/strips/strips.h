@@ -106,6 +106,7 @@ typedef struct rs_accel {
     size_t bytes_strip_tree; /* heads and s-kd nodes of the records */
     uint32_t leaf;           /* triangles below which the s-kd tree stops (an implicit leaf) */
     bool q16;
+    uint8_t packet; /* rays per packet of prt_intersect_packet: 4 (2x2), 16 (4x4), 0 (none) */
     uint32_t depth;
     void *owned[3]; /* built: nodes, strips, vertices (prt__free) */
 } rs_accel;
