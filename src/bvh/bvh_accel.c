@@ -4,6 +4,8 @@
  * tree-wide data and IDS for the mesh ids of a seq_ids codec's triangles. */
 #include "api/accel.h"
 #include "bvh/bvh.h"
+#include "bvh/codecs/strip.h"
+#include "bvh/strip_leaves.h"
 #include "core/vec.h"
 #include "mesh/mesh.h"
 
@@ -75,8 +77,12 @@ static bool bvh_name_at(size_t i, const char **name, const char **desc) {
 static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     const bvh_accel *b = (const bvh_accel *)a;
     b->intersect1(b->blob.data, &b->shared, r, h);
+    if (h->prim >= b->shared.triangles) return; /* a miss, or a codec without seq_ids */
+    /* Strip triangles are rotations of the mesh's: u, v back in mesh order. */
+    if (bvh_codecs[b->codec].strips)
+        bvh_strip_rotate_uv(b->shared.data[sizeof(strip_shared_head) + h->prim / 4] >> (2 * (h->prim % 4)) & 3, &h->u, &h->v);
     /* seq_ids codecs answer the leaf-order id; leaves were checked to stay below triangles. */
-    if (b->shared.mesh_ids && h->prim < b->shared.triangles) h->prim = b->shared.mesh_ids[h->prim];
+    if (b->shared.mesh_ids) h->prim = b->shared.mesh_ids[h->prim];
 }
 
 static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -95,6 +101,13 @@ static void bvh_stats(const prt_accel *a, prt_stats *s) {
     s->nodes = b->blob.nodes;
     s->leaves = b->blob.leaves;
     s->depth = b->blob.depth;
+    if (c->strips) {
+        strip_shared_head hd;
+        memcpy(&hd, b->shared.data, sizeof hd);
+        snprintf(s->detail, sizeof s->detail, "%u strips of %.2f triangles on average, %.3f entries per triangle",
+                 hd.strips, hd.strips ? (double)hd.triangles / hd.strips : 0.0,
+                 hd.triangles ? (double)hd.entries / hd.triangles : 0.0);
+    }
 }
 
 static void bvh_destroy(prt_accel *a) {
@@ -170,10 +183,55 @@ static prt_status permute_to_leaf_order(const prt_mesh *m, bvh_tree *t, uint32_t
     return PRT_OK;
 }
 
+/* strip stores vertices without their lowest bit (codecs/strip.h): a copy of m's vertices
+ * so, for the tree and every leaf alike, and the largest distance that moved a vertex. */
+static prt_status clear_low_bits(const prt_mesh *m, prt_mesh *out, float *error) {
+    float *v = prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 3 * sizeof(float)));
+    if (!v) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices", m->vertex_count);
+    double err2 = 0;
+    for (size_t i = 0; i < m->vertex_count; i++) {
+        double d2 = 0;
+        for (int k = 0; k < 3; k++) {
+            v[3 * i + k] = strip_clear_low_bit(m->vertices[3 * i + k]);
+            d2 += ((double)v[3 * i + k] - m->vertices[3 * i + k]) * ((double)v[3 * i + k] - m->vertices[3 * i + k]);
+        }
+        err2 = fmax(err2, d2);
+    }
+    *out = (prt_mesh){.vertices = v, .triangles = m->triangles, .vertex_count = m->vertex_count, .triangle_count = m->triangle_count};
+    *error = (float)sqrt(err2);
+    if ((double)*error * *error < err2) *error = nextafterf(*error, INFINITY); /* not below it */
+    return PRT_OK;
+}
+
+/* Strip codecs: the tree's leaves become strip entries (bvh_strip_leaves over the mesh in
+ * leaf order, lm), encoded from an entry mesh; the shared data is the rotation of each
+ * triangle behind a strip_shared_head. */
+static prt_status encode_strips(bvh_accel *b, bvh_tree *tree, prt_mesh *lm, uint32_t *ids, float vertex_error) {
+    bvh_strip_set set;
+    prt_status s = bvh_strip_leaves(tree, lm, ids, &set);
+    if (s) return s;
+    const size_t n = b->shared.triangles, rot = (n + 3) / 4;
+    uint8_t *data = prt__alloc(sizeof(strip_shared_head) + rot);
+    if (!data) {
+        bvh_strip_set_free(&set);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu strip rotations", n);
+    }
+    const strip_shared_head hd = {vertex_error, (uint32_t)n, (uint32_t)set.count, (uint32_t)set.strips};
+    memcpy(data, &hd, sizeof hd);
+    memcpy(data + sizeof hd, set.rotations, rot);
+    b->shared.data = data, b->shared.size = sizeof hd + rot;
+    const prt_mesh em = {.vertices = lm->vertices, .triangles = set.entries, .vertex_count = lm->vertex_count,
+                         .triangle_count = set.count};
+    s = b->layout->encode(tree, &bvh_codecs[b->codec], &em, &b->blob);
+    bvh_strip_set_free(&set);
+    return s;
+}
+
 static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
     int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
     const bvh_codec *c = &bvh_codecs[codec];
-    bvh_build_params p = {.block = c->block,
+    /* Strip leaves are tested 8 triangles at a time (codecs/strip_kernel.inc). */
+    bvh_build_params p = {.block = c->strips ? 8 : c->block,
                           .threads = o ? o->threads : 0,
                           .progress = o ? o->progress : NULL,
                           .progress_user = o ? o->progress_user : NULL,
@@ -181,7 +239,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     int split, leaf;
     /* A layout that names no default for a codec: 4 triangles tested one by one, else two blocks. */
     int default_leaf = g_layouts[layout]->default_leaf[codec];
-    if (!default_leaf) default_leaf = c->block == 1 ? 4 : 2 * c->block > BVH_MAX_LEAF ? BVH_MAX_LEAF : 2 * c->block;
+    if (!default_leaf) default_leaf = c->strips ? 8 : c->block == 1 ? 4 : 2 * c->block > BVH_MAX_LEAF ? BVH_MAX_LEAF : 2 * c->block;
     prt_status s;
     if ((s = prt__spec_enum(spec, "split", bvh_split_names, BVH_SPLIT_COUNT, BVH_SPLIT_SAH, &split)) ||
         (s = prt__spec_int(spec, "leaf", default_leaf, 1, BVH_MAX_LEAF, &leaf)))
@@ -205,17 +263,25 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     prt__spec_set(spec, "split", bvh_split_names[split]);
     prt__spec_set(spec, "leaf", num);
 
+    prt_mesh cleared;
+    float strip_error = 0;
+    if (codec == BVH_CODEC_strip) {
+        if ((s = clear_low_bits(m, &cleared, &strip_error))) return s;
+        m = &cleared;
+    }
     bvh_prim *prims;
     size_t n;
-    if ((s = bvh_triangle_prims(m, NULL, 0, &prims, &n))) return s;
-    bvh_tree tree;
-    s = bvh_build(prims, n, &p, &tree);
-    prt__free(prims);
-    if (s) return s;
-    bvh_accel *b = bvh_new(layout, codec);
-    if (!b) {
+    bvh_tree tree = {0};
+    if (!(s = bvh_triangle_prims(m, NULL, 0, &prims, &n))) {
+        s = bvh_build(prims, n, &p, &tree);
+        prt__free(prims);
+    }
+    bvh_accel *b = s ? NULL : bvh_new(layout, codec);
+    if (!s && !b) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    if (s) {
         bvh_tree_free(&tree);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+        if (m == &cleared) prt__free(cleared.vertices);
+        return s;
     }
     b->owns_blob = true;
     prt_mesh leaf_order = *m, *em = (prt_mesh *)m;
@@ -229,10 +295,12 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
                             : c->shared_build(em, &data, &b->shared.size);
         b->shared.data = data;
     }
-    if (!s) s = b->layout->encode(&tree, c, em, &b->blob);
+    if (!s && c->strips) s = encode_strips(b, &tree, &leaf_order, ids ? o->triangle_order : b->mesh_ids, strip_error);
+    else if (!s) s = b->layout->encode(&tree, c, em, &b->blob);
     if (!s && c->leaf_error) s = measure_leaf_error(b, c, em);
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
     if (em != m) prt__free(leaf_order.triangles);
+    if (m == &cleared) prt__free(cleared.vertices);
     bvh_tree_free(&tree);
     if (s) {
         bvh_destroy(&b->base);
@@ -257,6 +325,19 @@ static prt_status bvh_save(const prt_accel *a, prt_writer *w) {
     return s;
 }
 
+/* A strip codec's shared data: its head names the tree's triangles, a finite error and
+ * a rotation (below 3) for each. */
+static prt_status strip_shared_check(const bvh_shared *sh, uint64_t triangles) {
+    strip_shared_head hd;
+    if (sh->size < sizeof hd || sh->size - sizeof hd != (triangles + 3) / 4)
+        return prt__fail(PRT_ERROR_CORRUPT, "strip SHRD section holds %zu bytes for %llu triangles", sh->size,
+                         (unsigned long long)triangles);
+    memcpy(&hd, sh->data, sizeof hd);
+    bool ok = hd.triangles == triangles && hd.vertex_error >= 0 && hd.vertex_error < INFINITY;
+    for (size_t i = 0; ok && i < triangles; i++) ok = (sh->data[sizeof hd + i / 4] >> (2 * (i % 4)) & 3) != 3;
+    return ok ? PRT_OK : prt__fail(PRT_ERROR_CORRUPT, "strip SHRD section is inconsistent");
+}
+
 static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
     const void *mp, *data;
@@ -271,11 +352,12 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         meta.depth > BVH_MAX_DEPTH || meta.depth == 0)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section disagrees with its BLOB");
     bvh_shared shared = {.data = NULL};
-    if (bvh_codecs[codec].shared_build || bvh_codecs[codec].shared_remap) {
+    if (bvh_codecs[codec].shared_build || bvh_codecs[codec].shared_remap || bvh_codecs[codec].strips) {
         const void *sd;
         if ((s = prt__reader_section(r, PRT_FOURCC('S', 'H', 'R', 'D'), 1, &sd, &shared.size))) return s;
         shared.data = sd;
     }
+    if (bvh_codecs[codec].strips && (s = strip_shared_check(&shared, meta.triangles))) return s;
     if (meta.flags & ~(uint32_t)BVH_META_MESH_IDS || (meta.flags && !bvh_codecs[codec].seq_ids) ||
         (!bvh_codecs[codec].seq_ids && meta.triangles) || meta.triangles > UINT32_MAX)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section has flags or a triangle count its codec does not use");

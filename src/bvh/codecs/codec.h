@@ -31,7 +31,9 @@
     X(idx16_bitpack_soa4, "idx16-bitpack-soa4", "Indexed16BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 16-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
     X(idx32_bitpack_soa4, "idx32-bitpack-soa4", "Indexed32BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 32-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
     X(bitpack_soa4, "bitpack-soa4", "BitPackSOA4 (Rouwe 3.5): 16-bit components of 4 triangles in SOA form over a float grid per block, one id per leaf; lossy") \
-    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy")
+    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy") \
+    X(strip, "strip", "UncompressedStrip (Rouwe 3.10): strips of 12-byte vertices with the 3-bit context in their low bits, one id per leaf; lossy by one ulp") \
+    X(strip_bitpack, "strip-bitpack", "CompressedStrip (Rouwe 3.10): strips of 20-bit packed vertices and the 3-bit context in a u64, a grid and one id per leaf; lossy")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,
@@ -92,6 +94,9 @@ typedef struct bvh_codec {
      * (seq_ids). The BVH family takes the maximum over every leaf of the encoded tree once
      * after building and keeps it in the META section. NULL for the others. */
     double (*leaf_error)(const uint8_t *leaf, uint32_t count, const prt_mesh *m);
+    /* Strip codecs (Rouwé §3.10): leaves hold strip entries, not triangles; the BVH family
+     * rewrites the tree for them (bvh/strip_leaves.h) and keeps their shared data itself. */
+    bool strips;
 } bvh_codec;
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];

@@ -16,5 +16,7 @@
 #include "bvh/codecs/idx32_bitpack_soa4.h"
 #include "bvh/codecs/bitpack_soa4.h"
 #include "bvh/codecs/bitpack.h"
+#include "bvh/codecs/strip.h"
+#include "bvh/codecs/strip_bitpack.h"
 
 #endif
