@@ -98,3 +98,22 @@ void bench_embree_anim_intersect16(const bench_embree_anim *e, const prt_ray *ra
             hits[i] = (prt_hit){q.ray.tfar[i], q.hit.u[i], q.hit.v[i], q.hit.primID[i], 0};
     }
 }
+
+void bench_embree_anim_occluded16(const bench_embree_anim *e, const prt_ray *rays, uint8_t *occluded, int count) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    _Alignas(64) struct RTCRay16 q;
+    _Alignas(64) int valid[16];
+    for (int i = 0; i < 16; i++) {
+        valid[i] = i < count ? -1 : 0;
+        const prt_ray *r = &rays[i < count ? i : 0];
+        q.org_x[i] = r->org[0], q.org_y[i] = r->org[1], q.org_z[i] = r->org[2];
+        q.dir_x[i] = r->dir[0], q.dir_y[i] = r->dir[1], q.dir_z[i] = r->dir[2];
+        q.tnear[i] = r->tnear, q.tfar[i] = r->tfar, q.time[i] = 0;
+        q.mask[i] = 0xFFFFFFFFu, q.id[i] = (unsigned)i, q.flags[i] = 0;
+    }
+    rtcOccluded16(valid, e->scene, &ctx, &q);
+    /* Embree sets tfar to -inf for every occluded ray. */
+    for (int i = 0; i < count; i++) occluded[i] = q.tfar[i] == -INFINITY;
+}

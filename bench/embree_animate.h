@@ -16,6 +16,8 @@ prt_status bench_embree_anim_create(const prt_mesh *m, int threads, bench_embree
 prt_status bench_embree_anim_update(bench_embree_anim *e, const float *vertices);
 /* Closest hits of up to 16 rays (rtcIntersect16, coherent context). */
 void bench_embree_anim_intersect16(const bench_embree_anim *e, const prt_ray *rays, prt_hit *hits, int count);
+/* Any hit of up to 16 rays (rtcOccluded16, coherent context): occluded[i] = 1 when blocked. */
+void bench_embree_anim_occluded16(const bench_embree_anim *e, const prt_ray *rays, uint8_t *occluded, int count);
 void bench_embree_anim_free(bench_embree_anim *e);
 
 #endif

@@ -23,6 +23,11 @@ void bench_embree_anim_intersect16(const bench_embree_anim *e, const prt_ray *ra
     for (int i = 0; i < count; i++) hits[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
 }
 
+void bench_embree_anim_occluded16(const bench_embree_anim *e, const prt_ray *rays, uint8_t *occluded, int count) {
+    (void)e, (void)rays;
+    for (int i = 0; i < count; i++) occluded[i] = 0;
+}
+
 void bench_embree_anim_free(bench_embree_anim *e) { (void)e; }
 
 #endif

@@ -2,7 +2,9 @@
  * positions go to prt_accel_update where the representation has it (cgrid) and to a
  * rebuild from scratch otherwise (BVHs); then either the frame is rendered to PNG, or
  * (--bench) primary rays are traced in N x N packets and rebuild and trace times printed,
- * optionally beside Embree rebuilt every frame (DYNAMIC scene, LOW quality, rtcIntersect16).
+ * optionally beside Embree rebuilt every frame (DYNAMIC scene, LOW quality, rtcIntersect16);
+ * --shadows adds a second pass of shadow rays from the primary hits to a point light
+ * (prt_occluded_packet, rtcOccluded16 for Embree), timed on its own (Wald 2006 §4.6).
  * DIR holds one mesh per frame (.ply, .ply.gz, .obj; name order), every frame with the same
  * faces; SCENE is an animated generator kind (twist, marbles). */
 #include "cli.h"
@@ -37,6 +39,9 @@ static int usage(void) {
            "                  and their medians over frames 1.. (frame 0 is the first build)\n"
            "  --vs embree     --bench also with Embree rebuilt each frame (DYNAMIC, LOW), 4x4 rays in rtcIntersect16\n"
            "  --json          --bench summary as one JSON object\n"
+           "  --shadows       --bench: also trace a shadow ray from every primary hit to a point light,\n"
+           "                  in the same packets (prt_occluded_packet; Embree: rtcOccluded16), timed apart\n"
+           "  --light x,y,z   the point light (implies --shadows; default: above the scene's bounds)\n"
            "  --counters      --bench: also count cells and ray-triangle tests (cgrid; an extra\n"
            "                  untimed single-thread pass per frame)\n"
            "  --size WxH      image size (default 1024x1024)\n"
@@ -161,6 +166,8 @@ typedef struct tracer {
     const prt_accel *accel;              /* or NULL: embree */
     const bench_embree_anim *embree;
     uint32_t *prims;                     /* per pixel, for agreement */
+    float *t;                            /* per pixel: the primary hit distance (inf: miss) */
+    uint8_t *occluded;                   /* per pixel: the shadow ray is blocked */
 } tracer;
 
 /* Primary rays of the whole image in N x N packets (4 x 4 for Embree), OpenMP over packets. */
@@ -185,7 +192,47 @@ static double trace_image(const tracer *t, const render_camera *cam, uint32_t pa
             prt_packet p = {rays, hits, n, N};
             prt_intersect_packet(t->accel, &p);
         }
-        for (uint32_t i = 0; i < n; i++) t->prims[pix[i]] = hits[i].prim;
+        for (uint32_t i = 0; i < n; i++) t->prims[pix[i]] = hits[i].prim, t->t[pix[i]] = hits[i].t;
+    }
+    return prt__now() - t0;
+}
+
+/* Shadow rays from the primary hits of trace_image to the light, in the same tiles: from
+ * the hit point p toward the light, t in [1e-4, 1 - 1e-4] of the way (dir = light - p),
+ * the pixels that missed left out of their tile's packet. */
+static double shadow_image(const tracer *t, const render_camera *cam, uint32_t packet, int threads, const float light[3]) {
+    const uint32_t N = t->embree ? 4 : packet;
+    const uint32_t tx = (cam->width + N - 1) / N, ty = (cam->height + N - 1) / N;
+    double t0 = prt__now();
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
+    for (uint32_t tile = 0; tile < tx * ty; tile++) {
+        prt_ray rays[PRT_PACKET_MAX];
+        uint8_t occ[PRT_PACKET_MAX];
+        uint32_t pix[PRT_PACKET_MAX], n = 0;
+        const uint32_t x0 = tile % tx * N, y0 = tile / tx * N;
+        for (uint32_t y = y0; y < y0 + N && y < cam->height; y++)
+            for (uint32_t x = x0; x < x0 + N && x < cam->width; x++) {
+                const uint32_t p = y * cam->width + x;
+                t->occluded[p] = 0;
+                if (!(t->t[p] < INFINITY)) continue;
+                prt_ray c;
+                render_camera_ray(cam, (float)x + 0.5f, (float)y + 0.5f, &c);
+                prt_ray *r = &rays[n];
+                for (int k = 0; k < 3; k++) {
+                    r->org[k] = c.org[k] + c.dir[k] * t->t[p];
+                    r->dir[k] = light[k] - r->org[k];
+                }
+                r->tnear = 1e-4f, r->tfar = 1.0f - 1e-4f;
+                pix[n++] = p;
+            }
+        if (!n) continue;
+        if (t->embree) {
+            bench_embree_anim_occluded16(t->embree, rays, occ, (int)n);
+        } else {
+            prt_packet p = {rays, NULL, n, N};
+            prt_occluded_packet(t->accel, &p, occ);
+        }
+        for (uint32_t i = 0; i < n; i++) t->occluded[pix[i]] = occ[i];
     }
     return prt__now() - t0;
 }
@@ -225,17 +272,20 @@ typedef struct series {
     prt_accel *accel;
     bench_embree_anim *embree;
     bool updates; /* prt_accel_update works */
-    double *rebuild, *trace, *rebuild_cpu, *trace_cpu;
+    double *rebuild, *trace, *rebuild_cpu, *trace_cpu, *shadow, *shadow_cpu;
     uint64_t cells, tests;
-    size_t agree, compared;
+    size_t agree, compared, shadow_agree, shadowed, lit;
     uint32_t *prims;
+    float *t;
+    uint8_t *occluded;
 } series;
 
 int cmd_animate(int argc, char **argv) {
     const char *src = NULL, *outdir = NULL;
     const char *specs[MAX_SPECS];
     int nspecs = 0, threads = 0, repeat = 1;
-    bool bench = false, vs_embree = false, json = false, counters = false;
+    bool bench = false, vs_embree = false, json = false, counters = false, shadows = false, have_light = false;
+    float light[3] = {0, 0, 0};
     uint32_t W = 1024, H = 1024, packet = 8;
     size_t frames = 0, tris = 100000;
     uint64_t seed = 1;
@@ -247,6 +297,7 @@ int cmd_animate(int argc, char **argv) {
         if (!strcmp(a, "--bench")) { bench = true; continue; }
         if (!strcmp(a, "--json")) { json = true; continue; }
         if (!strcmp(a, "--counters")) { counters = true; continue; }
+        if (!strcmp(a, "--shadows")) { shadows = true; continue; }
         if (a[0] != '-') {
             if (src) return cli_usage("animate", "more than one scene: '%s' and '%s'", src, a);
             src = a;
@@ -280,6 +331,14 @@ int cmd_animate(int argc, char **argv) {
             }
             if (got != 6 && got != 7) return cli_usage("animate", "--camera: ex,ey,ez,tx,ty,tz[,fov]");
             have_cam = true;
+        } else if (!strcmp(a, "--light")) {
+            char *e1, *e2, *e3;
+            light[0] = strtof(v, &e1);
+            light[1] = *e1 == ',' ? strtof(e1 + 1, &e2) : (e2 = e1, 0.0f);
+            light[2] = *e2 == ',' ? strtof(e2 + 1, &e3) : (e3 = e2, 0.0f);
+            if (e1 == v || *e1 != ',' || *e2 != ',' || *e3 || !isfinite(light[0]) || !isfinite(light[1]) || !isfinite(light[2]))
+                return cli_usage("animate", "--light: x,y,z");
+            have_light = shadows = true;
         } else if (!strcmp(a, "--packet")) {
             if (!cli_parse_count(v, &n) || (n != 1 && n != 2 && n != 4 && n != 8 && n != 16))
                 return cli_usage("animate", "--packet: 1, 2, 4, 8 or 16");
@@ -352,6 +411,9 @@ int cmd_animate(int argc, char **argv) {
         cam.up[0] = 0, cam.up[1] = 1, cam.up[2] = 0;
         cam.fov_y_deg = camv[6];
     }
+    if (!have_light) /* above the scene, a little off centre: shadows fall beside their casters */
+        light[0] = 0.5f * (lo[0] + hi[0]) + 0.3f * (hi[0] - lo[0]), light[1] = hi[1] + 1.0f * (hi[1] - lo[1]),
+        light[2] = 0.5f * (lo[2] + hi[2]) + 0.2f * (hi[2] - lo[2]);
     render_camera rcam;
     if ((s = render_camera_setup(&cam, W, H, &rcam))) {
         prt_mesh_free(cur);
@@ -367,12 +429,19 @@ int cmd_animate(int argc, char **argv) {
         ser[i].trace = calloc(an.nframes, sizeof(double));
         ser[i].rebuild_cpu = calloc(an.nframes, sizeof(double));
         ser[i].trace_cpu = calloc(an.nframes, sizeof(double));
+        ser[i].shadow = calloc(an.nframes, sizeof(double));
+        ser[i].shadow_cpu = calloc(an.nframes, sizeof(double));
         ser[i].prims = bench ? malloc(sizeof(uint32_t) * W * H) : NULL;
+        ser[i].t = bench ? malloc(sizeof(float) * W * H) : NULL;
+        ser[i].occluded = bench && shadows ? malloc((size_t)W * H) : NULL;
         snprintf(ser[i].label, sizeof ser[i].label, "%s", i < nspecs ? specs[i] : "embree,dynamic,low,packet16");
     }
     if (bench && !json)
         printf("scene %s: %zu frames, %zu triangles, %zu vertices; %ux%u primary rays, %ux%u packets, %d threads\n",
                an.name, an.nframes, an.base->triangle_count, an.base->vertex_count, W, H, packet, packet, threads);
+    if (bench && !json && shadows)
+        printf("shadow rays from every primary hit to the point light %g,%g,%g\n", (double)light[0], (double)light[1],
+               (double)light[2]);
     prt_image img = {0};
     prt_build_options bo = {.threads = threads};
     for (size_t f = 0; f < an.nframes && !rc; f++) {
@@ -402,7 +471,7 @@ int cmd_animate(int argc, char **argv) {
             }
             if (i < nspecs && f == 0) snprintf(r->label, sizeof r->label, "%s", prt_accel_spec(r->accel));
             if (bench) {
-                tracer t = {r->accel, r->embree, r->prims};
+                tracer t = {r->accel, r->embree, r->prims, r->t, r->occluded};
                 double tt[64], tc[64];
                 for (int k = 0; k < repeat; k++) {
                     double c1 = thread_cpu();
@@ -411,9 +480,24 @@ int cmd_animate(int argc, char **argv) {
                 }
                 r->trace[f] = median(tt, (size_t)repeat);
                 r->trace_cpu[f] = median(tc, (size_t)repeat);
+                if (shadows) {
+                    for (int k = 0; k < repeat; k++) {
+                        double c1 = thread_cpu();
+                        tt[k] = shadow_image(&t, &rcam, packet, threads, light);
+                        tc[k] = thread_cpu() - c1;
+                    }
+                    r->shadow[f] = median(tt, (size_t)repeat);
+                    r->shadow_cpu[f] = median(tc, (size_t)repeat);
+                    for (size_t p = 0; p < (size_t)W * H; p++) {
+                        r->shadowed += r->occluded[p];
+                        r->lit += r->t[p] < INFINITY && !r->occluded[p];
+                        if (i > 0) r->shadow_agree += r->occluded[p] == ser[0].occluded[p];
+                    }
+                }
                 if (counters && r->accel && !strncmp(prt_accel_spec(r->accel), "cgrid", 5)) {
                     prt__cgrid_counters_reset();
                     trace_image(&t, &rcam, packet, 1);
+                    if (shadows) shadow_image(&t, &rcam, packet, 1, light);
                     cg_counters c = prt__cgrid_counters_get();
                     r->cells += c.cells, r->tests += c.tests;
                     if (getenv("PRT_CGRID_COUNTERS"))
@@ -425,9 +509,12 @@ int cmd_animate(int argc, char **argv) {
                 if (i > 0)
                     for (size_t p = 0; p < (size_t)W * H; p++) r->agree += r->prims[p] == ser[0].prims[p];
                 if (i > 0) r->compared += (size_t)W * H;
-                if (!json)
-                    printf("frame %3zu  %-52s rebuild %8.2f ms  trace %8.2f ms\n", f, r->label, 1e3 * r->rebuild[f],
+                if (!json) {
+                    printf("frame %3zu  %-52s rebuild %8.2f ms  trace %8.2f ms", f, r->label, 1e3 * r->rebuild[f],
                            1e3 * r->trace[f]);
+                    if (shadows) printf("  shadow %8.2f ms", 1e3 * r->shadow[f]);
+                    printf("\n");
+                }
             }
             if (outdir && i < nspecs) {
                 prt_render_options ro = {.width = W, .height = H, .shade = PRT_SHADE_DIFFUSE, .threads = threads};
@@ -458,26 +545,36 @@ int cmd_animate(int argc, char **argv) {
                    "\"threads\": %d, \"results\": [",
                    an.name, an.nframes, an.base->triangle_count, W, H, packet, threads);
         } else {
-            printf("\nmedians over frames %zu..%zu%s:\n%-52s %10s %10s %10s %8s %12s %12s\n", first, an.nframes - 1,
+            printf("\nmedians over frames %zu..%zu%s:\n%-52s %10s %10s %10s %8s %12s %12s", first, an.nframes - 1,
                    counters ? " (cells, tests: totals over the frames, one thread)" : "", "representation", "rebuild ms",
                    "trace ms", "total ms", "fps", "build Mtri/s", "same prim %");
+            if (shadows) printf(" %10s %10s %8s %10s %10s", "shadow ms", "total+shd", "fps+shd", "shadowed %", "same shd %");
+            printf("\n");
         }
         for (int i = 0; i < nser; i++) {
             series *r = &ser[i];
             double rb = median(r->rebuild + first, n), tr = median(r->trace + first, n);
             double rbc = median(r->rebuild_cpu + first, n), trc = median(r->trace_cpu + first, n);
+            double sh = shadows ? median(r->shadow + first, n) : 0, shc = shadows ? median(r->shadow_cpu + first, n) : 0;
+            double shaded = r->shadowed + r->lit ? 100.0 * (double)r->shadowed / (double)(r->shadowed + r->lit) : 0;
+            double same_shd = r->compared ? 100.0 * (double)r->shadow_agree / (double)r->compared : 100.0;
             double agree = r->compared ? 100.0 * (double)r->agree / (double)r->compared : 100.0;
             if (json)
                 printf("%s{\"representation\": \"%s\", \"updates\": %s, \"rebuild_ms\": %.3f, \"trace_ms\": %.3f, "
                        "\"fps\": %.2f, \"build_mtris_per_s\": %.2f, \"same_prim_percent\": %.3f, \"cells\": %llu, "
-                       "\"tests\": %llu, \"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f}",
+                       "\"tests\": %llu, \"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f, \"shadow_ms\": %.3f, "
+                       "\"shadow_cpu_ms\": %.3f, \"shadowed_percent\": %.3f, \"same_shadow_percent\": %.3f}",
                        i ? ", " : "", r->label, r->updates ? "true" : "false", 1e3 * rb, 1e3 * tr, 1.0 / (rb + tr),
                        ntri / rb * 1e-6, agree, (unsigned long long)r->cells, (unsigned long long)r->tests, 1e3 * rbc,
-                       1e3 * trc);
+                       1e3 * trc, 1e3 * sh, 1e3 * shc, shaded, same_shd);
             else {
                 printf("%-52s %10.2f %10.2f %10.2f %8.2f %12.2f %12.3f", r->label, 1e3 * rb, 1e3 * tr, 1e3 * (rb + tr),
                        1.0 / (rb + tr), ntri / rb * 1e-6, agree);
+                if (shadows)
+                    printf(" %10.2f %10.2f %8.2f %10.2f %10.3f", 1e3 * sh, 1e3 * (rb + tr + sh), 1.0 / (rb + tr + sh), shaded,
+                           same_shd);
                 if (threads == 1) printf("  cpu: rebuild %.2f trace %.2f ms", 1e3 * rbc, 1e3 * trc);
+                if (threads == 1 && shadows) printf(" shadow %.2f ms", 1e3 * shc);
                 if (counters && r->cells) printf("  cells %.3fM tests %.3fM", (double)r->cells * 1e-6, (double)r->tests * 1e-6);
                 printf("\n");
             }
@@ -490,6 +587,7 @@ int cmd_animate(int argc, char **argv) {
         bench_embree_anim_free(ser[i].embree);
         free(ser[i].rebuild), free(ser[i].trace), free(ser[i].prims);
         free(ser[i].rebuild_cpu), free(ser[i].trace_cpu);
+        free(ser[i].shadow), free(ser[i].shadow_cpu), free(ser[i].t), free(ser[i].occluded);
     }
     prt_mesh_free(cur);
     anim_free(&an);

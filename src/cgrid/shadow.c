@@ -215,10 +215,38 @@ static void walk(const shadow_ctx *x, const sray *sr, uint32_t n, int K, int sgn
     uint64_t cells = 0, culled = 0, mailboxed = 0, tests = 0;
     uint32_t nhit = 0;
 
+    const uint32_t M = g->macro;
+    const size_t mstride[3] = {1, g->mres[0], (size_t)g->mres[0] * g->mres[1]};
+    const vf4 mtop = {(float)g->mres[U] - 1, (float)g->mres[U] - 1, (float)g->mres[V] - 1, (float)g->mres[V] - 1};
     for (int s = 0, k = k_first; s < nsl && nhit < nlive; s++, k += w) {
-        cnt->slices++;
-        const vi4 cb = floor4_clamped(base + delta * vf4_set1((float)s) + grow, top);
-        if (cb[1] >= 0 && cb[3] >= 0 && cb[0] <= (int)top[0] && cb[2] <= (int)top[2]) {
+        const vf4 entry = base + delta * vf4_set1((float)s);
+        bool skip = false;
+        /* At the first slice of each slab of macrocells: skip the slab's slices when every
+         * macrocell under the frustum there is empty (§2.4, as frustum.c). */
+        if (M && (s == 0 || (w > 0 ? k % (int)M == 0 : k % (int)M == (int)M - 1))) {
+            const int km = k / (int)M;
+            const int rem = PRT_MIN(w > 0 ? (km + 1) * (int)M - k : k - km * (int)M + 1, nsl - s);
+            const float fr = (float)rem;
+            const vf4 mb = entry + (vf4){cg_min(0, delta[0] * fr), cg_max(0, delta[1] * fr), cg_min(0, delta[2] * fr),
+                                         cg_max(0, delta[3] * fr)};
+            const vi4 mc = floor4_clamped(mb * vf4_set1(1.0f / (float)M), mtop);
+            bool empty = true;
+            if (mc[1] >= 0 && mc[3] >= 0 && mc[0] <= (int)mtop[0] && mc[2] <= (int)mtop[2]) {
+                const int mu0 = PRT_MAX(mc[0], 0), mu1 = PRT_MIN(mc[1], (int)mtop[1]);
+                const int mv0 = PRT_MAX(mc[2], 0), mv1 = PRT_MIN(mc[3], (int)mtop[3]);
+                for (int jv = mv0; jv <= mv1 && empty; jv++)
+                    for (int iu = mu0; iu <= mu1 && empty; iu++)
+                        empty = !g->mflags[(size_t)km * mstride[K] + (size_t)iu * mstride[U] + (size_t)jv * mstride[V]];
+            }
+            if (empty) {
+                cnt->macro_skips++;
+                s += rem - 1, k += w * (rem - 1); /* the loop steps the last one */
+                skip = true;
+            }
+        }
+        const vi4 cb = floor4_clamped(entry + grow, top);
+        if (!skip) cnt->slices++;
+        if (!skip && cb[1] >= 0 && cb[3] >= 0 && cb[0] <= (int)top[0] && cb[2] <= (int)top[2]) {
             const int u0 = PRT_MAX(cb[0], 0), u1 = PRT_MIN(cb[1], (int)top[1]);
             const int v0 = PRT_MAX(cb[2], 0), v1 = PRT_MIN(cb[3], (int)top[3]);
             for (int jv = v0; jv <= v1 && nhit < nlive; jv++)
