@@ -91,6 +91,7 @@ typedef struct prt_mesh {
     size_t triangle_count;
     uint8_t *vertex_colors;   /* NULL, or 3 * vertex_count bytes: r, g, b */
     uint8_t *triangle_colors; /* NULL, or 3 * triangle_count bytes: r, g, b */
+    uint16_t *materials;      /* NULL, or triangle_count material numbers (prt_hit.geom) */
 } prt_mesh;
 
 /* Allocate a mesh with uninitialised vertex and index arrays of the given sizes and no
@@ -103,7 +104,14 @@ prt_status prt_mesh_create(size_t vertex_count, size_t triangle_count, prt_mesh 
  * already is kept as it is. PRT_ERROR_ARGUMENT for a NULL m, PRT_ERROR_NOMEM (m unchanged). */
 prt_status prt_mesh_add_colors(prt_mesh *m, bool per_vertex, bool per_triangle);
 
-/* Free a mesh from prt_mesh_create or prt_mesh_load, colours included. NULL is ignored. */
+/* Give m a per-triangle material array (triangle_count entries, all 0), through packrt's
+ * allocator so prt_mesh_free releases it; an array m has already is kept as it is.
+ * Representations that store materials (raystrips,mat=u16) return the hit triangle's in
+ * prt_hit.geom. PRT_ERROR_ARGUMENT for a NULL m, PRT_ERROR_NOMEM (m unchanged). */
+prt_status prt_mesh_add_materials(prt_mesh *m);
+
+/* Free a mesh from prt_mesh_create or prt_mesh_load, colours and materials included. NULL
+ * is ignored. */
 void prt_mesh_free(prt_mesh *m);
 
 /* Load a mesh from a file: PLY (ASCII, binary little or big endian, any numeric vertex
@@ -168,7 +176,9 @@ typedef struct prt_ray {
 
 /* A hit: point = (1-u-v)*v0 + u*v1 + v*v2 of triangle `prim` (its index in the mesh).
  * When several triangles are hit at exactly the same t, the smallest index wins, in every
- * representation. On a miss, prim = PRT_INVALID and t = +inf. geom is reserved (0). */
+ * representation. On a miss, prim = PRT_INVALID and t = +inf. geom: the hit triangle's
+ * material (prt_mesh.materials) for representations that store materials
+ * (raystrips,mat=u16), else 0. */
 typedef struct prt_hit {
     float t, u, v;
     uint32_t prim;
@@ -197,7 +207,8 @@ typedef struct prt_build_options {
      * thread that called prt_build; NULL for none. The CLI draws its progress bar with it. */
     void (*progress)(void *user, float fraction);
     void *progress_user;
-    /* For specs with ids=none (compact BVH codecs that store one id per leaf): the accel
+    /* For specs with ids=none (compact BVH codecs that store one id per leaf, lossygrid,
+     * raystrips): the accel
      * keeps no map back to mesh triangle ids and hits name triangles by their position in
      * the accel's own order; triangle_order[k] receives the mesh id of position k, for
      * k < prt_stats.triangles_built, so the caller can put its per-triangle data in that

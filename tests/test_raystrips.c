@@ -110,7 +110,7 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
     uint8_t *seen = calloc(m->triangle_count, 1);
     size_t bad_tri = 0, bad_plane = 0, twice = 0, live = 0;
     for (size_t w = 0, s = 0; s < a->strip_count; s++) {
-        const rs_strip st = rs_strip_at(a->strips + w, a->leaf, a->q16);
+        const rs_strip st = rs_strip_at(a->strips + w, &a->fmt);
         for (uint32_t k = 0; k < st.n; k++) {
             if (rs_dead(&st, k)) continue;
             const uint32_t id = rs_id(&st, k), prim = id >> RS_ID_SHIFT, code = id & 7;
@@ -131,8 +131,8 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
         todo[top++] = (visit){0, 0, st.n};
         while (top) {
             const visit v = todo[--top];
-            if (v.count <= a->leaf) continue;
-            const uint32_t groups = rs_groups(v.count, a->leaf), lg = (groups + 1) / 2, nl = lg * a->leaf;
+            if (v.count <= a->fmt.leaf) continue;
+            const uint32_t groups = rs_groups(v.count, a->fmt.leaf), lg = (groups + 1) / 2, nl = lg * a->fmt.leaf;
             const uint32_t fl = st.flags[v.node], k = fl & 3;
             const bool rev = fl & RS_FLAG_REVERSE;
             float lo = INFINITY, hi = -INFINITY, box_lo = INFINITY, box_hi = -INFINITY;
@@ -146,7 +146,7 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
             for (uint32_t j = lf; j < lf + lc + 2; j++) hi = fmaxf(hi, a->vertices[3 * st.index[j] + k]);
             for (uint32_t j = uf; j < uf + uc + 2; j++) lo = fminf(lo, a->vertices[3 * st.index[j] + k]);
             float p1, p2;
-            if (a->q16) {
+            if (a->fmt.q16) {
                 const uint16_t *q = (const uint16_t *)st.splits + 2 * v.node;
                 const float step = rs_q16_step(box_lo, box_hi);
                 p1 = rs_q16_plane(q[0], box_lo, box_hi, step), p2 = rs_q16_plane(q[1], box_lo, box_hi, step);
@@ -157,7 +157,7 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
             todo[top++] = (visit){v.node + 1, v.first, nl};
             todo[top++] = (visit){v.node + lg, v.first + nl, v.count - nl};
         }
-        w += rs_record_words(st.n, st.live, a->leaf, a->q16);
+        w += rs_record_words(st.n, st.live, &a->fmt);
     }
     size_t missing = 0;
     for (size_t t = 0; t < m->triangle_count; t++) missing += !seen[t] && !prt__mesh_triangle_degenerate(m, t);
@@ -229,9 +229,13 @@ TEST(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit) {
 
 /* A saved image of spec over m, read back into 64-byte aligned memory. */
 static uint8_t *saved_image(const prt_mesh *m, const char *spec, size_t *size) {
-    prt_accel *a;
+    prt_accel *a = NULL;
     *size = 0;
-    if (!repr_build(m, spec, &a)) return NULL;
+    uint32_t *order = malloc(m->triangle_count * sizeof *order);
+    prt_build_options o = {.triangle_order = order};
+    CHECK_OK(prt_build(m, spec, &o, &a));
+    free(order);
+    if (!a) return NULL;
     char path[256];
     snprintf(path, sizeof path, "%s/packrt_test_raystrips_%d.prt", P_tmpdir, (int)getpid());
     CHECK_OK(prt_accel_save(a, path));
@@ -250,7 +254,7 @@ static uint8_t *saved_image(const prt_mesh *m, const char *spec, size_t *size) {
 
 TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
     prt_mesh *m = mesh_grid(12);
-    const char *specs[] = {"raystrips", "raystrips,split=f32,leaf=2,strip=meshopt"};
+    const char *specs[] = {"raystrips", "raystrips,split=f32,leaf=2,strip=meshopt", "raystrips,ids=none,mat=u16"};
     for (size_t sp = 0; sp < COUNT_OF(specs); sp++) {
         size_t size;
         uint8_t *img = saved_image(m, specs[sp], &size);
@@ -395,6 +399,95 @@ TEST(test_packets_of_diverging_and_missing_rays_give_the_single_ray_hits) {
     }
 }
 
+/* mesh with a material per triangle that no two neighbours share. */
+static void add_materials(prt_mesh *m) {
+    CHECK_OK(prt_mesh_add_materials(m));
+    for (size_t t = 0; t < m->triangle_count; t++) m->materials[t] = (uint16_t)(t * 7919u + 3u);
+}
+
+/* ids=none (hits name positions, mapped back through prt_build_options.triangle_order) and
+ * mat=u16 (hits return the triangle's material in geom) give the default's hits bit for
+ * bit, single rays and 4x4 and 2x2 packets, built and after a save and load; ids=none
+ * takes less memory and mat=u16 two bytes a live triangle (rounded up per strip) more. */
+TEST(test_ids_none_and_materials_give_the_default_hits) {
+    prt_mesh *grid = mesh_grid(40), *soup = mesh_random_soup(800, 41);
+    prt_mesh *meshes[] = {grid, soup};
+    /* Each against the first spec of its row (the same strips with ids and no materials). */
+    const char *specs[][2] = {{"raystrips", "raystrips,ids=none"},
+                              {"raystrips", "raystrips,mat=u16"},
+                              {"raystrips", "raystrips,ids=none,mat=u16,packet=4x4"},
+                              {"raystrips,leaf=2,split=f32,strip=meshopt", "raystrips,leaf=2,split=f32,strip=meshopt,ids=none,mat=u16"}};
+    const uint32_t n = 2048;
+    for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
+        prt_mesh *m = meshes[mi];
+        add_materials(m);
+        prt_ray *rays = rays_random(m, n, 42 + (uint64_t)mi);
+        prt_hit *want = malloc(n * sizeof *want), *got = malloc(n * sizeof *got);
+        uint32_t *order = malloc(m->triangle_count * sizeof *order);
+        for (size_t i = 0; i < COUNT_OF(specs); i++) {
+            prt_accel *ref;
+            if (!repr_build(m, specs[i][0], &ref)) continue;
+            prt_stats sref;
+            prt_accel_stats(ref, &sref);
+            size_t hits = 0;
+            for (uint32_t k = 0; k < n; k++) {
+                prt_ray r = rays[k];
+                prt_intersect1(ref, &r, &want[k]);
+                hits += want[k].prim != PRT_INVALID;
+            }
+            prt_accel_free(ref);
+            CHECK(hits > n / 4);
+            const bool no_ids = strstr(specs[i][1], "ids=none") != NULL, mat = strstr(specs[i][1], "mat=u16") != NULL;
+            prt_build_options o = {.triangle_order = order};
+            prt_accel *built = NULL, *loaded = NULL;
+            CHECK_OK(prt_build(m, specs[i][1], &o, &built));
+            if (!built) continue;
+            char path[256];
+            snprintf(path, sizeof path, "%s/packrt_test_raystrips_ids_%d.prt", P_tmpdir, (int)getpid());
+            CHECK_OK(prt_accel_save(built, path));
+            CHECK_OK(prt_accel_load(path, &loaded));
+            remove(path);
+            prt_stats st;
+            prt_accel_stats(built, &st);
+            /* Memory: ids=none drops 4-byte ids (at least 3 bytes a triangle on the grid's
+             * long strips); materials add 2 bytes a live triangle, a strip's rounded up to a word. */
+            const size_t tri = st.triangles_built;
+            const long extra = (long)st.bytes_geometry - (long)sref.bytes_geometry;
+            const long mat_lo = mat ? 2 * (long)tri : 0, mat_hi = mat ? 4 * (long)tri : 0;
+            const long id_lo = no_ids ? -4 * (long)tri : 0, id_hi = no_ids ? (mi == 0 ? -3 * (long)tri : -1) : 0;
+            CHECK_MSG(extra >= mat_lo + id_lo && extra <= mat_hi + id_hi, "%s: %ld geometry bytes more than the default",
+                      specs[i][1], extra);
+            CHECK(!mat || strstr(st.detail, "materials") != NULL);
+            const prt_accel *accels[] = {built, loaded};
+            for (size_t ai = 0; ai < 2 && loaded; ai++)
+                for (int mode = 0; mode < 3; mode++) {
+                    prt_ray *r = malloc(n * sizeof *r);
+                    memcpy(r, rays, n * sizeof *r);
+                    for (uint32_t k = 0; k < n; k += 16) {
+                        prt_packet p = {r + k, got + k, 16, mode == 1 ? 4 : 2};
+                        if (mode) prt_intersect_packet(accels[ai], &p);
+                        else
+                            for (uint32_t j = k; j < k + 16; j++) prt_intersect1(accels[ai], &r[j], &got[j]);
+                    }
+                    size_t diff = 0;
+                    for (uint32_t k = 0; k < n; k++) {
+                        prt_hit h = got[k];
+                        if (no_ids && h.prim != PRT_INVALID) h.prim = h.prim < tri ? order[h.prim] : PRT_INVALID - 1;
+                        const uint32_t geom = mat && h.prim < m->triangle_count ? m->materials[h.prim] : 0;
+                        diff += h.prim != want[k].prim || h.t != want[k].t || h.u != want[k].u || h.v != want[k].v ||
+                                h.geom != geom;
+                    }
+                    CHECK_MSG(diff == 0, "%s (%s, %s): %zu of %u hits differ from the default's", specs[i][1],
+                              ai ? "loaded" : "built", mode == 0 ? "single rays" : mode == 1 ? "4x4" : "runs", diff, n);
+                    free(r);
+                }
+            prt_accel_free(built), prt_accel_free(loaded);
+        }
+        free(order), free(want), free(got), free(rays);
+    }
+    prt_mesh_free(grid), prt_mesh_free(soup);
+}
+
 /* Threads stripify contiguous runs of chunks: the records and nodes do not depend on the
  * thread count. */
 TEST(test_build_is_the_same_on_one_and_two_threads) {
@@ -436,7 +529,8 @@ TEST(test_single_triangle_and_bad_options) {
         prt_accel_free(a);
     }
     const char *bad[] = {"raystrips,leaf=3", "raystrips,leaf=16", "raystrips,chunk=2", "raystrips,split=f16",
-                         "raystrips,strip=stripe", "raystrips,ids=none", "raystrips:float3"};
+                         "raystrips,strip=stripe", "raystrips,ids=none", "raystrips,ids=some",
+                         "raystrips,mat=u8", "raystrips:float3"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
         a = NULL;
         CHECK_MSG(prt_build(m, bad[i], NULL, &a) == PRT_ERROR_ARGUMENT && a == NULL, "%s was accepted", bad[i]);
@@ -454,6 +548,7 @@ int main(void) {
     RUN(test_damaged_records_and_nodes_behind_the_checksums_are_errors);
     RUN(test_packets_give_the_single_ray_hits);
     RUN(test_packets_of_diverging_and_missing_rays_give_the_single_ray_hits);
+    RUN(test_ids_none_and_materials_give_the_default_hits);
     RUN(test_build_is_the_same_on_one_and_two_threads);
     RUN(test_single_triangle_and_bad_options);
     TEST_END();

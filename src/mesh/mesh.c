@@ -49,12 +49,21 @@ prt_status prt_mesh_add_colors(prt_mesh *m, bool per_vertex, bool per_triangle) 
     return PRT_OK;
 }
 
+prt_status prt_mesh_add_materials(prt_mesh *m) {
+    if (!m) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_add_materials: mesh is NULL");
+    if (m->materials) return PRT_OK;
+    m->materials = prt__calloc(PRT_MAX(m->triangle_count, (size_t)1), sizeof *m->materials);
+    if (!m->materials) return prt__fail(PRT_ERROR_NOMEM, "out of memory for the materials of %zu triangles", m->triangle_count);
+    return PRT_OK;
+}
+
 void prt_mesh_free(prt_mesh *m) {
     if (!m) return;
     prt__free(m->vertices);
     prt__free(m->triangles);
     prt__free(m->vertex_colors);
     prt__free(m->triangle_colors);
+    prt__free(m->materials);
     prt__free(m);
 }
 

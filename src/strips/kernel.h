@@ -85,7 +85,7 @@ typedef struct rs_visit {
 /* The two planes of s-kd node `node` on axis k of strip s (box lo/hi, read for q16 only). */
 static inline void rs_planes(const rs_accel *a, const rs_strip *s, uint32_t node, int k, const float *lo,
                              const float *hi, float *p1, float *p2) {
-    if (a->q16) {
+    if (a->fmt.q16) {
         uint16_t q[2];
         memcpy(q, (const uint16_t *)s->splits + 2 * node, sizeof q);
         const float step = rs_q16_step(lo[k], hi[k]);
@@ -97,13 +97,39 @@ static inline void rs_planes(const rs_accel *a, const rs_strip *s, uint32_t node
     }
 }
 
-/* The strip at rec whose box is lo/hi (read for q16 only), entered over [dmin, dmax].
- * any: true at the first hit. Otherwise best->t shrinks with every nearer hit; returns
- * whether one was found. Algorithm 1 with the reverse flag; lg = log2(leaf). */
-static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const uint32_t *rec, const float *lo,
-                                  const float *hi, float dmin, float dmax, bool any, rs_best *best) {
-    const uint32_t leaf = a->leaf, lg = (uint32_t)__builtin_ctz(leaf);
-    const rs_strip s = rs_strip_at(rec, leaf, a->q16);
+/* The strip of top-level slot `slot` (node * 4 + child). */
+static inline rs_strip rs_strip_of(const rs_accel *a, const uint32_t *rec, uint32_t slot) {
+    rs_strip s = rs_strip_at(rec, &a->fmt);
+    if (a->fmt.no_ids) s.base = a->nodes[slot >> 2].pad[slot & 3];
+    return s;
+}
+
+/* The hit's mesh triangle (or position, ids=none), barycentrics in the mesh triangle's
+ * vertex order and material, from the strip triangle's id. */
+static inline void rs_finish(const rs_accel *a, const rs_best *b, prt_ray *ray, prt_hit *hit) {
+    hit->geom = 0;
+    if (!b->rec) {
+        hit->t = INFINITY, hit->u = 0, hit->v = 0, hit->prim = PRT_INVALID;
+        return;
+    }
+    const uint32_t code = b->id & ((1u << RS_ID_SHIFT) - 1);
+    hit->t = b->t, hit->prim = b->id >> RS_ID_SHIFT;
+    hit->u = b->b[rs_perm[code][0]], hit->v = b->b[rs_perm[code][1]];
+    if (a->fmt.mat) {
+        const rs_strip s = rs_strip_at(b->rec, &a->fmt);
+        hit->geom = s.mat[rs_live_index(&s, b->tri)];
+    }
+    ray->tfar = b->t;
+}
+
+/* The strip at rec (of top-level slot `slot`) whose box is lo/hi (read for q16 only),
+ * entered over [dmin, dmax]. any: true at the first hit. Otherwise best->t shrinks with
+ * every nearer hit; returns whether one was found. Algorithm 1 with the reverse flag;
+ * lg = log2(leaf). */
+static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const uint32_t *rec, uint32_t slot,
+                                  const float *lo, const float *hi, float dmin, float dmax, bool any, rs_best *best) {
+    const uint32_t leaf = a->fmt.leaf, lg = (uint32_t)__builtin_ctz(leaf);
+    const rs_strip s = rs_strip_of(a, rec, slot);
     rs_visit stack[24];
     int top = 0;
     bool found = false;

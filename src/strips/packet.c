@@ -17,18 +17,6 @@ typedef struct pk_entry {
     float key;
 } pk_entry;
 
-static void finish(const rs_best *b, prt_ray *ray, prt_hit *hit) {
-    hit->geom = 0;
-    if (!b->rec) {
-        hit->t = INFINITY, hit->u = 0, hit->v = 0, hit->prim = PRT_INVALID;
-        return;
-    }
-    const uint32_t code = b->id & ((1u << RS_ID_SHIFT) - 1);
-    hit->t = b->t, hit->prim = b->id >> RS_ID_SHIFT;
-    hit->u = b->b[rs_perm[code][0]], hit->v = b->b[rs_perm[code][1]];
-    ray->tfar = b->t;
-}
-
 /* 2x2: below 2 active rays a strip is traced ray by ray. */
 #define PK_W 4
 #define PK_MIN 2

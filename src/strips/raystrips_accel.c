@@ -1,5 +1,6 @@
 /* The Ray-Strips family behind prt_accel_ops (Lauterbach, Yoon, Manocha 2007): parses
- * "raystrips[,chunk=N,leaf=1|2|4|8,split=f32|q16,strip=meshopt|rt,packet=2x2|4x4|none]", builds
+ * "raystrips[,chunk=N,leaf=1|2|4|8,split=f32|q16,strip=meshopt|rt,packet=2x2|4x4|none,
+ * ids=mesh|none,mat=none|u16]", builds
  * chunks, strips, the records and the top-level BVH, and saves them as sections META, NODE,
  * STRP and VERT. */
 #include "bvh/layouts/quad_plan.h"
@@ -12,7 +13,7 @@
 /* On-disk META section (little endian, 64 bytes). */
 typedef struct rs_meta {
     uint64_t node_count, strip_words, strip_count, vertex_count, strip_triangles, mesh_triangles, bytes_strip_tree;
-    uint8_t leaf, q16, reserved[2];
+    uint8_t leaf, q16, no_ids, mat; /* no_ids and mat were reserved zeros before ids=none and mat=u16 */
     uint32_t depth;
 } rs_meta;
 _Static_assert(sizeof(rs_meta) == 64, "META section is 64 bytes");
@@ -22,6 +23,8 @@ static const char *const g_strip_names[] = {"meshopt", "rt"};
 /* packet=none leaves prt_intersect_packet to the API's single-ray loop (to measure both). */
 static const char *const g_packet_names[] = {"2x2", "none", "4x4"};
 static const uint8_t g_packet_rays[] = {4, 0, 16};
+static const char *const g_id_names[] = {"mesh", "none"};
+static const char *const g_mat_names[] = {"none", "u16"};
 
 extern const prt_accel_ops prt__raystrips_ops, prt__raystrips_ops_single;
 
@@ -46,6 +49,9 @@ static void rs_stats(const prt_accel *acc, prt_stats *s) {
     s->bytes_tree = a->node_count * sizeof(rs_node) + a->bytes_strip_tree;
     s->bytes_geometry = 4 * a->strip_words - a->bytes_strip_tree + 12 * a->vertex_count;
     s->bytes_other = sizeof(rs_accel);
+    if (a->fmt.mat)
+        snprintf(s->detail, sizeof s->detail, "materials (mat=u16): %zu bytes of the geometry, %.2f B/tri", a->bytes_materials,
+                 a->base.triangles ? (double)a->bytes_materials / (double)a->base.triangles : 0.0);
     s->nodes = a->node_count;
     s->leaves = a->strip_count;
     s->depth = a->depth;
@@ -90,8 +96,10 @@ static uint32_t plan_depth(const quad_plan *p, const bvh_tree *t, uint32_t q) {
     return d + 1;
 }
 
-/* The top-level BVH over the strips and the records in its leaf order. */
-static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l, int threads) {
+/* The top-level BVH over the strips and the records in its leaf order. ids=none: order[k]
+ * receives the mesh triangle at position k (live triangles in record order), and each
+ * leaf slot's pad word the position of its strip's first live triangle. */
+static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l, int threads, uint32_t *order) {
     const size_t ns = l->strip_count;
     bvh_prim *prims = prt__alloc(prt__mul_size(ns, sizeof *prims));
     uint32_t *rec = NULL;
@@ -107,7 +115,7 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
         memcpy(prims[i].hi, b.hi, sizeof b.hi);
         prims[i].id = (uint32_t)i, prims[i].pad = 0;
         const uint32_t n = l->first[i + 1] - l->first[i] - 2;
-        words += rs_record_words(n, rs_live(l->id + l->first[i] - 2 * i, n), a->leaf, a->q16);
+        words += rs_record_words(n, rs_live(l->id + l->first[i] - 2 * i, n), &a->fmt);
         a->strip_triangles += n;
     }
     if (words >= RS_LEAF) {
@@ -132,6 +140,7 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
     }
     a->owned[0] = nodes, a->owned[1] = rec;
     size_t w = 0;
+    uint32_t position = 0;
     for (uint32_t q = 0; q < count; q++) {
         rs_node *n = &nodes[q];
         for (int i = 0; i < 4; i++) {
@@ -146,11 +155,18 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
             }
             const uint32_t st = tree.prims[b->index], f = l->first[st], nt = l->first[st + 1] - f - 2;
             const uint32_t *ids = l->id + f - 2 * (size_t)st;
-            const prt_aabb box = rs_encode_strip(m, l->index + f, ids, nt, a->leaf, a->q16, rec + w);
+            const prt_aabb box = rs_encode_strip(m, l->index + f, ids, nt, &a->fmt, rec + w);
             for (int k = 0; k < 3; k++) n->box[8 * k + i] = box.lo[k], n->box[8 * k + 4 + i] = box.hi[k];
             n->child[i] = RS_LEAF | (uint32_t)w;
-            a->bytes_strip_tree += 4 * rs_tree_words(nt, a->leaf, a->q16);
-            w += rs_record_words(nt, rs_live(ids, nt), a->leaf, a->q16);
+            const uint32_t live = rs_live(ids, nt);
+            if (order) {
+                n->pad[i] = position;
+                for (uint32_t k = 0; k < nt; k++)
+                    if (ids[k] != RS_DEAD) order[position++] = ids[k] >> RS_ID_SHIFT;
+            }
+            a->bytes_strip_tree += 4 * rs_tree_words(nt, &a->fmt);
+            a->bytes_materials += 4 * rs_mat_words(live, &a->fmt);
+            w += rs_record_words(nt, live, &a->fmt);
         }
     }
     a->nodes = nodes, a->node_count = count;
@@ -178,7 +194,7 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
     uint32_t *rec = a->owned[1];
     size_t count = 0;
     for (size_t w = 0; w < a->strip_words;) {
-        const rs_strip st = rs_strip_at(rec + w, a->leaf, a->q16);
+        const rs_strip st = rs_strip_at(rec + w, &a->fmt);
         uint32_t *index = (uint32_t *)st.index;
         for (uint32_t j = 0; j < st.n + 2; j++) {
             if (map[index[j]] == UINT32_MAX) {
@@ -187,7 +203,7 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
             }
             index[j] = map[index[j]];
         }
-        w += rs_record_words(st.n, st.live, a->leaf, a->q16);
+        w += rs_record_words(st.n, st.live, &a->fmt);
     }
     prt__free(map);
     float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
@@ -197,16 +213,20 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
 }
 
 static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
-    int chunk, leaf, split, strip, packet;
+    int chunk, leaf, split, strip, packet, ids, mat;
     prt_status s;
     /* Defaults: the smallest and (docs/results/raystrips.md) fastest of the options; the
      * paper's own are leaf=2,split=f32,strip=meshopt (Stripe's algorithm). */
     if ((s = prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 8, 1, 8, &leaf)) ||
         (s = prt__spec_enum(spec, "split", g_split_names, 2, 1, &split)) ||
         (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip)) ||
-        (s = prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet)) || (s = prt__spec_check_unused(spec)))
+        (s = prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet)) ||
+        (s = prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids)) || (s = prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat)) ||
+        (s = prt__spec_check_unused(spec)))
         return s;
     if (leaf & (leaf - 1)) return prt__fail(PRT_ERROR_ARGUMENT, "raystrips: leaf=%d: 1, 2, 4 or 8 triangles", leaf);
+    if (ids && !(o && o->triangle_order))
+        return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs prt_build_options.triangle_order to receive the order");
     if (m->triangle_count >= RS_MAX_TRIANGLES)
         return prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu triangles; ids hold at most %u", m->triangle_count,
                          RS_MAX_TRIANGLES - 1);
@@ -220,6 +240,10 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     prt__spec_set(spec, "split", g_split_names[split]);
     prt__spec_set(spec, "strip", g_strip_names[strip]);
     prt__spec_set(spec, "packet", g_packet_names[packet]);
+    /* ids and mat came later: named only when not the default, so older specs and files
+     * keep their names. */
+    if (ids) prt__spec_set(spec, "ids", g_id_names[ids]);
+    if (mat) prt__spec_set(spec, "mat", g_mat_names[mat]);
 
     const int threads = o ? o->threads : 0;
     uint32_t *tris, *first;
@@ -231,8 +255,8 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     rs_accel *a = prt__calloc(1, sizeof *a);
     if (!s && !a) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
     if (!s) {
-        a->leaf = (uint32_t)leaf, a->q16 = split == 1;
-        s = encode(a, m, &strips, threads);
+        a->fmt = (rs_format){(uint32_t)leaf, split == 1, ids == 1, mat == 1};
+        s = encode(a, m, &strips, threads, ids ? o->triangle_order : NULL);
     }
     rs_strip_list_free(&strips);
     if (!s) s = reorder_vertices(a, m);
@@ -257,7 +281,8 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
 static prt_status rs_save(const prt_accel *acc, prt_writer *w) {
     const rs_accel *a = (const rs_accel *)acc;
     rs_meta meta = {a->node_count, a->strip_words, a->strip_count, a->vertex_count, a->strip_triangles,
-                    a->base.triangles, a->bytes_strip_tree, (uint8_t)a->leaf, a->q16, {0, 0}, a->depth};
+                    a->base.triangles, a->bytes_strip_tree, (uint8_t)a->fmt.leaf, a->fmt.q16, a->fmt.no_ids,
+                    a->fmt.mat, a->depth};
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('N', 'O', 'D', 'E'), a->nodes, a->node_count * sizeof(rs_node));
     if (!s) s = prt__writer_section(w, PRT_FOURCC('S', 'T', 'R', 'P'), a->strips, a->strip_words * 4);
@@ -277,13 +302,14 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     rs_meta meta;
     memcpy(&meta, mp, sizeof meta);
     /* The spec string names the options; META must agree with it. */
-    int chunk, leaf, split, strip, packet;
+    int chunk, leaf, split, strip, packet, ids, mat;
     if (prt__spec_int(spec, "chunk", 128, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 8, 1, 8, &leaf) ||
         prt__spec_enum(spec, "split", g_split_names, 2, 1, &split) ||
         prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip) ||
-        prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet) || prt__spec_check_unused(spec))
+        prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet) || prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids) ||
+        prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
-    if (meta.leaf != leaf || meta.q16 != split || meta.reserved[0] || meta.reserved[1] ||
+    if (meta.leaf != leaf || meta.q16 != split || meta.no_ids != ids || meta.mat != mat ||
         nsize != meta.node_count * sizeof(rs_node) || meta.node_count == 0 || meta.node_count >= RS_LEAF ||
         ssize != meta.strip_words * 4 || meta.strip_words >= RS_LEAF || meta.vertex_count > UINT32_MAX ||
         vsize != meta.vertex_count * 12 || meta.mesh_triangles >= RS_MAX_TRIANGLES ||
@@ -295,7 +321,8 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     a->node_count = meta.node_count, a->strip_words = meta.strip_words, a->strip_count = meta.strip_count;
     a->vertex_count = meta.vertex_count, a->strip_triangles = meta.strip_triangles;
     a->bytes_strip_tree = meta.bytes_strip_tree;
-    a->leaf = meta.leaf, a->q16 = meta.q16, a->depth = meta.depth;
+    a->fmt = (rs_format){meta.leaf, meta.q16, meta.no_ids, meta.mat};
+    a->depth = meta.depth;
     if ((s = rs_validate(a, meta.mesh_triangles))) {
         prt__free(a);
         return s;

@@ -75,20 +75,26 @@ static void encode_node(encoder *e, uint32_t node, uint32_t first, uint32_t coun
     encode_node(e, node + left_groups, first + nl, nr);
 }
 
-prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, uint32_t leaf,
-                         bool q16, uint32_t *rec) {
+prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, const rs_format *f,
+                         uint32_t *rec) {
     const uint32_t live = rs_live(id, n);
-    memset(rec, 0, rs_record_words(n, live, leaf, q16) * sizeof *rec);
+    memset(rec, 0, rs_record_words(n, live, f) * sizeof *rec);
     rec[0] = n | live << 16;
-    rs_strip s = rs_strip_at(rec, leaf, q16);
-    encoder e = {m->vertices, index, leaf, q16, (uint8_t *)s.flags, (float *)s.splits, (uint16_t *)s.splits,
+    rs_strip s = rs_strip_at(rec, f);
+    encoder e = {m->vertices, index, f->leaf, f->q16, (uint8_t *)s.flags, (float *)s.splits, (uint16_t *)s.splits,
                  prt_aabb_empty()};
     e.box = range_box(&e, 0, n + 2);
     encode_node(&e, 0, 0, n);
     memcpy((uint32_t *)s.index, index, ((size_t)n + 2) * sizeof *index);
     for (uint32_t k = 0, j = 0; k < n; k++) {
-        if (id[k] != RS_DEAD) ((uint32_t *)s.id)[j++] = id[k];
-        else ((uint8_t *)s.dead)[k >> 3] |= (uint8_t)(1u << (k & 7));
+        if (s.code) ((uint8_t *)s.code)[k >> 1] |= (uint8_t)((id[k] == RS_DEAD ? RS_CODE_TURN : id[k] & 7u) << 4 * (k & 1));
+        if (id[k] == RS_DEAD) {
+            if (s.dead) ((uint8_t *)s.dead)[k >> 3] |= (uint8_t)(1u << (k & 7));
+            continue;
+        }
+        if (s.id) ((uint32_t *)s.id)[j] = id[k];
+        if (s.mat) ((uint16_t *)s.mat)[j] = m->materials ? m->materials[id[k] >> RS_ID_SHIFT] : 0;
+        j++;
     }
     return e.box;
 }

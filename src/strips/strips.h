@@ -51,15 +51,31 @@ _Static_assert(sizeof(rs_node) == 128, "a top-level node is two cache lines");
  * vertices 1 and 2, by perm code; vertex 0 takes the remaining one. */
 static const uint8_t rs_perm[6][2] = {{1, 2}, {2, 1}, {0, 2}, {2, 0}, {0, 1}, {1, 0}};
 
+/* The options that shape a record. ids=none (no_ids): a 4-bit code per strip triangle in
+ * place of the ids and turn bits (0..5 the vertex-order code, RS_CODE_TURN a turn); a
+ * live triangle's position (its place among the live triangles of all records, in record
+ * order) is the strip's base, kept in its top-level node's pad word, plus its place in
+ * the strip. mat=u16 (mat): a 16-bit material per live triangle (the paper's Fig. 5). */
+#define RS_CODE_TURN 7u
+typedef struct rs_format {
+    uint32_t leaf; /* triangles below which the s-kd tree stops (an implicit leaf) */
+    bool q16, no_ids, mat;
+} rs_format;
+
 static inline uint32_t rs_groups(uint32_t n, uint32_t leaf) { return (n + leaf - 1) / leaf; }
 static inline size_t rs_words(size_t bytes) { return (bytes + 3) / 4; }
 /* Words of the head and the s-kd nodes of a strip of n triangles. */
-static inline size_t rs_tree_words(uint32_t n, uint32_t leaf, bool q16) {
-    size_t nodes = rs_groups(n, leaf) - 1;
-    return 1 + rs_words(nodes) + rs_words(nodes * (q16 ? 4 : 8));
+static inline size_t rs_tree_words(uint32_t n, const rs_format *f) {
+    size_t nodes = rs_groups(n, f->leaf) - 1;
+    return 1 + rs_words(nodes) + rs_words(nodes * (f->q16 ? 4 : 8));
 }
-static inline size_t rs_record_words(uint32_t n, uint32_t live, uint32_t leaf, bool q16) {
-    return rs_tree_words(n, leaf, q16) + (size_t)n + 2 + live + rs_words((n + 7) / 8);
+/* Words of the ids and turn bits, or of the codes (ids=none). */
+static inline size_t rs_id_words(uint32_t n, uint32_t live, const rs_format *f) {
+    return f->no_ids ? rs_words((n + 1) / 2) : live + rs_words((n + 7) / 8);
+}
+static inline size_t rs_mat_words(uint32_t live, const rs_format *f) { return f->mat ? rs_words(2 * (size_t)live) : 0; }
+static inline size_t rs_record_words(uint32_t n, uint32_t live, const rs_format *f) {
+    return rs_tree_words(n, f) + (size_t)n + 2 + rs_id_words(n, live, f) + rs_mat_words(live, f);
 }
 
 /* The parts of the record at rec (rec[0] is the head). */
@@ -67,30 +83,54 @@ typedef struct rs_strip {
     uint32_t n, live;
     const uint8_t *flags;
     const void *splits; /* float[2 * nodes] or uint16_t[2 * nodes] */
-    const uint32_t *index, *id;
-    const uint8_t *dead; /* bit k: strip triangle k is a turn */
+    const uint32_t *index;
+    const uint32_t *id;   /* ids=mesh: mesh triangle << 3 | code per live triangle; else NULL */
+    const uint8_t *dead;  /* ids=mesh: bit k set when strip triangle k is a turn; else NULL */
+    const uint8_t *code;  /* ids=none: a code per strip triangle, two a byte (low nibble first) */
+    const uint16_t *mat;  /* mat=u16: a material per live triangle; else NULL */
+    uint32_t base;        /* ids=none: the position of the strip's first live triangle */
 } rs_strip;
 
-static inline rs_strip rs_strip_at(const uint32_t *rec, uint32_t leaf, bool q16) {
+static inline rs_strip rs_strip_at(const uint32_t *rec, const rs_format *f) {
     rs_strip s;
     s.n = rec[0] & 0xFFFFu, s.live = rec[0] >> 16;
-    size_t nodes = rs_groups(s.n, leaf) - 1;
+    size_t nodes = rs_groups(s.n, f->leaf) - 1;
     s.flags = (const uint8_t *)(rec + 1);
     s.splits = rec + 1 + rs_words(nodes);
-    s.index = rec + rs_tree_words(s.n, leaf, q16);
-    s.id = s.index + s.n + 2;
-    s.dead = (const uint8_t *)(s.id + s.live);
+    s.index = rec + rs_tree_words(s.n, f);
+    const uint32_t *ids = s.index + s.n + 2;
+    s.id = f->no_ids ? NULL : ids;
+    s.dead = f->no_ids ? NULL : (const uint8_t *)(ids + s.live);
+    s.code = f->no_ids ? (const uint8_t *)ids : NULL;
+    s.mat = f->mat ? (const uint16_t *)(ids + rs_id_words(s.n, s.live, f)) : NULL;
+    s.base = 0;
     return s;
 }
 
-static inline bool rs_dead(const rs_strip *s, uint32_t k) { return s->dead[k >> 3] >> (k & 7) & 1; }
+/* The code of strip triangle k (ids=none). */
+static inline uint32_t rs_code(const rs_strip *s, uint32_t k) { return s->code[k >> 1] >> 4 * (k & 1) & 15u; }
 
-/* The id of live strip triangle k: the live ones before it index the ids. */
-static inline uint32_t rs_id(const rs_strip *s, uint32_t k) {
+static inline bool rs_dead(const rs_strip *s, uint32_t k) {
+    return s->dead ? s->dead[k >> 3] >> (k & 7) & 1 : rs_code(s, k) == RS_CODE_TURN;
+}
+
+/* The place of live strip triangle k among the strip's live triangles (paid for hits only). */
+static inline uint32_t rs_live_index(const rs_strip *s, uint32_t k) {
     uint32_t dead = 0;
+    if (s->code) {
+        for (uint32_t i = 0; i < k; i++) dead += rs_code(s, i) == RS_CODE_TURN;
+        return k - dead;
+    }
     for (uint32_t i = 0; i < k >> 3; i++) dead += (uint32_t)__builtin_popcount(s->dead[i]);
     dead += (uint32_t)__builtin_popcount(s->dead[k >> 3] & ((1u << (k & 7)) - 1));
-    return s->id[k - dead];
+    return k - dead;
+}
+
+/* The id of live strip triangle k: the triangle (mesh id, or position with ids=none) << 3 |
+ * its code. */
+static inline uint32_t rs_id(const rs_strip *s, uint32_t k) {
+    const uint32_t i = rs_live_index(s, k);
+    return s->id ? s->id[i] : (s->base + i) << RS_ID_SHIFT | rs_code(s, k);
 }
 
 /* --- the accel ------------------------------------------------------------------------ */
@@ -104,8 +144,8 @@ typedef struct rs_accel {
     const float *vertices;
     size_t node_count, strip_words, strip_count, vertex_count, strip_triangles;
     size_t bytes_strip_tree; /* heads and s-kd nodes of the records */
-    uint32_t leaf;           /* triangles below which the s-kd tree stops (an implicit leaf) */
-    bool q16;
+    size_t bytes_materials;  /* mat=u16: the records' material words */
+    rs_format fmt;
     uint8_t packet; /* rays per packet of prt_intersect_packet: 4 (2x2), 16 (4x4), 0 (none) */
     uint32_t depth;
     void *owned[3]; /* built: nodes, strips, vertices (prt__free) */
@@ -161,9 +201,10 @@ static inline uint32_t rs_live(const uint32_t *id, uint32_t n) {
 }
 
 /* Encode one strip (skd_build.c): n triangles over vertex indices index[0..n+2), ids id[0..n)
- * (RS_DEAD for turns), into rec (rs_record_words words); returns its box. */
-prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, uint32_t leaf,
-                         bool q16, uint32_t *rec);
+ * (RS_DEAD for turns), into rec (rs_record_words words); the materials come from
+ * m->materials (0 where m has none). Returns its box. */
+prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, const rs_format *f,
+                         uint32_t *rec);
 
 /* q16 planes of a strip whose box is lo..hi on the axis (the kernel's decoding). */
 static inline float rs_q16_step(float lo, float hi) { return (hi - lo) * (1.0f / (float)RS_Q16_MAX); }
@@ -176,7 +217,8 @@ void rs_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 bool rs_occluded1(const prt_accel *a, const prt_ray *r);
 void rs_intersect_packet(const prt_accel *a, prt_packet *p);
 
-/* Check a loaded accel so the kernels cannot leave its arrays or loop (validate.c). */
-prt_status rs_validate(const rs_accel *a, size_t mesh_triangles);
+/* Check a loaded accel so the kernels cannot leave its arrays or loop (validate.c); sets
+ * a->bytes_materials. */
+prt_status rs_validate(rs_accel *a, size_t mesh_triangles);
 
 #endif

@@ -8,21 +8,6 @@ typedef struct rs_entry {
     float tn, tf;
 } rs_entry;
 
-/* The hit's mesh triangle and barycentrics from the strip triangle's id. */
-static void finish(const rs_best *b, prt_ray *ray, prt_hit *hit) {
-    hit->geom = 0;
-    if (!b->rec) {
-        hit->t = INFINITY, hit->u = 0, hit->v = 0, hit->prim = PRT_INVALID;
-        return;
-    }
-    const uint32_t id = b->id, code = id & ((1u << RS_ID_SHIFT) - 1);
-    hit->t = b->t;
-    hit->prim = id >> RS_ID_SHIFT;
-    hit->u = b->b[rs_perm[code][0]];
-    hit->v = b->b[rs_perm[code][1]];
-    ray->tfar = b->t;
-}
-
 static inline void child_box(const rs_accel *a, uint32_t slot, float lo[3], float hi[3]) {
     const rs_node *n = &a->nodes[slot >> 2];
     for (int k = 0; k < 3; k++) lo[k] = n->box[8 * k + (slot & 3)], hi[k] = n->box[8 * k + 4 + (slot & 3)];
@@ -61,8 +46,8 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
             }
         } else {
             float lo[3], hi[3];
-            if (a->q16) child_box(a, slot, lo, hi);
-            if (rs_strip_trace(a, r, a->strips + (ref & ~RS_LEAF), lo, hi, tn, tf, any, best) && any) return true;
+            if (a->fmt.q16) child_box(a, slot, lo, hi);
+            if (rs_strip_trace(a, r, a->strips + (ref & ~RS_LEAF), slot, lo, hi, tn, tf, any, best) && any) return true;
         }
         for (;;) {
             if (top == 0) return best->rec != NULL;
@@ -80,7 +65,7 @@ void rs_intersect1(const prt_accel *acc, prt_ray *ray, prt_hit *hit) {
     prt__rayx_init(&r, ray);
     rs_best best = {ray->tfar, {0, 0, 0}, NULL, 0, 0};
     trace(a, &r, false, &best);
-    finish(&best, ray, hit);
+    rs_finish(a, &best, ray, hit);
 }
 
 bool rs_occluded1(const prt_accel *acc, const prt_ray *ray) {
