@@ -229,6 +229,32 @@ static unsigned char *binary_quad(size_t *n) {
     return read_file(GOOD "/quad_binary_le.ply", n);
 }
 
+/* material_index: past 16 bits or negative (ascii and binary), a float or a list. */
+TEST(test_material_index_out_of_range_or_of_a_wrong_type_is_named) {
+#define PLY_MAT(type, value)                                                                       \
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n" \
+    "element face 1\nproperty list uchar int vertex_indices\nproperty " type " material_index\n"      \
+    "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 " value "\n"
+    expect_text_failure(PLY_MAT("uint", "65536"), PRT_ERROR_FORMAT, "material_index 65536 outside 0-65535", "line 14");
+    expect_text_failure(PLY_MAT("int", "-3"), PRT_ERROR_FORMAT, "material_index -3 outside", NULL);
+    expect_text_failure(PLY_MAT("double", "1"), PRT_ERROR_FORMAT, "material_index of type double", "integer");
+    expect_text_failure(PLY_MAT("list uchar int", "1 2"), PRT_ERROR_FORMAT, "material_index of type list of int", NULL);
+#undef PLY_MAT
+    const char *head = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+                       "property float y\nproperty float z\nelement face 1\n"
+                       "property list uchar int vertex_indices\nproperty uint material_index\nend_header\n";
+    unsigned char buf[256];
+    size_t n = strlen(head);
+    memcpy(buf, head, n);
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    memcpy(buf + n, v, sizeof v), n += sizeof v;
+    const uint32_t face[3] = {0, 1, 2}, mat = 1u << 20;
+    buf[n++] = 3;
+    memcpy(buf + n, face, sizeof face), n += sizeof face;
+    memcpy(buf + n, &mat, 4), n += 4;
+    expect_failure(buf, n, PRT_ERROR_FORMAT, "material_index 1048576 outside 0-65535", "byte");
+}
+
 TEST(test_truncated_binary_names_the_bytes_it_needs) {
     size_t n;
     unsigned char *q = binary_quad(&n);
@@ -404,6 +430,7 @@ int main(void) {
     RUN(test_ply_header_errors_name_the_offending_word);
     RUN(test_malformed_colour_properties_are_named);
     RUN(test_colour_values_out_of_range_or_not_numbers_are_named);
+    RUN(test_material_index_out_of_range_or_of_a_wrong_type_is_named);
     RUN(test_truncated_binary_names_the_bytes_it_needs);
     RUN(test_every_prefix_of_a_binary_file_fails);
     RUN(test_every_prefix_of_a_gzip_file_fails);

@@ -437,6 +437,69 @@ TEST(test_face_colours_binary_after_the_list_with_a_polygon_among_triangles) {
     prt_mesh_free(m);
 }
 
+/* material_index: ascii ushort before the list (65535, the largest, and 7), binary int
+ * after the list and a colour with a polygon among triangles (which leaves the fast path):
+ * every triangle takes its face's material; files without one have no material array. */
+TEST(test_face_material_index_of_any_integer_type) {
+    static const uint32_t tris[9] = {0, 1, 2, 0, 2, 3, 1, 2, 3};
+    static const uint16_t want[3] = {65535, 65535, 7};
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(GOOD "face_materials_ascii.ply", &m));
+    CHECK(same_mesh(m, QUAD_V, 4, tris, 3));
+    CHECK(m && m->materials && !memcmp(m->materials, want, sizeof want) && !m->triangle_colors);
+    prt_mesh_free(m);
+    const char *head = "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n"
+                       "property float y\nproperty float z\nelement face 3\n"
+                       "property list uchar int vertex_indices\nproperty int material_index\n"
+                       "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n";
+    unsigned char buf[512];
+    size_t n = strlen(head);
+    memcpy(buf, head, n);
+    memcpy(buf + n, QUAD_V, sizeof QUAD_V), n += sizeof QUAD_V;
+    const int32_t faces[3][5] = {{3, 0, 1, 2}, {4, 0, 1, 2, 3}, {3, 1, 2, 3}}, mats[3] = {0, 40000, 12};
+    for (int f = 0; f < 3; f++) {
+        buf[n++] = (uint8_t)faces[f][0];
+        memcpy(buf + n, &faces[f][1], 4 * (size_t)faces[f][0]), n += 4 * (size_t)faces[f][0];
+        memcpy(buf + n, &mats[f], 4), n += 4;
+        buf[n++] = 1, buf[n++] = 2, buf[n++] = 3;
+    }
+    static const uint32_t tris2[12] = {0, 1, 2, 0, 1, 2, 0, 2, 3, 1, 2, 3};
+    static const uint16_t want2[4] = {0, 40000, 40000, 12};
+    m = NULL;
+    CHECK_OK(prt_mesh_load_memory(buf, n, "materials.ply", &m));
+    CHECK(same_mesh(m, QUAD_V, 4, tris2, 4));
+    CHECK(m && m->materials && !memcmp(m->materials, want2, sizeof want2) && m->triangle_colors);
+    prt_mesh_free(m);
+    CHECK_OK(prt_mesh_load(GOOD "face_colors_ascii.ply", &m));
+    CHECK(m && !m->materials);
+    prt_mesh_free(m);
+}
+
+/* Materials are saved as a ushort material_index after the face colours and load back. */
+TEST(test_materials_survive_save_and_load) {
+    prt_mesh *g = make_grid(40);
+    CHECK(g != NULL);
+    if (!g) return;
+    CHECK_OK(prt_mesh_add_materials(g));
+    CHECK_OK(prt_mesh_add_colors(g, false, true));
+    for (size_t t = 0; t < g->triangle_count; t++) g->materials[t] = (uint16_t)(t * 977 + 5);
+    memset(g->triangle_colors, 9, 3 * g->triangle_count);
+    const char *path = PRT_BINARY_DIR "/test_mesh_ply_materials.ply";
+    CHECK_OK(prt_mesh_save_ply(g, path));
+    size_t n;
+    unsigned char *data = read_file(path, &n);
+    CHECK(data && strstr((const char *)data, "property uchar blue\nproperty ushort material_index\nend_header"));
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_load(path, &m));
+    CHECK(same_mesh(m, g->vertices, g->vertex_count, g->triangles, g->triangle_count));
+    CHECK(m && m->materials && !memcmp(m->materials, g->materials, g->triangle_count * sizeof *g->materials));
+    CHECK(m && same_bytes(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
+    prt_mesh_free(m);
+    free(data);
+    remove(path);
+    prt_mesh_free(g);
+}
+
 TEST(test_colourless_files_load_without_colour_arrays) {
     prt_mesh *m = NULL;
     CHECK_OK(prt_mesh_load(GOOD "quad_binary_le.ply", &m));
@@ -525,6 +588,8 @@ int main(void) {
     RUN(test_face_colours_ascii_after_the_index_list);
     RUN(test_face_colours_binary_before_the_index_list_float_with_alpha);
     RUN(test_face_colours_binary_after_the_list_with_a_polygon_among_triangles);
+    RUN(test_face_material_index_of_any_integer_type);
+    RUN(test_materials_survive_save_and_load);
     RUN(test_colourless_files_load_without_colour_arrays);
     RUN(test_vertex_and_face_colours_survive_save_load_and_gzip);
     TEST_END();

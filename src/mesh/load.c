@@ -32,18 +32,24 @@ static prt_status grow(const char *name, void **p, size_t *cap, size_t need, siz
     return PRT_OK;
 }
 
-/* Give a colour array the capacity of the array it belongs to. */
-static prt_status color_room(const char *name, uint8_t **c, size_t *ccap, size_t cap,
-                             const char *what) {
+/* Give a colour (3 bytes an entry) or material (2 bytes) array the capacity of the array
+ * it belongs to. */
+static prt_status side_room(const char *name, void **c, size_t *ccap, size_t cap, size_t elem,
+                            const char *what) {
     if (*ccap == cap) return PRT_OK;
-    size_t bytes = prt__mul_size(PRT_MAX(cap, (size_t)1), 3);
-    uint8_t *q = bytes == SIZE_MAX ? NULL : prt__realloc(*c, bytes);
+    size_t bytes = prt__mul_size(PRT_MAX(cap, (size_t)1), elem);
+    void *q = bytes == SIZE_MAX ? NULL : prt__realloc(*c, bytes);
     if (!q)
-        return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the colours of %zu %s", name, cap,
-                         what);
+        return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the %s of %zu %s", name,
+                         elem == 3 ? "colours" : "materials", cap, what);
     *c = q;
     *ccap = cap;
     return PRT_OK;
+}
+
+static prt_status color_room(const char *name, uint8_t **c, size_t *ccap, size_t cap,
+                             const char *what) {
+    return side_room(name, (void **)c, ccap, cap, 3, what);
 }
 
 prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect) {
@@ -73,7 +79,14 @@ prt_status mesh_arrays_triangle_room(mesh_arrays *a, size_t extra, size_t expect
                          3 * sizeof(uint32_t), "triangles");
     if (st == PRT_OK && a->want_tc)
         st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
+    if (st == PRT_OK && a->want_tm)
+        st = side_room(a->name, (void **)&a->tm, &a->tmcap, a->tcap, 2, "triangles");
     return st;
+}
+
+prt_status mesh_arrays_materials(mesh_arrays *a) {
+    a->want_tm = true;
+    return side_room(a->name, (void **)&a->tm, &a->tmcap, a->tcap, 2, "triangles");
 }
 
 prt_status mesh_arrays_reserve_triangles(mesh_arrays *a, size_t count, size_t expect) {
@@ -97,6 +110,7 @@ void mesh_arrays_free(mesh_arrays *a) {
     prt__free(a->t);
     prt__free(a->vc);
     prt__free(a->tc);
+    prt__free(a->tm);
     const char *name = a->name;
     memset(a, 0, sizeof *a);
     a->name = name;
@@ -116,6 +130,7 @@ prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out) {
     shrink((void **)&a->t, &a->tcap, a->nt, 3 * sizeof(uint32_t));
     shrink((void **)&a->vc, &a->vccap, a->nv, 3);
     shrink((void **)&a->tc, &a->tccap, a->nt, 3);
+    shrink((void **)&a->tm, &a->tmcap, a->nt, 2);
     /* prt_mesh_create owns the struct's layout; swap our arrays in for its empty ones
      * (both come from prt__alloc, so prt_mesh_free releases either). */
     prt_mesh *m;
@@ -130,10 +145,12 @@ prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out) {
         m->triangle_count = a->nt;
         m->vertex_colors = a->want_vc ? a->vc : NULL;
         m->triangle_colors = a->want_tc ? a->tc : NULL;
+        m->materials = a->want_tm ? a->tm : NULL;
         a->v = NULL;
         a->t = NULL;
         if (a->want_vc) a->vc = NULL;
         if (a->want_tc) a->tc = NULL;
+        if (a->want_tm) a->tm = NULL;
     }
     mesh_arrays_free(a);
     st = prt_mesh_validate(m);

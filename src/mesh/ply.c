@@ -1,7 +1,8 @@
 /* PLY reader (Greg Turk's polygon file format): ascii, binary_little_endian and
  * binary_big_endian; vertex x, y, z of any numeric type, faces from the vertex_indices
  * (or vertex_index) list fan-triangulated, vertex and face colours (red, green, blue
- * [, alpha]), every other element and property skipped. */
+ * [, alpha]), a face material_index (any integer type, 0..65535), every other element and
+ * property skipped. */
 #include "mesh/source.h"
 
 #include <math.h>
@@ -21,6 +22,7 @@ enum {
     ROLE_G,
     ROLE_B,
     ROLE_A,
+    ROLE_MAT, /* face material_index */
     ROLE_COUNT
 };
 enum { FMT_NONE, FMT_ASCII, FMT_BLE, FMT_BBE };
@@ -61,6 +63,7 @@ typedef struct ply_reader {
     uint32_t nprop;
     int vertex_el, face_el;
     bool vertex_colors, face_colors; /* the element has red, green and blue */
+    bool face_materials;             /* the face element has material_index */
     uint64_t nverts;                 /* declared vertex count (fits 32 bits once checked) */
     mesh_arrays a;
 } ply_reader;
@@ -175,6 +178,14 @@ static prt_status parse_property(ply_reader *r, const char *p, const char *e) {
                              r->name, s->line, what, mesh_quote(name, name_len, q),
                              k_type_name[pr.type]);
         pr.role = (uint8_t)color;
+    }
+    if (el->kind == EL_FACE && tok_is(name, name_len, "material_index")) {
+        if (list || is_float_type(pr.type))
+            return prt__fail(PRT_ERROR_FORMAT,
+                             "%s: line %zu: face material_index of type %s%s: must be an integer "
+                             "scalar (0-65535)",
+                             r->name, s->line, list ? "list of " : "", k_type_name[pr.type]);
+        pr.role = ROLE_MAT;
     }
     for (uint32_t i = el->first; i < el->first + el->nprops; i++)
         if (pr.role != ROLE_NONE && r->prop[i].role == pr.role)
@@ -338,6 +349,9 @@ static prt_status parse_header(ply_reader *r) {
                          "%s: the face element has no vertex_indices (or vertex_index) list",
                          r->name);
     if ((st = check_color_set(r, f, &r->face_colors)) != PRT_OK) return st;
+    for (uint32_t i = f->first; i < f->first + f->nprops; i++)
+        r->face_materials |= r->prop[i].role == ROLE_MAT;
+    if (r->face_materials && (st = mesh_arrays_materials(&r->a)) != PRT_OK) return st;
     return mesh_arrays_colors(&r->a, r->vertex_colors, r->face_colors);
 }
 
@@ -434,6 +448,21 @@ static prt_status emit_vertex(ply_reader *r, const float xyz[3], const uint8_t r
 static void emit_face_color(ply_reader *r, size_t first, const uint8_t rgb[3]) {
     if (!r->face_colors) return;
     for (size_t t = first; t < r->a.nt; t++) memcpy(r->a.tc + 3 * t, rgb, 3);
+}
+
+/* The face's material on the triangles its polygon became; a value past 16 bits is an
+ * error (where: "line" or "byte", at: its number). */
+static prt_status emit_face_material(ply_reader *r, const ply_element *el, uint64_t row, size_t first,
+                                     int64_t material, const char *where, uint64_t at) {
+    if (!r->face_materials) return PRT_OK;
+    if (material < 0 || material > 65535)
+        return prt__fail(PRT_ERROR_FORMAT,
+                         "%s: %s %llu: %s %llu: material_index %lld outside 0-65535 (packrt keeps "
+                         "16-bit materials)",
+                         r->name, where, (unsigned long long)at, el->name, (unsigned long long)row,
+                         (long long)material);
+    for (size_t t = first; t < r->a.nt; t++) r->a.tm[t] = (uint16_t)material;
+    return PRT_OK;
 }
 
 static prt_status color_value_error(ply_reader *r, const ply_element *el, uint64_t row,
@@ -563,6 +592,7 @@ static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row)
     float xyz[3] = {0, 0, 0};
     uint8_t rgb[3] = {0, 0, 0};
     bool bad_color = false;
+    int64_t material = 0;
     size_t first_triangle = r->a.nt;
     uint64_t row_pos = mesh_source_offset(s, s->cur);
     for (uint32_t k = el->first; k < el->first + el->nprops; k++) {
@@ -574,6 +604,8 @@ static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row)
                 xyz[p->role - ROLE_X] = load_float(s->cur, p->type, r->swap);
             else if (p->role >= ROLE_R && p->role <= ROLE_B)
                 rgb[p->role - ROLE_R] = load_color(s->cur, p->type, r->swap, &bad_color);
+            else if (p->role == ROLE_MAT)
+                material = load_int(s->cur, p->type, r->swap);
             s->cur += n;
             continue;
         }
@@ -615,7 +647,10 @@ static prt_status binary_row(ply_reader *r, const ply_element *el, uint64_t row)
     }
     if (bad_color) return color_value_error(r, el, row, "byte", row_pos, "non-finite");
     if (el->kind == EL_VERTEX) return emit_vertex(r, xyz, rgb, row, "byte", row_pos);
-    if (el->kind == EL_FACE) emit_face_color(r, first_triangle, rgb);
+    if (el->kind == EL_FACE) {
+        emit_face_color(r, first_triangle, rgb);
+        return emit_face_material(r, el, row, first_triangle, material, "byte", row_pos);
+    }
     return PRT_OK;
 }
 
@@ -702,7 +737,7 @@ static prt_status binary_faces(ply_reader *r, const ply_element *el) {
     size_t R = 13, coff[3] = {0, 0, 0};
     for (uint32_t k = el->first + 1; k < el->first + el->nprops && fast; k++) {
         const ply_prop *q = &r->prop[k];
-        if (q->count_type != T_NONE ||
+        if (q->count_type != T_NONE || q->role == ROLE_MAT ||
             (is_color_role(q->role) && q->role != ROLE_A && q->type != T_U8))
             fast = false;
         if (q->role >= ROLE_R && q->role <= ROLE_B) coff[q->role - ROLE_R] = R;
@@ -853,6 +888,7 @@ static prt_status ascii_row(ply_reader *r, const ply_element *el, uint64_t row) 
     size_t line = r->s->line;
     float xyz[3] = {0, 0, 0};
     uint8_t rgba[4] = {0, 0, 0, 0};
+    int64_t material = 0;
     size_t first_triangle = r->a.nt;
     for (uint32_t k = el->first; k < el->first + el->nprops; k++) {
         const ply_prop *pr = &r->prop[k];
@@ -865,7 +901,8 @@ static prt_status ascii_row(ply_reader *r, const ply_element *el, uint64_t row) 
         if (pr->count_type == T_NONE) {
             bool ok = pr->role >= ROLE_X && pr->role <= ROLE_Z
                           ? mesh_parse_float(r->s, t, n, &xyz[pr->role - ROLE_X])
-                          : ascii_check(r, pr->type, t, n);
+                      : pr->role == ROLE_MAT ? mesh_parse_int(t, n, &material)
+                                             : ascii_check(r, pr->type, t, n);
             if (!ok) return ascii_value_error(r, el, row, t, n);
             continue;
         }
@@ -913,7 +950,10 @@ static prt_status ascii_row(ply_reader *r, const ply_element *el, uint64_t row) 
             line, el->name, (unsigned long long)row, el->nprops, mesh_quote(t, n, q));
     }
     if (el->kind == EL_VERTEX) return emit_vertex(r, xyz, rgba, row, "line", line);
-    if (el->kind == EL_FACE) emit_face_color(r, first_triangle, rgba);
+    if (el->kind == EL_FACE) {
+        emit_face_color(r, first_triangle, rgba);
+        return emit_face_material(r, el, row, first_triangle, material, "line", line);
+    }
     return PRT_OK;
 }
 

@@ -16,7 +16,7 @@ struct ply_writer {
     size_t n;
     uint64_t written;              /* bytes */
     uint64_t nv, nt, vdone, tdone; /* announced and written */
-    bool begun, vrgb, trgb;
+    bool begun, vrgb, trgb, tmat;
     prt_status failed; /* the first error: later calls return it */
 };
 
@@ -78,6 +78,11 @@ prt_status ply_writer_open(const char *path, ply_writer **out) {
 
 prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles, bool vertex_colors,
                             bool triangle_colors) {
+    return ply_writer_begin_materials(w, vertices, triangles, vertex_colors, triangle_colors, false);
+}
+
+prt_status ply_writer_begin_materials(ply_writer *w, uint64_t vertices, uint64_t triangles, bool vertex_colors,
+                                      bool triangle_colors, bool materials) {
     if (w->failed) return w->failed;
     if (w->begun)
         return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
@@ -92,10 +97,10 @@ prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles
         (char *)w->buf, WRITE_BUFFER,
         "ply\nformat binary_little_endian 1.0\ncomment written by packrt\nelement vertex %llu\n"
         "property float x\nproperty float y\nproperty float z\n%selement face %llu\n"
-        "property list uchar %s vertex_indices\n%send_header\n",
+        "property list uchar %s vertex_indices\n%s%send_header\n",
         (unsigned long long)vertices, vertex_colors ? rgb : "", (unsigned long long)triangles, itype,
-        triangle_colors ? rgb : "");
-    w->vrgb = vertex_colors, w->trgb = triangle_colors;
+        triangle_colors ? rgb : "", materials ? "property ushort material_index\n" : "");
+    w->vrgb = vertex_colors, w->trgb = triangle_colors, w->tmat = materials;
     w->nv = vertices;
     w->nt = triangles;
     w->begun = true;
@@ -150,12 +155,17 @@ prt_status ply_writer_vertices(ply_writer *w, const float *xyz, const uint8_t *r
 }
 
 prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, const uint8_t *rgb, size_t count) {
+    return ply_writer_faces(w, idx, rgb, NULL, count);
+}
+
+prt_status ply_writer_faces(ply_writer *w, const uint32_t *idx, const uint8_t *rgb, const uint16_t *mat,
+                            size_t count) {
     if (w->failed) return w->failed;
-    if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone || !rgb != !w->trgb)
+    if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone || !rgb != !w->trgb || !mat != !w->tmat)
         return w->failed =
                    prt__fail(PRT_ERROR_ARGUMENT,
                              "%s: %zu triangles past the %llu announced (or before all "
-                             "%llu vertices, or colours not as announced)",
+                             "%llu vertices, or colours or materials not as announced)",
                              w->path, count, (unsigned long long)w->nt, (unsigned long long)w->nv);
     for (size_t t = 0; t < count; t++) {
         const uint32_t *i = idx + 3 * t;
@@ -164,6 +174,10 @@ prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, const uint8_
                        PRT_ERROR_ARGUMENT, "%s: triangle %llu references vertex %u of %llu",
                        w->path, (unsigned long long)(w->tdone + t),
                        PRT_MAX(i[0], PRT_MAX(i[1], i[2])), (unsigned long long)w->nv);
+        if (w->n + 18 > WRITE_BUFFER) { /* room for the longest row (vertices may leave less) */
+            prt_status st = flush(w);
+            if (st) return st;
+        }
         uint8_t *p = w->buf + w->n;
         p[0] = 3;
         put_u32le(p + 1, i[0]);
@@ -171,10 +185,8 @@ prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, const uint8_
         put_u32le(p + 9, i[2]);
         size_t row = 13;
         if (rgb) memcpy(p + 13, rgb + 3 * t, 3), row = 16;
-        if ((w->n += row) + 16 > WRITE_BUFFER) {
-            prt_status st = flush(w);
-            if (st) return st;
-        }
+        if (mat) p[row] = (uint8_t)(mat[t] & 0xFF), p[row + 1] = (uint8_t)(mat[t] >> 8), row += 2;
+        w->n += row;
     }
     w->tdone += count;
     return PRT_OK;

@@ -102,6 +102,11 @@ typedef struct mesh_arrays {
     uint8_t *vc, *tc;
     size_t vccap, tccap;
     bool want_vc, want_tc;
+    /* Materials (a uint16 per triangle), as the triangle colours, when switched on by
+     * mesh_arrays_materials; NULL otherwise. */
+    uint16_t *tm;
+    size_t tmcap;
+    bool want_tm;
     /* Streaming mode (stream_arrays.h) when set: triangles are handed on in batches, so
      * nt restarts from 0 after each; vertices may live in a mapped temporary file. */
     struct mesh_stream *stream;
@@ -118,6 +123,8 @@ prt_status mesh_arrays_reserve_triangles(mesh_arrays *a, size_t count, size_t ex
 /* Switch per-vertex / per-triangle colours on (room for as many as the positions and
  * triangles have), or per-vertex colours off again (vertex = false frees them). */
 prt_status mesh_arrays_colors(mesh_arrays *a, bool vertex, bool triangle);
+/* Switch per-triangle materials on (room for as many as the triangles have). */
+prt_status mesh_arrays_materials(mesh_arrays *a);
 /* Hand the arrays over to a new prt_mesh (validated; errors are prefixed with the name). */
 prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out);
 void mesh_arrays_free(mesh_arrays *a);
