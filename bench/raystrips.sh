@@ -8,7 +8,8 @@
 # poor connectivity (cad: unwelded faces), of each size in SIZES (default "1M"; the
 # results file also has SIZES=10M SHARED=0, run separately).
 # SWEEP=0 skips the chunk-threshold table (random rays on the first generated mesh).
-# Usage: [SIZES="1M 10M"] [SHARED=0] [SWEEP=0] [REPS=5] bench/raystrips.sh [BUILD_DIR] > out.md
+# SHARED=bunny: of the shared meshes only the bunny.
+# Usage: [SIZES="1M 10M"] [SHARED=0|bunny] [SWEEP=0] [REPS=5] bench/raystrips.sh [BUILD_DIR] > out.md
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -22,6 +23,8 @@ meshes=()
 if [ "${SHARED:-1}" = 1 ] && [ -f ../shared/data/bunny.ply ]; then
   meshes+=(../shared/data/bunny.ply ../shared/data/bart_kitchen/kitchen_000.ply.gz
            ../shared/data/bart_robots/robots_000.ply.gz ../shared/data/bart_museum5/museum5_000.ply.gz)
+elif [ "${SHARED:-1}" = bunny ] && [ -f ../shared/data/bunny.ply ]; then
+  meshes+=(../shared/data/bunny.ply)
 fi
 sizes=${SIZES:-1M}
 for n in $sizes; do
@@ -30,12 +33,14 @@ for n in $sizes; do
   meshes+=("$tmp/mandelbulb_$n.ply" "$tmp/cad_$n.ply")
 done
 
-# Ray-Strips: the default (our stripifier, 8-triangle leaves, 16-bit planes) with 2x2 packets
-# and with single rays only (packet=none: primary rays then go one by one), the same with
-# meshoptimizer's strips, and the paper's own settings (2-triangle leaves, float planes,
-# meshoptimizer standing in for Stripe). Then the fastest BVH representations and a
-# small indexed one.
-strips=("raystrips" "raystrips,packet=none" "raystrips,strip=meshopt,packet=none"
+# Ray-Strips: the default (our stripifier, 8-triangle leaves, 16-bit planes) with 2x2 packets,
+# 4x4 packets and single rays only (packet=none: primary rays then go one by one), without
+# ids (ids=none) and with 16-bit materials (mat=u16; generated meshes have none, so all 0,
+# which costs the same), the same with meshoptimizer's strips, and the paper's own settings
+# (2-triangle leaves, float planes, meshoptimizer standing in for Stripe). Then the fastest
+# BVH representations and a small indexed one.
+strips=("raystrips" "raystrips,packet=4x4" "raystrips,packet=none" "raystrips,ids=none,packet=none"
+        "raystrips,mat=u16,packet=none" "raystrips,strip=meshopt,packet=none"
         "raystrips,leaf=2,split=f32,strip=meshopt" "raystrips,leaf=2,split=f32,strip=meshopt,packet=none")
 others=("wide8:float3-soa8" "quad:float3-soa4" "wide8:idx32-soa4")
 args=()
@@ -45,7 +50,7 @@ for m in "${meshes[@]}"; do
   name=$(basename "$m"); name=${name%.gz}; name=${name%.ply}
   echo "bench: $m" >&2
   "$packrt" bench "$m" "${args[@]}" --workload random,primary --no-cold --reps "$reps" --json >"$tmp/$name.json"
-  for s in $(printf '%s\n' "${strips[@]}" | sed 's/,packet=none//' | sort -u); do
+  for s in $(printf '%s\n' "${strips[@]}" | sed 's/,packet=[a-z0-9]*//; s/,ids=none//; s/,mat=u16//' | sort -u); do
     "$packrt" build "$m" -r "$s" -o "$tmp/$name.prt" >/dev/null 2>&1
     echo "$s $("$packrt" info "$tmp/$name.prt" | grep -o 'leaves [0-9]*' | cut -d' ' -f2)" >>"$tmp/$name.strips"
   done
@@ -76,8 +81,9 @@ print("Made by `bench/raystrips.sh build` (`packrt bench MESH -r ... --workload 
 print("Rows: `raystrips` is the default, `chunk=128,leaf=8,split=q16,strip=rt` (our stripifier, 8-triangle "
       "implicit leaves, 16-bit planes); `strip=meshopt` swaps in meshoptimizer's stripifier; "
       "`leaf=2,split=f32,strip=meshopt` is the paper's configuration (meshoptimizer standing in for Stripe). "
-      "`packet=none` rows answer primary rays one by one (single-ray rate); the others trace them in 2x2 "
-      "packets.\n")
+      "`packet=none` rows answer primary rays one by one (single-ray rate, 1x1); `packet=4x4` rows trace them "
+      "in 4x4 packets, the others in 2x2 packets. `ids=none` rows store no triangle ids (hits are mapped back "
+      "outside the timed region); `mat=u16` rows store a 16-bit material per triangle.\n")
 print("Memory as the paper's Table 1: *minimal* = 14 B/tri (3 indices and a material) + 12 B per vertex + a "
       "BVH of 2n-1 nodes of 32 B; *optimized* = 48 B/tri + the same BVH. The reduction is Ray-Strips' total "
       "against *minimal* (the target: at least 75%). Times: random = Rouwé's random rays, µs per 1024, warm, "
@@ -115,7 +121,7 @@ for base in names:
     print("|" + "---|" * 16)
     for r in rows:
         n = r["name"]
-        key = n.replace(",packet=none", "")
+        key = n.replace(",packet=none", "").replace(",packet=4x4", "").replace(",ids=none", "").replace(",mat=u16", "")
         ns = strips.get(key)
         total = r["bytes_per_tri_total"]
         cells = [f"`{n}`", fmt(r["build_s"], 3), str(ns) if ns else "", fmt(T / ns, 1) if ns else "",

@@ -208,11 +208,11 @@ typedef struct prt_build_options {
     void (*progress)(void *user, float fraction);
     void *progress_user;
     /* For specs with ids=none (compact BVH codecs that store one id per leaf, lossygrid,
-     * raystrips): the accel
-     * keeps no map back to mesh triangle ids and hits name triangles by their position in
-     * the accel's own order; triangle_order[k] receives the mesh id of position k, for
-     * k < prt_stats.triangles_built, so the caller can put its per-triangle data in that
-     * order once and save the 4 bytes per triangle the map would cost. Caller-allocated,
+     * raystrips): the accel keeps no map back to mesh triangle ids and hits name triangles
+     * by their position in the accel's own order; triangle_order[k] receives the mesh id
+     * of position k, for k < prt_stats.triangles_built, so the caller can put its
+     * per-triangle data in that order once and save the 4 bytes per triangle the map
+     * would cost. Caller-allocated,
      * mesh triangle count entries; NULL otherwise. */
     uint32_t *triangle_order;
     /* Out-of-core builds ("ooc", prt_build_file): bytes of memory the build may hold, however
