@@ -23,6 +23,7 @@ static const char *const g_specs[] = {
     "cgrid,packet=1",
     "cgrid,mailbox=off,cull=off,macro=3",
     "cgrid,packet=2,lambda=3",
+    "cgrid,tri=wald",
 };
 
 /* Closest and any hits of single rays against the reference on rays away from edges. */
@@ -128,15 +129,15 @@ TEST(test_canonical_spec_spells_every_option_and_bad_options_fail) {
     prt_mesh *m = mesh_grid(4);
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "cgrid", NULL, &a));
-    if (a) CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,spread=8"), "%s", prt_accel_spec(a));
+    if (a) CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,tri=watertight,spread=8"), "%s", prt_accel_spec(a));
     prt_accel_free(a);
     a = NULL;
     CHECK_OK(prt_build(m, "cgrid,cull=off,spread=0,packet=4,lambda=3", NULL, &a));
     if (a)
-        CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=3,macro=6,packet=4,mailbox=on,cull=off,spread=0"), "%s",
+        CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=3,macro=6,packet=4,mailbox=on,cull=off,tri=watertight,spread=0"), "%s",
                   prt_accel_spec(a));
     prt_accel_free(a);
-    const char *bad[] = {"cgrid,packet=3", "cgrid,lambda=0", "cgrid,macro=99", "cgrid,mailbox=maybe", "cgrid,spread=-1", "cgrid,foo=1",
+    const char *bad[] = {"cgrid,packet=3", "cgrid,lambda=0", "cgrid,macro=99", "cgrid,mailbox=maybe", "cgrid,spread=-1", "cgrid,tri=moller", "cgrid,foo=1",
                          "cgrid:float3"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
         a = NULL;
@@ -151,7 +152,7 @@ TEST(test_packets_of_every_size_equal_single_rays) {
     prt_mesh *meshes[] = {mesh_grid(40), mesh_random_soup(3000, 5)};
     static prt_ray rays[64 * 64];
     const char *specs[] = {"cgrid", "cgrid,packet=2", "cgrid,packet=4", "cgrid,macro=0,mailbox=off,cull=off",
-                           "cgrid,lambda=2,macro=3"};
+                           "cgrid,lambda=2,macro=3", "cgrid,tri=wald"};
     const uint32_t widths[] = {2, 4, 8, 16};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++)
         for (size_t si = 0; si < COUNT_OF(specs); si++) {

@@ -8,6 +8,7 @@
  *      sum, scatter the ids (atomic decrements from each cell's end);
  *   4. macrocells: one flag per M x M x M block, set when any cell below is occupied. */
 #include "cgrid/cgrid.h"
+#include "cgrid/wald_tri.h"
 #include "mesh/mesh.h"
 
 #include <math.h>
@@ -105,6 +106,20 @@ prt_status cg_macro_flags(cg_accel *c, int threads) {
     }
 
     g->mflags = mf;
+    return PRT_OK;
+}
+
+prt_status cg_wald_rebuild(cg_accel *c, int threads) {
+    c->g.wald = NULL;
+    if (!c->opt.tri) return PRT_OK;
+    const size_t n = c->ntris;
+    prt_status s;
+    if ((s = grow((void **)&c->pool.wald, &c->pool.cap_wald, n ? n : 1, sizeof(cg_wald)))) return s;
+    cg_wald *w = c->pool.wald;
+    const float *tris = c->g.tris;
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (size_t t = 0; t < n; t++) cg_wald_setup(tris + 9 * t, &w[t]);
+    c->g.wald = w;
     return PRT_OK;
 }
 
@@ -242,7 +257,7 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     g->cell_start = start;
     g->refs = refs;
     g->tris = tris;
-    if ((s = cg_macro_flags(c, nt))) return s;
+    if ((s = cg_macro_flags(c, nt)) || (s = cg_wald_rebuild(c, nt))) return s;
     c->base.triangles_built = built;
     memcpy(c->base.bounds, blo, sizeof blo);
     memcpy(c->base.bounds + 3, bhi, sizeof bhi);

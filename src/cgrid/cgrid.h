@@ -40,6 +40,7 @@ typedef struct cg_grid {
     const uint32_t *refs;       /* mesh triangle ids */
     const uint8_t *mflags;      /* nmacro: 1 when any cell below is occupied */
     const float *tris;          /* 9 floats per mesh triangle: v0, v1, v2 */
+    const struct cg_wald *wald; /* tri=wald: Wald's precomputed test data per triangle, else NULL */
 } cg_grid;
 
 /* Query options (spec keys). */
@@ -49,6 +50,7 @@ typedef struct cg_options {
     int packet;  /* 0: trace the caller's packets as given; 1: single rays; N: N x N sub-packets */
     int mailbox; /* per-packet mailboxing */
     int cull;    /* per-packet frustum culling of triangles */
+    int tri;     /* 0: the watertight test; 1: Wald's precomputed projection test (wald_tri.h) */
     int spread;  /* shadow packets whose hit points spread over more cells are split (§4.6); 0: never */
 } cg_options;
 
@@ -66,6 +68,8 @@ typedef struct cg_pool {
     uint8_t *mflags;
     float *tris;
     uint16_t *ranges; /* build scratch: each triangle's cell range */
+    struct cg_wald *wald;
+    size_t cap_wald;
     size_t cap_cells, cap_refs, cap_macro, cap_tris, cap_ranges;
 } cg_pool;
 
@@ -91,6 +95,9 @@ extern _Thread_local cg_counters prt__cg_counters;
 
 /* Macrocell flags of c->g (cells already in place) into the pool. */
 prt_status cg_macro_flags(cg_accel *c, int threads);
+
+/* tri=wald: Wald's test data of c->g.tris into the pool (g->wald); else nothing. */
+prt_status cg_wald_rebuild(cg_accel *c, int threads);
 
 /* Rebuild c->g from vertex positions (c->indices, c->ntris, c->nverts set) into the pool. */
 prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads);

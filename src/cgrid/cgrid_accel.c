@@ -1,9 +1,10 @@
 /* The cgrid family behind prt_accel_ops:
- *   "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,spread=8"
+ *   "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,tri=watertight,spread=8"
  * lambda: cells per triangle (§3); macro: macrocell size M, 0 for none (§2.4); packet: 0
  * traces the caller's packets as given, 1 every ray by the single-ray DDA, N = 2, 4, 8, 16
  * cuts the caller's packets into N x N sub-packets; mailbox and cull switch the two
- * per-packet optimisations of §2.3 (for the paper's Table 1); spread: shadow packets whose
+ * per-packet optimisations of §2.3 (for the paper's Table 1); tri: the watertight test
+ * (default) or Wald's precomputed projection test (§3, measured against it); spread: shadow packets whose
  * hit points spread over more than this many cells are split (§4.6, shadow.c), 0 never.
  * update() rebuilds the grid in place from new vertex positions (same triangles).
  * Saved as sections CGHD (grid header), CGCS (cell starts), CGRF (references), CGTR
@@ -25,6 +26,7 @@ _Static_assert(sizeof(cg_file_header) == 80, "CGHD section is 80 bytes");
 #define TAG_INDICES PRT_FOURCC('C', 'G', 'I', 'X')
 
 static const char *const g_onoff[] = {"off", "on"};
+static const char *const g_tri[] = {"watertight", "wald"};
 
 /* Read the options of spec (and spell them all out in it). */
 static prt_status parse_options(prt_spec *spec, cg_options *o) {
@@ -33,6 +35,7 @@ static prt_status parse_options(prt_spec *spec, cg_options *o) {
         (s = prt__spec_int(spec, "packet", 0, 0, 16, &o->packet)) ||
         (s = prt__spec_enum(spec, "mailbox", g_onoff, 2, 1, &o->mailbox)) ||
         (s = prt__spec_enum(spec, "cull", g_onoff, 2, 1, &o->cull)) ||
+        (s = prt__spec_enum(spec, "tri", g_tri, 2, 0, &o->tri)) ||
         (s = prt__spec_int(spec, "spread", 8, 0, 4096, &o->spread)) || (s = prt__spec_check_unused(spec)))
         return s;
     if (o->packet & (o->packet - 1))
@@ -51,6 +54,7 @@ static prt_status parse_options(prt_spec *spec, cg_options *o) {
     prt__spec_set(&canon, "packet", num);
     prt__spec_set(&canon, "mailbox", g_onoff[o->mailbox]);
     prt__spec_set(&canon, "cull", g_onoff[o->cull]);
+    prt__spec_set(&canon, "tri", g_tri[o->tri]);
     snprintf(num, sizeof num, "%d", o->spread);
     prt__spec_set(&canon, "spread", num);
     *spec = canon;
@@ -64,6 +68,7 @@ static void cg_destroy(prt_accel *a) {
     prt__free(c->pool.mflags);
     prt__free(c->pool.tris);
     prt__free(c->pool.ranges);
+    prt__free(c->pool.wald);
     prt__free(c->indices_owned);
     prt__free(c);
 }
@@ -111,7 +116,7 @@ static void cg_stats(const prt_accel *a, prt_stats *s) {
     const cg_accel *c = (const cg_accel *)a;
     const cg_grid *g = &c->g;
     s->bytes_tree = 4 * (g->ncells + 1) + g->nmacro;
-    s->bytes_geometry = 4 * g->nrefs + 36 * c->ntris;
+    s->bytes_geometry = 4 * g->nrefs + 36 * c->ntris + (g->wald ? 48 * c->ntris : 0);
     s->bytes_other = 12 * c->ntris + sizeof(cg_accel);
     s->nodes = g->ncells + g->nmacro;
     size_t occupied = 0;
@@ -200,7 +205,7 @@ static prt_status cg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     memcpy(g->res, h.res, sizeof g->res);
     g->ncells = (size_t)ncells, g->nrefs = (size_t)h.nrefs;
     g->cell_start = cst, g->refs = rf, g->tris = tris;
-    if ((s = cg_macro_flags(c, 1))) {
+    if ((s = cg_macro_flags(c, 1)) || (s = cg_wald_rebuild(c, 1))) {
         cg_destroy(&c->base);
         return s;
     }

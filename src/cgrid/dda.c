@@ -6,6 +6,7 @@
  * every step rather than accumulated, so they carry one rounding, not one per step. A
  * 16-entry mailbox skips triangles already tested by this ray. */
 #include "cgrid/cgrid.h"
+#include "cgrid/wald_tri.h"
 #include "geom/triangle.h"
 
 #include <math.h>
@@ -97,7 +98,9 @@ void cg_dda_closest(const cg_grid *g, const prt_ray *r, prt__hitx *hit) {
             tests++;
             const float *p = g->tris + 9 * (size_t)tri;
             float t, u, v;
-            if (prt__tri_hit(&rx, p, p + 3, p + 6, hit->t, &t, &u, &v) && (t < hit->t || tri < hit->prim))
+            const bool h = g->wald ? cg_wald_hit(&g->wald[tri], r->org, r->dir, r->tnear, hit->t, &t, &u, &v)
+                                   : prt__tri_hit(&rx, p, p + 3, p + 6, hit->t, &t, &u, &v);
+            if (h && (t < hit->t || tri < hit->prim))
                 hit->t = t, hit->u = u, hit->v = v, hit->prim = tri;
         }
         if (hit->prim != PRT_INVALID && hit->t <= t_exit) break;
@@ -134,7 +137,8 @@ bool cg_occluded1(const prt_accel *a, const prt_ray *r) {
             if (mailbox_seen(box, tri)) continue;
             const float *p = g->tris + 9 * (size_t)tri;
             float t, u, v;
-            hit = prt__tri_hit(&rx, p, p + 3, p + 6, r->tfar, &t, &u, &v);
+            hit = g->wald ? cg_wald_hit(&g->wald[tri], r->org, r->dir, r->tnear, r->tfar, &t, &u, &v)
+                          : prt__tri_hit(&rx, p, p + 3, p + 6, r->tfar, &t, &u, &v);
         }
         if (hit) break;
     })

@@ -61,12 +61,11 @@ static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
     f->tests += (uint64_t)nc * f->nlive;
     for (uint32_t i = 0; i < nc; i++) {
         const uint32_t tri = cand[i];
-        const float *p = f->g->tris + 9 * (size_t)tri;
         for (uint32_t b = 0; b < f->nblocks; b++) {
             rblock *B = &f->blocks[b];
             if (!B->live) continue;
             vf8 t, u, v;
-            int mask = rblock_hit(B, p, &t, &u, &v);
+            int mask = rblock_hit_tri(B, f->g, tri, &t, &u, &v);
             while (mask) {
                 int l = __builtin_ctz((unsigned)mask);
                 mask &= mask - 1;
@@ -320,7 +319,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         }
         int l = __builtin_popcount(B->live);
         const prt_ray *r = &rays[pr[i].index];
-        for (int k = 0; k < 3; k++) B->org[k][l] = r->org[k];
+        for (int k = 0; k < 3; k++) B->org[k][l] = r->org[k], B->dir[k][l] = r->dir[k];
         B->sx[l] = a_sx[j], B->sy[l] = a_sy[j], B->sz[l] = a_sz[j], B->tnear[l] = r->tnear, B->t[l] = pr[i].t;
         B->ray[l] = (uint16_t)i;
         B->live |= 1u << l;

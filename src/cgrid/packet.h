@@ -7,6 +7,7 @@
 
 #include "cgrid/cgrid.h"
 #include "core/simd.h"
+#include "cgrid/wald_tri.h"
 #include "geom/triangle.h"
 
 /* Per-packet mailbox (§2.3): a thread-local 1024-entry table stamped per packet. */
@@ -34,7 +35,7 @@ static inline bool cg_mailbox_seen(uint32_t epoch, uint32_t tri) {
  * over rays: one triangle against 8 rays with the same operations, in the same order, as
  * prt__tri_hit does for each (so packets give the single rays' bits). */
 typedef struct rblock {
-    vf8 org[3], sx, sy, sz, tnear;
+    vf8 org[3], dir[3], sx, sy, sz, tnear; /* dir: for Wald's test (tri=wald) */
     vf8 t; /* each lane's closest hit so far: the test's tfar */
     int kx, ky, kz;
     uint32_t live; /* lanes still traced */
@@ -79,6 +80,13 @@ static inline int rblock_hit(const rblock *B, const float *p, vf8 *t_out, vf8 *u
         *v_out = w / det;
     }
     return mask;
+}
+
+/* Triangle tri against the block's live lanes with the grid's test (watertight, or Wald's
+ * when the grid has its data): mask of lanes hit in [tnear, t]. */
+static inline int rblock_hit_tri(const rblock *B, const cg_grid *g, uint32_t tri, vf8 *t_out, vf8 *u_out, vf8 *v_out) {
+    if (g->wald) return cg_wald_hit8(&g->wald[tri], B->org, B->dir, B->tnear, B->t, t_out, u_out, v_out) & (int)B->live;
+    return rblock_hit(B, g->tris + 9 * (size_t)tri, t_out, u_out, v_out);
 }
 
 /* floor(x) for the 4 lanes, clamped to [-1, top + 1] first so the conversion is defined. */

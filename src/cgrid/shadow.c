@@ -85,13 +85,12 @@ static uint32_t test_chunk(const shadow_ctx *x, const sray *sr, rblock *blocks, 
                            uint32_t nc, uint64_t *tests) {
     uint32_t ended = 0;
     for (uint32_t j = 0; j < nc; j++) {
-        const float *q = x->c->g.tris + 9 * (size_t)cand[j];
         for (uint32_t b = 0; b < nblocks; b++) {
             rblock *Bk = &blocks[b];
             if (!Bk->live) continue;
             *tests += (uint64_t)__builtin_popcount(Bk->live);
             vf8 t, u, v;
-            int mask = rblock_hit(Bk, q, &t, &u, &v);
+            int mask = rblock_hit_tri(Bk, &x->c->g, cand[j], &t, &u, &v);
             if (!mask) continue;
             Bk->live &= ~(uint32_t)mask;
             ended += (uint32_t)__builtin_popcount((unsigned)mask);
@@ -191,7 +190,7 @@ static void walk(const shadow_ctx *x, const sray *sr, uint32_t n, int K, int sgn
             Bk->kx = rx.kx, Bk->ky = rx.ky, Bk->kz = rx.kz;
         }
         const int l = __builtin_popcount(Bk->live);
-        for (int k = 0; k < 3; k++) Bk->org[k][l] = r->org[k];
+        for (int k = 0; k < 3; k++) Bk->org[k][l] = r->org[k], Bk->dir[k][l] = r->dir[k];
         Bk->sx[l] = rx.sx, Bk->sy[l] = rx.sy, Bk->sz[l] = rx.sz, Bk->tnear[l] = r->tnear, Bk->t[l] = r->tfar;
         Bk->ray[l] = (uint16_t)i;
         Bk->live |= 1u << l;
