@@ -2,7 +2,8 @@
  * aabb-pns, skd): every child box, decoded exactly as traversal decodes it, contains every vertex
  * of every triangle below that child whatever the coordinates' magnitude; half floats
  * round in the direction asked; meshes far from the origin or at tiny scale give exactly
- * the brute-force hits; AABBTreePNS reports the subtrees its offset bits cannot reach. */
+ * the brute-force hits; AABBTreePNS reports the subtrees its offset bits cannot reach; the
+ * node orders of §4.3 answer exactly as depth first and refuse trees that loop. */
 #include "bvh/bvh.h"
 #include "bvh/layouts/aabb_node.h"
 #include "bvh/layouts/layout_debug.h"
@@ -240,6 +241,86 @@ TEST(test_aabb_pns_reports_subtrees_beyond_its_offset_bits) {
     prt_mesh_free(m);
 }
 
+/* --- node orders (§4.3) ---------------------------------------------------------------- */
+
+/* The same tree in another order, traversed by the same box and triangle tests: the same
+ * hits bit for bit, the same bytes, and a save and load that keeps the order. */
+TEST(test_aabb_node_orders_answer_as_depth_first) {
+    prt_mesh *meshes[] = {mesh_random_soup(3000, 41), mesh_grid(50)};
+    const char *codecs[] = {"float3", "float3-soa8", "idx8-soa4", "bitpack-soa4", "strip"};
+    const char *path = "packrt_test_orders.prt";
+    for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
+        prt_ray *rays = rays_random(meshes[mi], 3000, 42);
+        for (size_t ci = 0; ci < COUNT_OF(codecs); ci++) {
+            char spec[96];
+            snprintf(spec, sizeof spec, "aabb:%s", codecs[ci]);
+            prt_accel *df;
+            CHECK_OK(prt_build(meshes[mi], spec, NULL, &df));
+            prt_stats sd;
+            prt_accel_stats(df, &sd);
+            for (int o = 1; o < BVH_ORDER_COUNT; o++) {
+                snprintf(spec, sizeof spec, "aabb:%s,order=%s", codecs[ci], bvh_order_names[o]);
+                prt_accel *a = NULL, *b = NULL;
+                CHECK_OK(prt_build(meshes[mi], spec, NULL, &a));
+                CHECK(a && strstr(prt_accel_spec(a), bvh_order_names[o]));
+                if (a) CHECK_OK(prt_accel_save(a, path));
+                if (a) CHECK_OK(prt_accel_load(path, &b));
+                remove(path);
+                prt_stats st;
+                if (a) prt_accel_stats(a, &st);
+                CHECK(a && st.bytes_tree == sd.bytes_tree && st.bytes_geometry == sd.bytes_geometry);
+                size_t differ = 0;
+                for (size_t i = 0; a && b && i < 3000; i++) {
+                    prt_ray r0 = rays[i], r1 = rays[i], r2 = rays[i];
+                    prt_hit h0, h1, h2;
+                    prt_intersect1(df, &r0, &h0), prt_intersect1(a, &r1, &h1), prt_intersect1(b, &r2, &h2);
+                    differ += memcmp(&h0, &h1, sizeof h0) != 0 || memcmp(&h0, &h2, sizeof h0) != 0;
+                    differ += prt_occluded1(df, &rays[i]) != prt_occluded1(a, &rays[i]);
+                }
+                CHECK_MSG(differ == 0, "mesh %zu, %s: %zu rays differ from depth first", mi, spec, differ);
+                prt_accel_free(a), prt_accel_free(b);
+            }
+            prt_accel_free(df);
+        }
+        free(rays);
+    }
+    prt_accel *a = NULL;
+    CHECK(prt_build(meshes[0], "quad:float3,order=bf", NULL, &a) == PRT_ERROR_ARGUMENT && !a);
+    CHECK(prt_build(meshes[0], "aabb:float3,order=veb", NULL, &a) == PRT_ERROR_ARGUMENT && !a);
+    for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) prt_mesh_free(meshes[mi]);
+}
+
+/* A breadth-first tree whose inner node points at itself, or at a node already reached,
+ * would make traversal loop: the check refuses it. Three nodes, leaves last: a root and
+ * two leaves that share one float3 triangle block after them. */
+static uint32_t tl_leaf(size_t node, size_t block) {
+    return AABB_LEAF | 1u << AABB_TL_COUNT_SHIFT | (uint32_t)((block - node) / 4);
+}
+
+TEST(test_aabb_node_orders_refuse_loops) {
+    enum { N = AABB_NODE_BYTES, BLOCK = 3 * AABB_NODE_BYTES };
+    uint8_t blob[3 * AABB_NODE_BYTES + 40] = {0};
+    const float box[6] = {0, 0, 0, 1, 1, 1};
+    for (int i = 0; i < 3; i++) memcpy(blob + i * N, box, sizeof box);
+    const uint32_t children = N / 4, l1 = tl_leaf(N, BLOCK), l2 = tl_leaf(2 * N, BLOCK), self = 0;
+    memcpy(blob + 24, &children, 4);
+    memcpy(blob + N + 24, &l1, 4);
+    memcpy(blob + 2 * N + 24, &l2, 4);
+    const bvh_codec *c = &bvh_codecs[BVH_CODEC_float3];
+    const bvh_shared sh = {0};
+    bvh_blob b = {blob, sizeof blob, 3 * N, 40, 3, 2, 2};
+    CHECK_OK(bvh_aabb_orders[3]->validate(&b, c, &sh));
+    memcpy(blob + 24, &self, 4); /* the root's children: the root itself and the next node */
+    CHECK(bvh_aabb_orders[3]->validate(&b, c, &sh) == PRT_ERROR_CORRUPT);
+    memcpy(blob + 24, &children, 4);
+    memcpy(blob + N + 24, &self, 4); /* the first child, now inner, has the root's offset 0: itself */
+    CHECK(bvh_aabb_orders[3]->validate(&b, c, &sh) == PRT_ERROR_CORRUPT);
+    memcpy(blob + N + 24, &l1, 4);
+    const uint32_t past = tl_leaf(2 * N, BLOCK + 4); /* a block reaching past the blob */
+    memcpy(blob + 2 * N + 24, &past, 4);
+    CHECK(bvh_aabb_orders[3]->validate(&b, c, &sh) == PRT_ERROR_CORRUPT);
+}
+
 int main(void) {
     RUN(test_half_to_float_is_exact_for_every_finite_half);
     RUN(test_half_rounding_goes_in_the_asked_direction);
@@ -247,5 +328,7 @@ int main(void) {
     RUN(test_quantized_child_boxes_contain_their_triangles);
     RUN(test_far_and_tiny_meshes_hit_as_brute_force);
     RUN(test_aabb_pns_reports_subtrees_beyond_its_offset_bits);
+    RUN(test_aabb_node_orders_answer_as_depth_first);
+    RUN(test_aabb_node_orders_refuse_loops);
     TEST_END();
 }

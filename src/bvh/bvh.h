@@ -41,6 +41,12 @@ typedef struct bvh_layout {
 BVH_LAYOUTS(X)
 #undef X
 
+/* AABBTree's node orders (Rouwé §4.3), the spec's order=: the layout object for each, the
+ * first being bvh_layout_aabb itself (depth first, triangles behind their leaf). */
+#define BVH_ORDER_COUNT 4
+extern const bvh_layout *const bvh_aabb_orders[BVH_ORDER_COUNT];
+extern const char *const bvh_order_names[BVH_ORDER_COUNT];
+
 /* Leaf counts a loaded file may claim (the spec's leaf option is at most 16). */
 #define BVH_MAX_LEAF 16
 

@@ -120,10 +120,21 @@ static void bvh_destroy(prt_accel *a) {
     prt__free(b);
 }
 
-static bvh_accel *bvh_new(int layout, int codec) {
+/* The spec's order= (Rouwé §4.3): depth first unless it says otherwise, and only AABBTree
+ * stores other orders, as only AABBTree was measured with them. */
+static prt_status parse_order(prt_spec *spec, int layout, int *order) {
+    prt_status s = prt__spec_enum(spec, "order", bvh_order_names, BVH_ORDER_COUNT, 0, order);
+    if (s) return s;
+    if (*order && g_layouts[layout] != &bvh_layout_aabb)
+        return prt__fail(PRT_ERROR_ARGUMENT, "order=%s: only the aabb layout stores nodes in another order than depth first",
+                         bvh_order_names[*order]);
+    return PRT_OK;
+}
+
+static bvh_accel *bvh_new(int layout, int codec, int order) {
     bvh_accel *b = prt__calloc(1, sizeof *b);
     if (!b) return NULL;
-    b->layout = g_layouts[layout];
+    b->layout = order ? bvh_aabb_orders[order] : g_layouts[layout];
     b->codec = codec;
     b->intersect1 = b->layout->kernels[codec].intersect1;
     b->occluded1 = b->layout->kernels[codec].occluded1;
@@ -244,12 +255,9 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if ((s = prt__spec_enum(spec, "split", bvh_split_names, BVH_SPLIT_COUNT, BVH_SPLIT_SAH, &split)) ||
         (s = prt__spec_int(spec, "leaf", default_leaf, 1, BVH_MAX_LEAF, &leaf)))
         return s;
-    static const char *const orders[] = {"df"};
     static const char *const id_modes[] = {"mesh", "none"};
     int order, ids;
-    if ((s = prt__spec_enum(spec, "order", orders, 1, 0, &order)) ||
-        (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids)))
-        return s;
+    if ((s = parse_order(spec, layout, &order)) || (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids))) return s;
     if (ids && !c->seq_ids)
         return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs a codec that stores one id per leaf; %s stores one per triangle",
                          c->name);
@@ -262,6 +270,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     snprintf(num, sizeof num, "%d", leaf);
     prt__spec_set(spec, "split", bvh_split_names[split]);
     prt__spec_set(spec, "leaf", num);
+    if (order) prt__spec_set(spec, "order", bvh_order_names[order]);
 
     prt_mesh cleared;
     float strip_error = 0;
@@ -276,7 +285,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         s = bvh_build(prims, n, &p, &tree);
         prt__free(prims);
     }
-    bvh_accel *b = s ? NULL : bvh_new(layout, codec);
+    bvh_accel *b = s ? NULL : bvh_new(layout, codec, order);
     if (!s && !b) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
     if (s) {
         bvh_tree_free(&tree);
@@ -376,7 +385,9 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
                              shared.triangles);
         shared.mesh_ids = ids;
     }
-    bvh_accel *b = bvh_new(layout, codec);
+    int order;
+    if ((s = parse_order(spec, layout, &order))) return s;
+    bvh_accel *b = bvh_new(layout, codec, order);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
     b->shared = shared;

@@ -15,6 +15,11 @@
 #define AABB_PNS_SHIFT 23
 #define AABB_PNS_OFFSET_MASK 0x7FFFFFu
 
+/* Leaves of the node orders with triangles last (aabb_order.c): count in bits 26..30,
+ * the offset to the triangle block in 4-byte words in bits 0..25. */
+#define AABB_TL_COUNT_SHIFT 26
+#define AABB_TL_OFFSET_MASK ((1u << AABB_TL_COUNT_SHIFT) - 1)
+
 /* The three variants that share the node and its depth-first order. */
 typedef enum aabb_variant {
     AABB_PLAIN, /* AABBTree: offset in bits 0..30 */
