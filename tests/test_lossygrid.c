@@ -395,6 +395,85 @@ TEST(test_lossygrid_bunny_within_the_bound) {
     prt_mesh_free(m);
 }
 
+/* A packet of rays through a w x (count / w) block of a camera's pixels looking at m
+ * from direction `from` (a point outside its bounds), spread over `fov` of the view. */
+static void camera_packet(const prt_mesh *m, const float from[3], float fov, uint32_t w, uint32_t count, uint32_t x0,
+                          uint32_t y0, prt_ray *rays) {
+    float lo[3], hi[3], c[3], f[3], len = 0;
+    prt_mesh_bounds(m, lo, hi);
+    for (int k = 0; k < 3; k++) c[k] = 0.5f * (lo[k] + hi[k]), f[k] = c[k] - from[k], len += f[k] * f[k];
+    len = sqrtf(len);
+    for (int k = 0; k < 3; k++) f[k] /= len;
+    const float up[3] = {0, 1, 0};
+    float rt[3] = {f[1] * up[2] - f[2] * up[1], f[2] * up[0] - f[0] * up[2], f[0] * up[1] - f[1] * up[0]}, u[3];
+    const float rl = sqrtf(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
+    for (int k = 0; k < 3; k++) rt[k] /= rl;
+    u[0] = rt[1] * f[2] - rt[2] * f[1], u[1] = rt[2] * f[0] - rt[0] * f[2], u[2] = rt[0] * f[1] - rt[1] * f[0];
+    for (uint32_t i = 0; i < count; i++) {
+        const float px = ((float)(x0 + i % w) / 64.0f - 0.5f) * fov, py = ((float)(y0 + i / w) / 64.0f - 0.5f) * fov;
+        for (int k = 0; k < 3; k++) rays[i].org[k] = from[k], rays[i].dir[k] = f[k] + px * rt[k] + py * u[k];
+        rays[i].tnear = 0, rays[i].tfar = INFINITY;
+    }
+}
+
+/* Packets (prt_intersect_packet: nodes and records decoded once for the packet) answer
+ * exactly as single rays, bit for bit: coherent camera tiles of several shapes, tiles
+ * half off the model, rays with tfar cut short, invalid rays, and incoherent packets. */
+TEST(test_lossygrid_packets_equal_single_rays) {
+    const char *kinds[] = {"terrain", "torus", "canyon"};
+    const char *specs[] = {"lossygrid", "lossygrid,ids=none,enc=oct"};
+    prt_mesh *meshes[4];
+    for (size_t k = 0; k < 3; k++) CHECK_OK(prt_mesh_generate(kinds[k], 20000, 3, &meshes[k]));
+    meshes[3] = mesh_random_soup(3000, 5);
+    uint32_t *order = NULL;
+    size_t differ = 0, hits = 0, rays_total = 0;
+    for (size_t mi = 0; mi < 4; mi++) {
+        if (!meshes[mi]) continue;
+        order = realloc(order, meshes[mi]->triangle_count * sizeof *order);
+        prt_build_options o = {.triangle_order = order};
+        for (size_t si = 0; si < COUNT_OF(specs); si++) {
+            prt_accel *a = NULL;
+            CHECK_OK(prt_build(meshes[mi], specs[si], si ? &o : NULL, &a));
+            if (!a) continue;
+            float lo[3], hi[3];
+            prt_mesh_bounds(meshes[mi], lo, hi);
+            const float views[2][3] = {{lo[0] - 1.0f, hi[1] + 1.5f, lo[2] - 2.0f}, {hi[0] + 2.0f, hi[1] + 0.3f, hi[2] + 1.0f}};
+            const uint32_t shapes[][2] = {{8, 64}, {4, 16}, {16, 256}, {3, 9}, {5, 35}, {8, 8}};
+            uint64_t seed = 99;
+            for (size_t v = 0; v < 2; v++)
+                for (size_t sh = 0; sh < COUNT_OF(shapes); sh++)
+                    for (uint32_t tile = 0; tile < 12; tile++) {
+                        prt_ray rays[256], single[256];
+                        prt_hit ph[256], sh1[256];
+                        const uint32_t w = shapes[sh][0], n = shapes[sh][1];
+                        camera_packet(meshes[mi], views[v], 0.7f, w, n, tile * 5 % 48, tile * 11 % 48, rays);
+                        for (uint32_t i = 0; i < n; i++) {
+                            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                            if (tile == 3) /* incoherent: random directions */
+                                for (int k = 0; k < 3; k++) rays[i].dir[k] = (float)((seed >> (20 * k + 4)) & 1023) / 512.0f - 1.0f;
+                            if (tile == 5 && i % 3 == 0) rays[i].tfar = 0.5f * (float)(seed >> 40 & 255) / 64.0f;
+                            if (tile == 7 && i % 5 == 1) rays[i].dir[0] = NAN;
+                            if (tile == 8 && i % 4 == 2) rays[i].tnear = 2.0f, rays[i].tfar = 1.0f;
+                        }
+                        memcpy(single, rays, n * sizeof *rays);
+                        prt_packet p = {rays, ph, n, w};
+                        prt_intersect_packet(a, &p);
+                        for (uint32_t i = 0; i < n; i++) {
+                            prt_intersect1(a, &single[i], &sh1[i]);
+                            differ += memcmp(&ph[i], &sh1[i], sizeof ph[i]) != 0 || memcmp(&rays[i].tfar, &single[i].tfar, 4) != 0;
+                            hits += sh1[i].prim != PRT_INVALID;
+                        }
+                        rays_total += n;
+                    }
+            prt_accel_free(a);
+        }
+    }
+    CHECK_MSG(differ == 0, "%zu of %zu packet rays answered differently from single rays", differ, rays_total);
+    CHECK_MSG(hits > rays_total / 4, "only %zu of %zu rays hit: the views miss the models", hits, rays_total);
+    for (size_t mi = 0; mi < 4; mi++) prt_mesh_free(meshes[mi]);
+    free(order);
+}
+
 int main(void) {
     RUN(test_lossygrid_puts_a_regular_mesh_into_sub_grids);
     RUN(test_lossygrid_error_bound_holds_for_every_decoded_vertex);
@@ -406,5 +485,6 @@ int main(void) {
     RUN(test_lossygrid_id_map_names_the_right_triangles);
     RUN(test_lossygrid_rejects_crafted_records);
     RUN(test_lossygrid_bunny_within_the_bound);
+    RUN(test_lossygrid_packets_equal_single_rays);
     TEST_END();
 }

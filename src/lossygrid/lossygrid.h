@@ -39,4 +39,11 @@ prt_status lg_blob_check(const bvh_blob *b, const bvh_shared *sh);
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
 
+/* Closest hits of n <= LG_PACKET valid rays traced together (primary rays): each wide8
+ * node's child boxes decoded once for the packet and each record once for the rays that
+ * reach it; every answer is lg_trace1's bit for bit (the same box and triangle operations
+ * for each ray, and ties at equal t go to the smaller id whatever the visit order). */
+#define LG_PACKET 16
+void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n);
+
 #endif

@@ -8,6 +8,7 @@
  * mesh id per position). */
 #include "api/accel.h"
 #include "bvh/layouts/wide8.h"
+#include "geom/ray.h"
 #include "lossygrid/idmap.h"
 #include "lossygrid/lossygrid.h"
 
@@ -46,6 +47,40 @@ static void lg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     if (h->prim >= g->shared.triangles) return;
     if (g->shared.mesh_ids) h->prim = g->shared.mesh_ids[h->prim];
     else if (g->shared.map) h->prim = lg_idmap_get(&g->idmap, h->prim);
+}
+
+/* Packets of up to LG_PACKET valid rays: 4 x 4 blocks of the packet's pixels where its
+ * shape has them (primary rays from prt_render and packrt bench), else runs in order; an
+ * invalid ray is a miss, as prt_intersect1 answers it. */
+static void lg_intersect_packet(const prt_accel *a, prt_packet *p) {
+    const lg_accel *g = (const lg_accel *)a;
+    const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX, wd = p->width;
+    const bool blocks = wd >= 4 && wd % 4 == 0 && n % (4 * wd) == 0;
+    uint32_t idx[LG_PACKET], k = 0;
+    prt_ray rays[LG_PACKET];
+    prt_hit hits[LG_PACKET];
+    for (uint32_t j = 0; j < n; j++) {
+        /* j-th ray in block order: block b of 16, pixel (x, y) inside it */
+        const uint32_t i = blocks ? (j / 16 / (wd / 4) * 4 + j % 16 / 4) * wd + j / 16 % (wd / 4) * 4 + j % 4 : j;
+        if (!prt__ray_valid(&p->rays[i])) {
+            prt_intersect1(a, &p->rays[i], &p->hits[i]);
+        } else {
+            idx[k] = i, rays[k++] = p->rays[i];
+        }
+        if (k == LG_PACKET || (j + 1 == n && k)) {
+            lg_trace_packet(g->blob.data, &g->shared, rays, hits, k);
+            for (uint32_t q = 0; q < k; q++) {
+                prt_hit *h = &hits[q];
+                if (h->prim < g->shared.triangles) {
+                    if (g->shared.mesh_ids) h->prim = g->shared.mesh_ids[h->prim];
+                    else if (g->shared.map) h->prim = lg_idmap_get(&g->idmap, h->prim);
+                }
+                p->hits[idx[q]] = *h;
+                p->rays[idx[q]].tfar = rays[q].tfar;
+            }
+            k = 0;
+        }
+    }
 }
 
 static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -211,6 +246,7 @@ const prt_accel_ops prt__lossygrid_ops = {
     .build = lg_build,
     .intersect1 = lg_intersect1,
     .occluded1 = lg_occluded1,
+    .intersect_packet = lg_intersect_packet,
     .stats = lg_stats,
     .save = lg_save,
     .load = lg_load,

@@ -246,37 +246,61 @@ static inline void lg_take(prt__hitx *h, vf8 t, vf8 u, vf8 v, unsigned mask, con
     bvh_take_nearest_seq(h, tt, uu, vv, ids, mask, vf8_hmin(t), sh);
 }
 
+/* A record as decoded once for any number of rays: the exact triangles in SOA form, or the
+ * sub-grid's vertices (lossygrid/traverse.c decodes once per packet). */
+typedef struct lg_decoded {
+    const lg_grid_rec *g; /* NULL: exact triangles in p */
+    int rx, ry;
+    union {
+        float p[72] __attribute__((aligned(32)));
+        lg_grid_vertices gv;
+    };
+} lg_decoded;
+
+static inline void lg_record_decode(const uint8_t *rec, lg_decoded *d) {
+    if (rec[127] == LG_KIND_TRIS) {
+        d->g = NULL;
+        lg_tri_soa((const lg_tri_rec *)rec, d->p);
+        return;
+    }
+    d->g = (const lg_grid_rec *)rec;
+    d->rx = lg_rx(d->g), d->ry = lg_ry(d->g);
+    lg_grid_decode(d->g, &d->gv);
+}
+
+/* Closest hit of one ray with a decoded record (the record's bytes at rec). */
+PRT_INLINE void lg_record_hit(const uint8_t *rec, const lg_decoded *d, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h) {
+    vf8 t, u, v;
+    uint32_t ids[8];
+    if (!d->g) {
+        const lg_tri_rec *tr = (const lg_tri_rec *)rec;
+        const unsigned mask = (unsigned)prt__tri8_hit(r, &c->r8, d->p, vf8_set1(h->t), &t, &u, &v);
+        if (!mask) return;
+        for (int k = 0; k < 8; k++) ids[k] = tr->first + (uint32_t)k;
+        lg_take(h, t, u, v, mask, ids, NULL, c->sh);
+        return;
+    }
+    const lg_grid_rec *g = d->g;
+    lg_sheared sh;
+    lg_shear(&d->gv, d->ry + 1, r, &c->r8, &sh);
+    for (int row = 0; row < d->ry; row++) {
+        const unsigned mask = (unsigned)lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, vf8_set1(h->t), &t, &u, &v);
+        if (!mask) continue;
+        int rot[8];
+        for (unsigned l = mask; l; l &= l - 1) {
+            const int lane = __builtin_ctz(l), k = 2 * (row * d->rx + (lane >> 1)) + (lane & 1);
+            ids[lane] = g->first + (uint32_t)k;
+            rot[lane] = g->rot[k >> 2 & 7] >> (2 * (k & 3)) & 3;
+        }
+        lg_take(h, t, u, v, mask, ids, rot, c->sh);
+    }
+}
+
 PRT_INLINE void lgrec_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h) {
     for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES) {
-        vf8 t, u, v;
-        uint32_t ids[8];
-        if (leaf[127] == LG_KIND_TRIS) {
-            const lg_tri_rec *tr = (const lg_tri_rec *)leaf;
-            float p[72] __attribute__((aligned(32)));
-            lg_tri_soa(tr, p);
-            const unsigned mask = (unsigned)prt__tri8_hit(r, &c->r8, p, vf8_set1(h->t), &t, &u, &v);
-            if (!mask) continue;
-            for (int k = 0; k < 8; k++) ids[k] = tr->first + (uint32_t)k;
-            lg_take(h, t, u, v, mask, ids, NULL, c->sh);
-            continue;
-        }
-        const lg_grid_rec *g = (const lg_grid_rec *)leaf;
-        lg_grid_vertices gv;
-        lg_grid_decode(g, &gv);
-        const int rx = lg_rx(g), ry = lg_ry(g);
-        lg_sheared sh;
-        lg_shear(&gv, ry + 1, r, &c->r8, &sh);
-        for (int row = 0; row < ry; row++) {
-            const unsigned mask = (unsigned)lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, vf8_set1(h->t), &t, &u, &v);
-            if (!mask) continue;
-            int rot[8];
-            for (unsigned l = mask; l; l &= l - 1) {
-                const int lane = __builtin_ctz(l), k = 2 * (row * rx + (lane >> 1)) + (lane & 1);
-                ids[lane] = g->first + (uint32_t)k;
-                rot[lane] = g->rot[k >> 2 & 7] >> (2 * (k & 3)) & 3;
-            }
-            lg_take(h, t, u, v, mask, ids, rot, c->sh);
-        }
+        lg_decoded d;
+        lg_record_decode(leaf, &d);
+        lg_record_hit(leaf, &d, r, c, h);
     }
 }
 

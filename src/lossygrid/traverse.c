@@ -12,3 +12,116 @@
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h) { wide8_intersect1_lgrec(blob, sh, r, h); }
 
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) { return wide8_occluded1_lgrec(blob, sh, r); }
+
+/* --- packets ---------------------------------------------------------------------------- */
+
+/* wide8_box_hit for one ray on child planes decoded once for the packet: lo[k] and hi[k]
+ * are rows 2k and 2k + 1 of the node's planes, decoded as wide8_box_hit decodes them, so
+ * the ray gets the same bits. */
+static inline unsigned lg_box_hit_planes(const vf8 lo[3], const vf8 hi[3], unsigned occupied, const wide8_ray *w,
+                                         const prt__rayx *r, float tfar, vf8 *tentry) {
+    vf8 tmin = vf8_set1(w->tnear), tmax = vf8_set1(tfar);
+    for (int k = 0; k < 3; k++) {
+        const vf8 near = r->neg[k] ? hi[k] : lo[k], far = r->neg[k] ? lo[k] : hi[k];
+        tmin = vf8_max((near - w->org[k]) * w->inv[k], tmin);
+        tmax = vf8_min((far - w->org[k]) * w->inv[k], tmax);
+    }
+    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
+    tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
+    *tentry = tmin;
+    return (unsigned)vi8_mask(tmin <= tmax) & occupied;
+}
+
+void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n) {
+    prt__rayx r[LG_PACKET];
+    wide8_ray w[LG_PACKET];
+    lgrec_ray c[LG_PACKET];
+    prt__hitx h[LG_PACKET];
+    for (uint32_t i = 0; i < n; i++) {
+        prt__rayx_init(&r[i], &rays[i]);
+        wide8_ray_init(&w[i], &r[i], blob);
+        lgrec_ray_init(&c[i], &r[i], sh);
+        h[i] = (prt__hitx){rays[i].tfar, 0, 0, PRT_INVALID};
+    }
+    struct {
+        uint64_t ref;
+        uint32_t mask;
+        float t; /* the smallest entry distance of the rays in mask */
+    } stack[WIDE8_STACK];
+    int top = 0;
+    uint64_t ref = WIDE8_HEADER_BYTES;
+    uint32_t mask = n == 32 ? ~0u : (1u << n) - 1;
+    for (;;) {
+        if (!(ref & WIDE8_LEAF)) {
+            const wide8_node *nd = (const wide8_node *)(blob + ref);
+            vf8 s[3], lo[3], hi[3];
+            wide8_scales(nd, s);
+            for (int k = 0; k < 3; k++) {
+                const vf8 p = vf8_set1(nd->p[k]);
+                lo[k] = vf8_fmadd(vf8_from_u8(nd->q[2 * k]), s[k], p);
+                hi[k] = vf8_fmadd(vf8_from_u8(nd->q[2 * k + 1]), s[k], p);
+            }
+            const unsigned occupied = wide8_occupied(nd);
+            uint32_t rays_of[8] = {0};
+            float t_of[8] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
+            unsigned hit = 0;
+            for (uint32_t m = mask; m; m &= m - 1) {
+                const int i = __builtin_ctz(m);
+                vf8 te;
+                const unsigned b = lg_box_hit_planes(lo, hi, occupied, &w[i], &r[i], h[i].t, &te);
+                float tt[8];
+                memcpy(tt, &te, sizeof tt);
+                for (unsigned q = b; q; q &= q - 1) {
+                    const int j = __builtin_ctz(q);
+                    rays_of[j] |= 1u << i;
+                    t_of[j] = t_of[j] < tt[j] ? t_of[j] : tt[j];
+                }
+                hit |= b;
+            }
+            if (hit) {
+                /* Nearest first by the packet's smallest entry distance (ties by slot). */
+                int order[8], k = 0;
+                for (unsigned q = hit; q; q &= q - 1) {
+                    const int j = __builtin_ctz(q);
+                    int at = k++;
+                    while (at > 0 && t_of[order[at - 1]] > t_of[j]) order[at] = order[at - 1], at--;
+                    order[at] = j;
+                }
+                for (int q = k - 1; q >= 1; q--, top++) {
+                    stack[top].ref = wide8_child_ref_lgrec(nd, order[q], &w[0]);
+                    stack[top].mask = rays_of[order[q]];
+                    stack[top].t = t_of[order[q]];
+                    __builtin_prefetch(blob + (stack[top].ref & WIDE8_OFFSET_MASK));
+                }
+                ref = wide8_child_ref_lgrec(nd, order[0], &w[0]);
+                mask = rays_of[order[0]];
+                continue;
+            }
+        } else {
+            /* Each record decoded once for every ray that reached it. */
+            const uint8_t *leaf = blob + (ref & WIDE8_OFFSET_MASK);
+            const uint32_t count = (uint32_t)(ref >> 56 & 0x7F);
+            for (uint32_t k = 0; k < count; k++, leaf += LG_RECORD_BYTES) {
+                lg_decoded d;
+                lg_record_decode(leaf, &d);
+                for (uint32_t m = mask; m; m &= m - 1) {
+                    const int i = __builtin_ctz(m);
+                    lg_record_hit(leaf, &d, &r[i], &c[i], &h[i]);
+                }
+            }
+        }
+        for (;;) { /* the next entry some ray of which can still find a nearer hit */
+            if (top == 0) goto done;
+            --top;
+            uint32_t keep = 0;
+            for (uint32_t m = stack[top].mask; m; m &= m - 1)
+                if (stack[top].t <= h[__builtin_ctz(m)].t) keep |= m & -m;
+            if (keep) {
+                ref = stack[top].ref, mask = keep;
+                break;
+            }
+        }
+    }
+done:
+    for (uint32_t i = 0; i < n; i++) bvh_finish_hit(&rays[i], &hits[i], &h[i]);
+}
