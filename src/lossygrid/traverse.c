@@ -15,23 +15,6 @@ bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) {
 
 /* --- packets ---------------------------------------------------------------------------- */
 
-/* wide8_box_hit for one ray on child planes decoded once for the packet: lo[k] and hi[k]
- * are rows 2k and 2k + 1 of the node's planes, decoded as wide8_box_hit decodes them, so
- * the ray gets the same bits. */
-static inline unsigned lg_box_hit_planes(const vf8 lo[3], const vf8 hi[3], unsigned occupied, const wide8_ray *w,
-                                         const prt__rayx *r, float tfar, vf8 *tentry) {
-    vf8 tmin = vf8_set1(w->tnear), tmax = vf8_set1(tfar);
-    for (int k = 0; k < 3; k++) {
-        const vf8 near = r->neg[k] ? hi[k] : lo[k], far = r->neg[k] ? lo[k] : hi[k];
-        tmin = vf8_max((near - w->org[k]) * w->inv[k], tmin);
-        tmax = vf8_min((far - w->org[k]) * w->inv[k], tmax);
-    }
-    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
-    tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
-    *tentry = tmin;
-    return (unsigned)vi8_mask(tmin <= tmax) & occupied;
-}
-
 void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n) {
     prt__rayx r[LG_PACKET];
     wide8_ray w[LG_PACKET];
@@ -54,21 +37,19 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
     for (;;) {
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *nd = (const wide8_node *)(blob + ref);
-            vf8 s[3], lo[3], hi[3];
+            vf8 s[3], planes[6]; /* every plane once for the packet: row 2k lower, 2k + 1 upper */
             wide8_scales(nd, s);
-            for (int k = 0; k < 3; k++) {
-                const vf8 p = vf8_set1(nd->p[k]);
-                lo[k] = vf8_fmadd(vf8_from_u8(nd->q[2 * k]), s[k], p);
-                hi[k] = vf8_fmadd(vf8_from_u8(nd->q[2 * k + 1]), s[k], p);
-            }
+            for (int row = 0; row < 6; row++) planes[row] = wide8_plane(nd, s, row);
             const unsigned occupied = wide8_occupied(nd);
             uint32_t rays_of[8] = {0};
             float t_of[8] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
             unsigned hit = 0;
             for (uint32_t m = mask; m; m &= m - 1) {
                 const int i = __builtin_ctz(m);
+                const vf8 near[3] = {planes[w[i].near[0]], planes[w[i].near[1]], planes[w[i].near[2]]};
+                const vf8 far[3] = {planes[w[i].far[0]], planes[w[i].far[1]], planes[w[i].far[2]]};
                 vf8 te;
-                const unsigned b = lg_box_hit_planes(lo, hi, occupied, &w[i], &r[i], h[i].t, &te);
+                const unsigned b = wide8_slab(near, far, occupied, &w[i], h[i].t, &te);
                 float tt[8];
                 memcpy(tt, &te, sizeof tt);
                 for (unsigned q = b; q; q &= q - 1) {

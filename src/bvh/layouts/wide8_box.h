@@ -59,23 +59,36 @@ static inline void wide8_scales(const wide8_node *n, vf8 s[3]) {
 #endif
 }
 
-/* The robust slab test of geom/box.h on the eight decoded child boxes. The far distance
- * grows by 2^-21 of its magnitude (one fma on |tmax|), more than the 2 gamma(3) that
- * makes the test conservative (Ize 2013), as box.h's two-sided scaling does. */
-static inline unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, float tfar, vf8 *tentry) {
-    vf8 tmin = vf8_set1(w->tnear), tmax = vf8_set1(tfar), s[3];
-    wide8_scales(n, s);
+/* The robust slab test of geom/box.h on the eight child boxes, given each axis's near and
+ * far planes as decoded. The far distance grows by 2^-21 of its magnitude (one fma on
+ * |tmax|), more than the 2 gamma(3) that makes the test conservative (Ize 2013), as
+ * box.h's two-sided scaling does. */
+static inline unsigned wide8_slab(const vf8 near[3], const vf8 far[3], unsigned occupied, const wide8_ray *w,
+                                  float tfar, vf8 *tentry) {
+    vf8 tmin = vf8_set1(w->tnear), tmax = vf8_set1(tfar);
     for (int k = 0; k < 3; k++) {
-        const vf8 p = vf8_set1(n->p[k]);
-        const vf8 near = vf8_fmadd(vf8_from_u8(n->q[w->near[k]]), s[k], p);
-        const vf8 far = vf8_fmadd(vf8_from_u8(n->q[w->far[k]]), s[k], p);
-        tmin = vf8_max((near - w->org[k]) * w->inv[k], tmin); /* NaN in the first operand: tmin */
-        tmax = vf8_min((far - w->org[k]) * w->inv[k], tmax);
+        tmin = vf8_max((near[k] - w->org[k]) * w->inv[k], tmin); /* NaN in the first operand: tmin */
+        tmax = vf8_min((far[k] - w->org[k]) * w->inv[k], tmax);
     }
     const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
     tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
     *tentry = tmin;
-    return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
+    return (unsigned)vi8_mask(tmin <= tmax) & occupied;
+}
+
+/* Plane row `row` of node n decoded (row 2k: lower planes of axis k, 2k + 1: upper), the
+ * same operations whether for one ray or for a packet. */
+static inline vf8 wide8_plane(const wide8_node *n, const vf8 s[3], int row) {
+    return vf8_fmadd(vf8_from_u8(n->q[row]), s[row / 2], vf8_set1(n->p[row / 2]));
+}
+
+/* The slab test on the node's eight child boxes for one ray: only its near and far planes
+ * are decoded. */
+static inline unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, float tfar, vf8 *tentry) {
+    vf8 s[3], near[3], far[3];
+    wide8_scales(n, s);
+    for (int k = 0; k < 3; k++) near[k] = wide8_plane(n, s, w->near[k]), far[k] = wide8_plane(n, s, w->far[k]);
+    return wide8_slab(near, far, wide8_occupied(n), w, tfar, tentry);
 }
 
 #endif
