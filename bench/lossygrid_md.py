@@ -87,7 +87,7 @@ def main(paths):
 
     w("## Table 2: speed relative to Embree (same rays, one thread; > 1 is faster than Embree)\n")
     w("Columns: Mrays/s of the 64k-ray random workload, of 1024x1024 primary rays and of diffuse bounce rays "
-      "over Embree's in the same run (Embree traces primary rays in packets of 16, packrt single rays), and "
+      "over Embree's in the same run (Embree traces primary rays in packets of 16; lossygrid in packets of 16 since commit 0930803, the triangle BVHs single rays), and "
       "Embree's time over ours for the warm 1024-ray batch (minimum) and the cold one (caches flushed first). "
       "Last-level cache misses (the paper's figures in brackets) are not reported: `perf stat` has no hardware "
       "counters on this machine.\n")
