@@ -18,6 +18,32 @@ typedef struct tile_job {
     uint64_t seed;
 } tile_job;
 
+/* `shadows` mode without LOD for a tile's n camera hits: the shadow rays of every pixel
+ * that needs one traced as one packet (prt_occluded_packet: representations with shadow
+ * packets, cgrid's frustums (Wald 2006 §4.6), trace them together; the answers are
+ * prt_occluded1's, so the image is the same as pixel by pixel). */
+static void shade_shadows_packet(const render_scene *s, const prt_ray *rays, const prt_hit *hits, uint32_t n,
+                                 render_sample *smp, render_surface *surf, bool *hit, uint64_t *cast) {
+    prt_ray shadow[TILE * TILE];
+    float cosine[TILE * TILE];
+    uint32_t pixel[TILE * TILE], m = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        cosine[i] = 0.0f;
+        hit[i] = render_surface_at(s, &rays[i], &hits[i], &surf[i], cast);
+        if (hit[i] && render_shadow_ray(s, &surf[i], &shadow[m], &cosine[i])) pixel[m++] = i;
+    }
+    uint8_t blocked[TILE * TILE];
+    for (uint32_t at = 0; at < m; at += PRT_PACKET_MAX) {
+        const uint32_t k = PRT_MIN(m - at, (uint32_t)PRT_PACKET_MAX);
+        const prt_packet p = {shadow + at, NULL, k, k};
+        prt_occluded_packet(s->accel, &p, blocked + at);
+    }
+    *cast += m;
+    for (uint32_t q = 0; q < m; q++)
+        if (blocked[q]) cosine[pixel[q]] = 0.0f;
+    for (uint32_t i = 0; i < n; i++) render_shade_shadowed(s, &rays[i], hit[i] ? &surf[i] : NULL, cosine[i], &smp[i]);
+}
+
 /* Render tile (tx, ty) into the framebuffer; returns the rays it cast. */
 static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
     const render_camera *cam = j->cam;
@@ -57,20 +83,28 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             prt_intersect_packet(j->scene->accel, &p);
         }
         cast += n;
+        render_sample smps[TILE * TILE];
+        render_surface surfs[TILE * TILE];
+        bool hit_of[TILE * TILE];
+        if (j->scene->shade == PRT_SHADE_SHADOWS && !j->scene->lod) {
+            shade_shadows_packet(j->scene, rays, hits, n, smps, surfs, hit_of, &cast);
+        } else {
+            for (uint32_t i = 0; i < n; i++)
+                hit_of[i] = render_shade(j->scene, &rays[i], &hits[i], j->scene->lod ? &lods[i] : NULL, &rng[i],
+                                         &smps[i], &surfs[i], &cast);
+        }
         for (uint32_t i = 0; i < n; i++) {
-            render_sample smp;
-            render_surface surf;
-            bool hit = render_shade(j->scene, &rays[i], &hits[i], j->scene->lod ? &lods[i] : NULL,
-                                    &rng[i], &smp, &surf, &cast);
-            direct[i][0] += smp.direct.x, direct[i][1] += smp.direct.y,
-                direct[i][2] += smp.direct.z;
-            indirect[i][0] += smp.indirect.x, indirect[i][1] += smp.indirect.y,
-                indirect[i][2] += smp.indirect.z;
-            if (hit) {
-                normal[i][0] += surf.n.x, normal[i][1] += surf.n.y, normal[i][2] += surf.n.z;
-                position[i][0] += surf.p.x, position[i][1] += surf.p.y, position[i][2] += surf.p.z;
-                albedo[i][0] += surf.albedo.x, albedo[i][1] += surf.albedo.y,
-                    albedo[i][2] += surf.albedo.z;
+            const render_sample *smp = &smps[i];
+            const render_surface *surf = &surfs[i];
+            direct[i][0] += smp->direct.x, direct[i][1] += smp->direct.y,
+                direct[i][2] += smp->direct.z;
+            indirect[i][0] += smp->indirect.x, indirect[i][1] += smp->indirect.y,
+                indirect[i][2] += smp->indirect.z;
+            if (hit_of[i]) {
+                normal[i][0] += surf->n.x, normal[i][1] += surf->n.y, normal[i][2] += surf->n.z;
+                position[i][0] += surf->p.x, position[i][1] += surf->p.y, position[i][2] += surf->p.z;
+                albedo[i][0] += surf->albedo.x, albedo[i][1] += surf->albedo.y,
+                    albedo[i][2] += surf->albedo.z;
                 hit_count[i] += 1.0f;
             }
         }

@@ -118,6 +118,15 @@ typedef struct render_sample {
 bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh,
                   prt_rng *g, render_sample *out, render_surface *surf, uint64_t *rays);
 
+/* `shadows` mode without levels of detail in two steps, so that a tile's shadow rays go to
+ * prt_occluded_packet together (render.c) and each pixel gets what render_shade would give
+ * it: the ray from surface f to the point light and the cosine it brings (false, *c = 0:
+ * no ray, the face is turned from the light), then the sample for that cosine (0 when
+ * the ray was blocked; f NULL: a miss, the backdrop). */
+bool render_shadow_ray(const render_scene *s, const render_surface *f, prt_ray *ray, float *c);
+void render_shade_shadowed(const render_scene *s, const prt_ray *r, const render_surface *f, float c,
+                           render_sample *out);
+
 /* ---- framebuffer.c -------------------------------------------------------------------- */
 
 /* Per-pixel float averages of the samples. indirect, normal, position and coverage exist

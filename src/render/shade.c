@@ -93,6 +93,25 @@ static float light_visible_cos(const render_scene *s, const render_surface *f, u
     return occluded(s, &sr, true) ? 0.0f : c;
 }
 
+bool render_shadow_ray(const render_scene *s, const render_surface *f, prt_ray *ray, float *c) {
+    prt_vec3 o = lift(s, f);
+    prt_vec3 l = prt_v3_sub(s->light, o);
+    float dist = prt_v3_len(l);
+    *c = 0.0f;
+    if (!(dist > 0.0f)) return false;
+    l = prt_v3_scale(l, 1.0f / dist);
+    *c = prt_v3_dot(f->n, l);
+    if (*c <= 0.0f) return *c = 0.0f, false;
+    *ray = ray_from(o, l, dist);
+    return true;
+}
+
+void render_shade_shadowed(const render_scene *s, const prt_ray *r, const render_surface *f, float c,
+                           render_sample *out) {
+    out->indirect = prt_v3(0.0f, 0.0f, 0.0f);
+    out->direct = f ? prt_v3_scale(f->albedo, AMBIENT + (1.0f - AMBIENT) * c) : backdrop(s->shade, prt_v3_load(r->dir));
+}
+
 /* The point light reflected by a surface of this albedo at cosine c (as g_light scaled by
  * albedo x c, the order the grey renderer used, so grey images keep every bit). */
 static prt_vec3 reflected(prt_vec3 albedo, float c) {
@@ -119,11 +138,9 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, con
         out->direct = prt_v3_scale(f->albedo, 0.1f + 0.9f * prt_maxf(0.0f, c));
         break;
     }
-    case PRT_SHADE_SHADOWS: {
-        out->direct =
-            prt_v3_scale(f->albedo, AMBIENT + (1.0f - AMBIENT) * light_visible_cos(s, f, rays));
+    case PRT_SHADE_SHADOWS:
+        render_shade_shadowed(s, r, f, light_visible_cos(s, f, rays), out);
         break;
-    }
     case PRT_SHADE_AO: {
         prt_ray ar = ray_from(lift(s, f), render_cosine_dir(f->n, g), s->ao_radius);
         (*rays)++;
