@@ -4,6 +4,8 @@
  * are built as parallel tasks, each into its own node array, grafted afterwards. */
 #include "ooc/ooc.h"
 
+#include "core/simd.h"
+
 #include <float.h>
 #include <math.h>
 
@@ -38,14 +40,11 @@ static void tri_box(const ooc_btri *t, const float cell[6], float b[6]) {
     }
 }
 
-/* The bin of a position scaled to [0, BINS]; clamped, and 0 for NaN (a cell so thin that
- * its scale overflowed), never an out-of-range float-to-int conversion. */
-static int bin_of(float x) { return x >= (float)(BINS - 1) ? BINS - 1 : x > 0.0f ? (int)x : 0; }
-
 static float half_area(const float b[6]) {
     float dx = b[3] - b[0], dy = b[4] - b[1], dz = b[5] - b[2];
     return dx * dy + dy * dz + dz * dx;
 }
+
 
 static float volume(const float b[6]) { return (b[3] - b[0]) * (b[4] - b[1]) * (b[5] - b[2]); }
 
@@ -79,15 +78,71 @@ static prt_status push_refs(ooc_tree *t, const uint32_t *refs, const item *items
     return PRT_OK;
 }
 
+/* What a node's split choice needs to know of its items: their bounds and, per axis, the
+ * bins of their boxes' minima and maxima over the node's cell. The parent's sift fills it
+ * for each child as it writes the child's items, so a node never rereads its items to
+ * choose its split (one pass over the items per level, not five). */
+typedef struct summary {
+    float b[6];
+    float lo[3], scale[3]; /* the cell's binning: bin = (x - lo) * scale */
+    uint32_t mins[3][BINS], maxs[3][BINS];
+} summary;
+
+static void summary_init(summary *m, const float cell[6]) {
+    memset(m, 0, sizeof *m);
+    for (int k = 0; k < 3; k++) {
+        float ext = cell[3 + k] - cell[k];
+        m->b[k] = FLT_MAX, m->b[3 + k] = -FLT_MAX;
+        m->lo[k] = cell[k];
+        m->scale[k] = ext > 0.0f ? BINS / ext : 0.0f;
+    }
+}
+
+/* A summary being gathered, in registers while items are added one by one: lanes 0-2 of
+ * each vector are x, y, z (lane 3 is never used). */
+typedef struct gather {
+    vf4 lo, scale, bmin, bmax;
+    uint32_t (*mins)[BINS], (*maxs)[BINS];
+} gather;
+
+static inline gather gather_begin(summary *m) {
+    gather g;
+    g.lo = (vf4){m->lo[0], m->lo[1], m->lo[2], 0.0f};
+    g.scale = (vf4){m->scale[0], m->scale[1], m->scale[2], 0.0f};
+    g.bmin = (vf4){m->b[0], m->b[1], m->b[2], 0.0f};
+    g.bmax = (vf4){m->b[3], m->b[4], m->b[5], 0.0f};
+    g.mins = m->mins, g.maxs = m->maxs;
+    return g;
+}
+
+/* The bins of box bounds: clamped to [0, BINS - 1], 0 for NaN (max returns its second
+ * operand then: a cell so thin that its scale overflowed), never an out-of-range
+ * float-to-int conversion. */
+static inline vi4 bins_of(const gather *g, vf4 x) {
+    vf4 f = vf4_min(vf4_max((x - g->lo) * g->scale, vf4_set1(0.0f)), vf4_set1((float)(BINS - 1)));
+    return __builtin_convertvector(f, vi4);
+}
+
+/* Add an item's box: its minima and maxima in lanes 0-2 of lo and hi. The caller passes
+ * registers, not a box it has just written (a vector load of scalar stores stalls). */
+static inline void gather_add(gather *g, vf4 lo, vf4 hi) {
+    g->bmin = vf4_min(g->bmin, lo), g->bmax = vf4_max(g->bmax, hi);
+    vi4 i = bins_of(g, lo), j = bins_of(g, hi);
+    g->mins[0][i[0]]++, g->mins[1][i[1]]++, g->mins[2][i[2]]++;
+    g->maxs[0][j[0]]++, g->maxs[1][j[1]]++, g->maxs[2][j[2]]++;
+}
+
+static inline void gather_end(const gather *g, summary *m) {
+    for (int k = 0; k < 3; k++) m->b[k] = g->bmin[k], m->b[3 + k] = g->bmax[k];
+}
+
 /* Where to split: an empty-space cut when one leaves at least empty_cut of the cell's
  * volume empty, else the best SAH plane, else (over the leaf limit) the spatial median.
- * Returns false for a leaf. */
-static bool choose_split(const ctx *c, const item *it, size_t n, const float cell[6], int *axis_out,
+ * m summarises the n items over this cell. Returns false for a leaf. */
+static bool choose_split(const ctx *c, const summary *m, size_t n, const float cell[6], int *axis_out,
                          float *split_out, int *empty_side) {
     *empty_side = -1;
-    float b[6] = {FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
-    for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++) b[k] = MINF(b[k], it[i].b[k]), b[3 + k] = MAXF(b[3 + k], it[i].b[3 + k]);
+    const float *b = m->b;
     const float vol = volume(cell);
     /* Empty-space cutting (§4.1): the largest empty slab at one of the six faces. */
     float best_empty = 0.0f;
@@ -111,21 +166,16 @@ static bool choose_split(const ctx *c, const item *it, size_t n, const float cel
     for (int k = 0; k < 3; k++) {
         float lo = cell[k], ext = cell[3 + k] - cell[k];
         if (!(ext > 0.0f)) continue;
-        uint32_t mins[BINS] = {0}, maxs[BINS] = {0};
-        const float scale = BINS / ext;
-        for (size_t i = 0; i < n; i++) {
-            mins[bin_of((it[i].b[k] - lo) * scale)]++;
-            maxs[bin_of((it[i].b[3 + k] - lo) * scale)]++;
-        }
         size_t nl = 0, nr = n;
+        /* A box's half area is linear in its extent along k: d_k * (d_u + d_v) + d_u * d_v. */
+        const float du = cell[3 + (k + 1) % 3] - cell[(k + 1) % 3], dv = cell[3 + (k + 2) % 3] - cell[(k + 2) % 3];
+        const float side = du + dv, face = du * dv;
         for (int i = 1; i < BINS; i++) {
-            nl += mins[i - 1];
-            nr -= maxs[i - 1];
+            nl += m->mins[k][i - 1];
+            nr -= m->maxs[k][i - 1];
             float s = lo + ext * (float)i / BINS;
-            float lb[6], rb[6];
-            memcpy(lb, cell, sizeof lb), memcpy(rb, cell, sizeof rb);
-            lb[3 + k] = s, rb[k] = s;
-            float cost = COST_TRAVERSE + COST_INTERSECT * (half_area(lb) * (float)nl + half_area(rb) * (float)nr) / area;
+            float al = (s - cell[k]) * side + face, ar = (cell[3 + k] - s) * side + face;
+            float cost = COST_TRAVERSE + COST_INTERSECT * (al * (float)nl + ar * (float)nr) / area;
             if (cost < best_cost && (nl < n || nr < n)) best_cost = cost, best_axis = k, best_split = s;
         }
     }
@@ -141,8 +191,8 @@ static bool choose_split(const ctx *c, const item *it, size_t n, const float cel
     return true;
 }
 
-static prt_status build_node(const ctx *c, ooc_tree *t, item *it, size_t n, const float cell[6], uint32_t depth,
-                             int32_t *out);
+static prt_status build_node(const ctx *c, ooc_tree *t, item *it, size_t n, const float cell[6], const summary *m,
+                             uint32_t depth, int32_t *out);
 
 /* A leaf of the items (node index in *out); the items are consumed (freed). */
 static prt_status make_leaf(ooc_tree *t, item *it, size_t n, const float cell[6], int32_t *out) {
@@ -180,8 +230,8 @@ static prt_status graft(ooc_tree *t, const ooc_tree *src, int32_t *root) {
     return PRT_OK;
 }
 
-static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, const float cell[6], uint32_t depth,
-                             int32_t *out) {
+static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, const float cell[6], const summary *m,
+                             uint32_t depth, int32_t *out) {
     *out = -1;
     if (n == 0) {
         prt__free(refs);
@@ -190,42 +240,62 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
     t->depth = PRT_MAX(t->depth, depth + 1);
     int axis = 0, empty = -1;
     float split = 0.0f;
-    if (depth + 1 >= OOC_MAX_DEPTH || !choose_split(c, refs, n, cell, &axis, &split, &empty))
+    if (depth + 1 >= OOC_MAX_DEPTH || !choose_split(c, m, n, cell, &axis, &split, &empty))
         return make_leaf(t, refs, n, cell, out);
 
     /* Sift: a triangle goes to each side its clipped box reaches (a box touching the
      * plane goes to both, so hits on the plane are found from either side), except that
-     * an empty-space cut leaves its empty side empty: rays in the plane visit both sides. */
-    item *side[2];
-    size_t cnt[2] = {0, 0};
-    side[0] = prt__alloc(prt__mul_size(n, sizeof(item)));
-    side[1] = prt__alloc(prt__mul_size(n, sizeof(item)));
-    if (!side[0] || !side[1]) {
-        prt__free(side[0]), prt__free(side[1]), prt__free(refs);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
-    }
-    for (size_t i = 0; i < n; i++) {
-        const item *x = &refs[i];
-        if (empty != 0 && x->b[axis] <= split) {
-            item *y = &side[0][cnt[0]++];
-            *y = *x;
-            y->b[3 + axis] = MINF(y->b[3 + axis], split);
-        }
-        if (empty != 1 && x->b[3 + axis] >= split) {
-            item *y = &side[1][cnt[1]++];
-            *y = *x;
-            y->b[axis] = MAXF(y->b[axis], split);
-        }
-    }
-    /* A split that separates nothing (a pile of triangles through one point) ends here. */
-    if (cnt[0] == n && cnt[1] == n) {
-        prt__free(side[0]), prt__free(side[1]);
-        return make_leaf(t, refs, n, cell, out);
-    }
-    prt__free(refs);
+     * an empty-space cut leaves its empty side empty: rays in the plane visit both sides.
+     * The left side (the only side of an empty-space cut) is written over refs, never
+     * ahead of the item being read; the right side of a plain split to an array of its
+     * own. Each side's summary is gathered on the way. */
     float box[2][6];
     memcpy(box[0], cell, sizeof box[0]), memcpy(box[1], cell, sizeof box[1]);
     box[0][3 + axis] = split, box[1][axis] = split;
+    item *side[2] = {refs, NULL};
+    size_t cnt[2] = {0, 0};
+    if (empty == 0) side[1] = refs, side[0] = NULL;
+    else if (empty < 0 && !(side[1] = prt__alloc(prt__mul_size(n, sizeof(item))))) {
+        prt__free(refs);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
+    }
+    summary *sm = prt__alloc(2 * sizeof *sm);
+    if (!sm) {
+        if (side[1] != refs) prt__free(side[1]);
+        prt__free(refs);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
+    }
+    summary_init(&sm[0], box[0]), summary_init(&sm[1], box[1]);
+    gather g0 = gather_begin(&sm[0]), g1 = gather_begin(&sm[1]);
+    size_t c0 = 0, c1 = 0;
+    item *s0 = side[0], *s1 = side[1];
+    /* The clipping as vectors: the split in lane `axis`, infinities elsewhere. */
+    vf4 clip_hi = vf4_set1(INFINITY), clip_lo = vf4_set1(-INFINITY);
+    clip_hi[axis] = split, clip_lo[axis] = split;
+    for (size_t i = 0; i < n; i++) {
+        item x = refs[i];
+        vf4 lo = vf4_load(refs[i].b), hi = vf4_load(refs[i].b + 3); /* lane 3 of hi is the ref */
+        if (empty != 0 && x.b[axis] <= split) {
+            item y = x;
+            y.b[3 + axis] = MINF(y.b[3 + axis], split);
+            gather_add(&g0, lo, vf4_min(hi, clip_hi));
+            s0[c0++] = y;
+        }
+        if (empty != 1 && x.b[3 + axis] >= split) {
+            x.b[axis] = MAXF(x.b[axis], split);
+            gather_add(&g1, vf4_max(lo, clip_lo), hi);
+            s1[c1++] = x;
+        }
+    }
+    gather_end(&g0, &sm[0]), gather_end(&g1, &sm[1]);
+    cnt[0] = c0, cnt[1] = c1;
+    /* A split that separates nothing (a pile of triangles through one point) ends here;
+     * both sides then hold every item, the left one in refs unchanged but for a bound
+     * clipped to the plane, so the leaf takes the right side's references (same order). */
+    if (cnt[0] == n && cnt[1] == n) {
+        prt__free(refs), prt__free(sm);
+        return make_leaf(t, side[1], n, cell, out);
+    }
 
     int32_t kid[2] = {-1, -1};
     prt_status st[2] = {PRT_OK, PRT_OK};
@@ -234,14 +304,15 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
         ooc_tree sub[2];
         memset(sub, 0, sizeof sub);
         for (int k = 0; k < 2; k++) {
-#pragma omp task default(none) shared(sub, st, side, cnt, box, kid) firstprivate(k, c, depth)
+#pragma omp task default(none) shared(sub, st, side, cnt, box, kid, sm) firstprivate(k, c, depth)
             {
                 int32_t r;
-                st[k] = build_node(c, &sub[k], side[k], cnt[k], box[k], depth + 1, &r);
+                st[k] = build_node(c, &sub[k], side[k], cnt[k], box[k], &sm[k], depth + 1, &r);
                 (void)r;
             }
         }
 #pragma omp taskwait
+        prt__free(sm);
         prt_status s = st[0] ? st[0] : st[1];
         if (!s) s = push_node(t, out);
         for (int k = 0; k < 2 && !s; k++) s = graft(t, &sub[k], &kid[k]);
@@ -250,13 +321,14 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
     } else {
         prt_status s = push_node(t, out);
         if (s) {
-            prt__free(side[0]), prt__free(side[1]);
+            prt__free(side[0]), prt__free(side[1]), prt__free(sm);
             return s;
         }
         for (int k = 0; k < 2; k++) {
-            if (!st[0]) st[k] = build_node(c, t, side[k], cnt[k], box[k], depth + 1, &kid[k]);
+            if (!st[0]) st[k] = build_node(c, t, side[k], cnt[k], box[k], &sm[k], depth + 1, &kid[k]);
             else prt__free(side[k]);
         }
+        prt__free(sm);
         if (st[0] || st[1]) return st[0] ? st[0] : st[1];
     }
     ooc_bnode *nd = &t->nodes[*out];
@@ -272,17 +344,27 @@ prt_status ooc_kd_build(const ooc_btri *tris, size_t n, const float box[6], uint
     if (n > UINT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "an in-core kd subtree holds more than 2^32 triangles");
     item *refs = prt__alloc(prt__mul_size(PRT_MAX(n, 1), sizeof *refs));
     if (!refs) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu kd-tree references", n);
+    summary *m = prt__alloc(sizeof *m);
+    if (!m) {
+        prt__free(refs);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu kd-tree references", n);
+    }
+    summary_init(m, box);
+    gather g = gather_begin(m);
     for (size_t i = 0; i < n; i++) {
         tri_box(&tris[i], box, refs[i].b);
         refs[i].ref = (uint32_t)i;
     }
+    for (size_t i = 0; i < n; i++) gather_add(&g, vf4_load(refs[i].b), vf4_load(refs[i].b + 3));
+    gather_end(&g, m);
     ctx c = {tris, p};
     prt_status s = PRT_OK;
     int32_t root = -1;
     int threads = prt__threads(p->threads);
-#pragma omp parallel num_threads(threads) if (n >= TASK_MIN && threads > 1) default(none) shared(s, c, refs, n, box, root_depth, out, root)
+#pragma omp parallel num_threads(threads) if (n >= TASK_MIN && threads > 1) default(none) shared(s, c, refs, n, box, m, root_depth, out, root)
 #pragma omp single
-    s = build_node(&c, out, refs, n, box, root_depth, &root);
+    s = build_node(&c, out, refs, n, box, m, root_depth, &root);
+    prt__free(m);
     if (s) {
         ooc_tree_free(out);
         return s;
