@@ -76,6 +76,38 @@ TEST(test_streamed_build_and_small_cache_answer_exactly) {
     prt_mesh_free(m);
 }
 
+/* The spec's lz4=0 writes the blocks with plain LZ4 (faster to build, a larger file) and
+ * changes nothing else: the same tree answers the same rays; lz4 outside 0-12 is refused. */
+TEST(test_plain_lz4_blocks_answer_as_lz4hc_ones) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("sphere", 60000, 5, &m));
+    const char *ply = tmp_path("lz4.ply"), *hc = tmp_path("hc.ooc"), *fast = tmp_path("fast.ooc");
+    CHECK_OK(prt_mesh_save_ply(m, ply));
+    CHECK_OK(prt_build_file(ply, "ooc", hc, NULL));
+    CHECK_OK(prt_build_file(ply, "ooc,lz4=0", fast, NULL));
+    CHECK(prt_build_file(ply, "ooc,lz4=13", tmp_path("bad.ooc"), NULL) == PRT_ERROR_ARGUMENT);
+    FILE *f1 = fopen(hc, "rb"), *f2 = fopen(fast, "rb");
+    long n1 = -1, n2 = -1;
+    if (f1 && !fseek(f1, 0, SEEK_END)) n1 = ftell(f1);
+    if (f2 && !fseek(f2, 0, SEEK_END)) n2 = ftell(f2);
+    if (f1) fclose(f1);
+    if (f2) fclose(f2);
+    CHECK_MSG(n1 > 0 && n2 > n1, "plain LZ4 file %ld bytes, LZ4HC file %ld bytes", n2, n1);
+    prt_accel *a = NULL, *b = NULL;
+    CHECK_OK(prt_accel_open(hc, NULL, &a));
+    CHECK_OK(prt_accel_open(fast, NULL, &b));
+    if (a && b) {
+        prt_ray *rays = rays_random(m, 2000, 11);
+        CHECK(same_hits(a, b, rays, 2000, "plain LZ4") > 500);
+        CHECK_OK(prt_accel_check(b));
+        free(rays);
+    }
+    prt_accel_free(a);
+    prt_accel_free(b);
+    remove(hc), remove(fast), remove(ply);
+    prt_mesh_free(m);
+}
+
 /* Axis-aligned flat faces (boxes, walls and floors) make empty-space cuts on both sides of
  * a plane full of triangles, leaving cells of zero thickness: rays from inside the scene,
  * in every direction, must still find what a BVH finds (a coplanar tie may name another
@@ -363,6 +395,7 @@ TEST(test_bad_input_is_an_error) {
 
 int main(void) {
     RUN(test_streamed_build_and_small_cache_answer_exactly);
+    RUN(test_plain_lz4_blocks_answer_as_lz4hc_ones);
     RUN(test_flat_axis_aligned_scenes_from_inside);
     RUN(test_lod_queries_stop_at_voxels_that_contain_the_surface);
     RUN(test_lod_packets_answer_as_single_rays);

@@ -9,6 +9,8 @@
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
 #include <unistd.h>
 
 #define IO_BATCH 65536 /* triangles per read or write */
@@ -40,18 +42,45 @@ typedef struct builder {
     uint64_t degenerate;
     uint32_t depth;
     prt_status sink_status;
+    /* PRT_OOC_STATS=1: process CPU seconds by phase, printed to stderr at the end. */
+    bool stats;
+    double cpu_produce, cpu_sift, cpu_read, cpu_kd, cpu_layout, cpu_finish;
+    unsigned sift_passes;
+    uint64_t sifted;
 } builder;
+
+/* CPU seconds of the whole process (all threads): the phases run one after the other. */
+static double cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 static void box_empty(float b[6]) {
     for (int k = 0; k < 3; k++) b[k] = FLT_MAX, b[3 + k] = -FLT_MAX;
 }
 
-static void box_add_tri(float b[6], const ooc_btri *t, const float *cell) {
+/* Plain comparisons, not fminf/fmaxf (library calls here, for their NaN rules): the
+ * coordinates are finite (root_sink checks). */
+#define MINF(a, b) ((a) < (b) ? (a) : (b))
+#define MAXF(a, b) ((a) > (b) ? (a) : (b))
+
+/* A triangle's box, clipped to cell when cell is not NULL. */
+static inline void tri_box(const ooc_btri *t, const float *cell, float tb[6]) {
     for (int k = 0; k < 3; k++) {
-        float lo = fminf(fminf(t->v[k], t->v[3 + k]), t->v[6 + k]);
-        float hi = fmaxf(fmaxf(t->v[k], t->v[3 + k]), t->v[6 + k]);
-        if (cell) lo = fmaxf(lo, cell[k]), hi = fminf(hi, cell[3 + k]);
-        b[k] = fminf(b[k], lo), b[3 + k] = fmaxf(b[3 + k], hi);
+        float lo = MINF(MINF(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        float hi = MAXF(MAXF(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        if (cell) lo = MAXF(lo, cell[k]), hi = MINF(hi, cell[3 + k]);
+        tb[k] = lo, tb[3 + k] = hi;
+    }
+}
+
+/* Grow b by box tb clipped to cell (NULL: not clipped). */
+static inline void box_add(float b[6], const float tb[6], const float *cell) {
+    for (int k = 0; k < 3; k++) {
+        float lo = tb[k], hi = tb[3 + k];
+        if (cell) lo = MAXF(lo, cell[k]), hi = MINF(hi, cell[3 + k]);
+        b[k] = MINF(b[k], lo), b[3 + k] = MAXF(b[3 + k], hi);
     }
 }
 
@@ -126,7 +155,9 @@ static prt_status root_sink(void *user, const float *tris, size_t count, uint64_
         memcpy(t->v, v, sizeof t->v);
         t->prim = (uint32_t)(first_id + i);
         t->color = GREY15;
-        box_add_tri(b->root.bounds, t, NULL);
+        float tb[6];
+        tri_box(t, NULL, tb);
+        box_add(b->root.bounds, tb, NULL);
         if (b->nbatch == IO_BATCH) {
             prt_status s = spool_write(&b->root, b->batch, b->nbatch);
             b->nbatch = 0;
@@ -174,15 +205,20 @@ static void ooc_split(const builder *b, const spool *s, const float cell[6], int
 static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32_t depth, ooc_frag *out) {
     ooc_btri *tris = prt__alloc(prt__mul_size(PRT_MAX(s->count, 1), sizeof *tris));
     if (!tris) return prt__fail(PRT_ERROR_NOMEM, "out of memory reading %llu triangles for an in-core subtree", (unsigned long long)s->count);
+    double c0 = cpu_now();
     prt_status st = read_all(s, tris);
     spool_close(s);
+    double c1 = cpu_now();
     ooc_tree t;
     if (!st) st = ooc_kd_build(tris, s->count, cell, depth, b->p, &t);
+    double c2 = cpu_now();
     if (!st) {
         b->depth = PRT_MAX(b->depth, t.depth);
         st = ooc_writer_tree(b->w, &t, tris, depth, out);
         ooc_tree_free(&t);
     }
+    double c3 = cpu_now();
+    b->cpu_read += c1 - c0, b->cpu_kd += c2 - c1, b->cpu_layout += c3 - c2;
     prt__free(tris);
     report(b, s->count);
     return st;
@@ -202,6 +238,8 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
     prt_status st = spool_open(b, &kid[0]);
     if (!st && (st = spool_open(b, &kid[1]))) spool_close(&kid[0]);
     if (st) return st;
+    double c0 = cpu_now();
+    b->sift_passes++, b->sifted += s->count;
     rewind(s->f);
     ooc_btri *side[2] = {b->batch, b->batch + IO_BATCH};
     for (uint64_t left = s->count; left && !st;) {
@@ -214,19 +252,19 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
         size_t cnt[2] = {0, 0};
         for (size_t i = 0; i < n; i++) {
             const ooc_btri *t = &b->batch[2 * IO_BATCH + i];
-            float tb[6];
-            box_empty(tb);
-            box_add_tri(tb, t, cell);
+            float tb[6]; /* clipped to the cell; the child's box clips it to the child's */
+            tri_box(t, cell, tb);
             for (int k = 0; k < 2; k++)
                 if (k == 0 ? tb[axis] <= split : tb[3 + axis] >= split) {
                     side[k][cnt[k]++] = *t;
-                    box_add_tri(kid[k].bounds, t, box[k]);
+                    box_add(kid[k].bounds, tb, box[k]);
                 }
         }
         for (int k = 0; k < 2 && !st; k++) st = spool_write(&kid[k], side[k], cnt[k]);
     }
     uint64_t n = s->count;
     spool_close(s);
+    b->cpu_sift += cpu_now() - c0;
     if (!st && kid[0].count == n && kid[1].count == n)
         st = prt__fail(PRT_ERROR_LIMIT, "a kd cell of %llu triangles cannot be split out of core (every triangle spans it)",
                        (unsigned long long)n);
@@ -236,7 +274,9 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
         if (kid[k].count) st = build_node(b, &kid[k], box[k], depth + 1, &f[k]);
         else memset(&f[k], 0, sizeof f[k]);
     }
+    double c1 = cpu_now();
     if (!st) st = ooc_writer_inner(b->w, depth, cell, axis, split, &f[0], &f[1], out);
+    b->cpu_layout += cpu_now() - c1;
     spool_close(&kid[0]), spool_close(&kid[1]);
     prt__free(f);
     return st;
@@ -246,15 +286,20 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
                      void **image, size_t *image_size) {
     const double t0 = prt__now();
     builder b = {.p = &job->params, .tmp_prefix = job->tmp_prefix, .progress = job->progress, .progress_user = job->progress_user};
+    const char *env = getenv("PRT_OOC_STATS");
+    b.stats = env && *env && strcmp(env, "0");
+    double c0 = cpu_now();
     uint64_t budget = job->memory_budget ? job->memory_budget : (uint64_t)4 << 30;
     b.incore_max = PRT_MAX(budget / INCORE_BYTES_PER_TRI, (uint64_t)4096);
     b.batch = prt__alloc(3 * IO_BATCH * sizeof *b.batch);
     if (!b.batch) return prt__fail(PRT_ERROR_NOMEM, "out of memory for the build's I/O buffers");
     prt_status s = ooc_writer_open(&b.w, job->out_path);
+    if (!s) ooc_writer_set_level(b.w, job->params.lz4hc);
     if (!s && job->expected && job->expected <= b.incore_max) box_empty(b.root.bounds); /* held in memory */
     else if (!s) s = spool_open(&b, &b.root);
     if (!s) s = produce(produce_ctx, root_sink, &b);
     if (!s) s = spool_write(&b.root, b.batch, b.nbatch);
+    b.cpu_produce = cpu_now() - c0;
     if (!s && b.root.count == 0)
         s = prt__fail(PRT_ERROR_MESH, "the mesh has no triangle that can be hit (%llu degenerate)", (unsigned long long)b.degenerate);
     float cell[6];
@@ -277,7 +322,18 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
     }
     h->depth = b.depth;
     h->build_seconds = prt__now() - t0;
+    double c1 = cpu_now();
     if (!s) s = ooc_writer_finish(b.w, root, h, image, image_size);
+    b.cpu_finish = cpu_now() - c1;
+    if (b.stats && !s) {
+        double lz4 = ooc_writer_compress_seconds(b.w), all = cpu_now() - c0, per = 1e6 / (double)PRT_MAX(built, 1);
+        fprintf(stderr,
+                "ooc build CPU (s, us/tri): produce %.2f %.3f | sift %u passes over %.2f tris/tri %.2f %.3f | read %.2f %.3f | "
+                "kd %.2f %.3f | layout+looks %.2f %.3f (of which compression %.2f %.3f) | finish %.2f | all %.2f %.3f\n",
+                b.cpu_produce, b.cpu_produce * per, b.sift_passes, (double)b.sifted / (double)PRT_MAX(built, 1), b.cpu_sift,
+                b.cpu_sift * per, b.cpu_read, b.cpu_read * per, b.cpu_kd, b.cpu_kd * per, b.cpu_layout + b.cpu_finish - lz4,
+                (b.cpu_layout + b.cpu_finish - lz4) * per, lz4, lz4 * per, b.cpu_finish, all, all * per);
+    }
     spool_close(&b.root);
     prt__free(root);
     prt__free(b.batch);

@@ -108,6 +108,7 @@ typedef struct ooc_build_params {
     int leaf_max;       /* SAH leaves up to this many triangles (128, §4.1) */
     float empty_cut;    /* empty-space cutting volume threshold (0.15) */
     int threads;
+    int lz4hc;          /* blocks' LZ4HC level 1-12; 0: the default (4); -1: plain LZ4 */
 } ooc_build_params;
 
 /* Build an in-core kd-tree over tris (cell = box) with SAH, empty-space cutting and the
@@ -168,6 +169,9 @@ typedef struct ooc_frag {
 } ooc_frag;
 
 prt_status ooc_writer_open(ooc_writer **w, const char *path /* NULL: memory */);
+/* The compression of the blocks written from now on: LZ4HC level 1-12, 0 the default
+ * (4), -1 plain LZ4 (ooc_build_params.lz4hc). */
+void ooc_writer_set_level(ooc_writer *w, int lz4hc);
 /* A leaf of n triangles (refs into tris) in cell box at kd depth `depth`: written to the
  * open triangle block (a treelet of its own at a treelet root level). */
 prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, const uint32_t *refs, uint32_t n,
@@ -186,5 +190,7 @@ prt_status ooc_writer_tree(ooc_writer *w, const ooc_tree *t, const ooc_btri *tri
 prt_status ooc_writer_finish(ooc_writer *w, const ooc_frag *root, ooc_header *info, void **image,
                              size_t *image_size);
 void ooc_writer_free(ooc_writer *w);
+/* CPU seconds spent compressing blocks so far. */
+double ooc_writer_compress_seconds(const ooc_writer *w);
 
 #endif

@@ -25,12 +25,13 @@ _Static_assert(sizeof(ooc_tri) == 12, "triangles are 12 bytes (§4.6)");
 #define OOC_VERIFY_AT_OPEN ((uint64_t)16 << 20) /* reading more would delay the first image */
 
 prt_status ooc_parse_spec(prt_spec *spec, ooc_build_params *p) {
-    int leaf, cut;
+    int leaf, cut, lz4;
     prt_status s;
     if ((s = prt__spec_int(spec, "leaf", 128, 1, OOC_MAX_LEAF, &leaf)) || (s = prt__spec_int(spec, "cut", 15, 0, 100, &cut)) ||
-        (s = prt__spec_check_unused(spec)))
+        (s = prt__spec_int(spec, "lz4", 4, 0, 12, &lz4)) || (s = prt__spec_check_unused(spec)))
         return s;
     p->leaf_max = leaf;
+    p->lz4hc = lz4 ? lz4 : -1; /* lz4=0: plain LZ4 */
     p->empty_cut = cut > 0 ? (float)cut / 100.0f : 2.0f; /* 0: never cut */
     prt_spec canon;
     memset(&canon, 0, sizeof canon);
@@ -40,6 +41,10 @@ prt_status ooc_parse_spec(prt_spec *spec, ooc_build_params *p) {
     prt__spec_set(&canon, "leaf", num);
     snprintf(num, sizeof num, "%d", cut);
     prt__spec_set(&canon, "cut", num);
+    if (lz4 != 4) { /* named only when not the default, so existing specs read as before */
+        snprintf(num, sizeof num, "%d", lz4);
+        prt__spec_set(&canon, "lz4", num);
+    }
     *spec = canon;
     return PRT_OK;
 }
