@@ -416,8 +416,8 @@ static void camera_packet(const prt_mesh *m, const float from[3], float fov, uin
     }
 }
 
-/* Packets (prt_intersect_packet: nodes and records decoded once for the packet) answer
- * exactly as single rays, bit for bit: coherent camera tiles of several shapes, tiles
+/* Packets (prt_intersect_packet and prt_occluded_packet: nodes and records decoded once
+ * for the packet) answer exactly as single rays, bit for bit: coherent camera tiles of several shapes, tiles
  * half off the model, rays with tfar cut short, invalid rays, and incoherent packets. */
 TEST(test_lossygrid_packets_equal_single_rays) {
     const char *kinds[] = {"terrain", "torus", "canyon"};
@@ -426,7 +426,7 @@ TEST(test_lossygrid_packets_equal_single_rays) {
     for (size_t k = 0; k < 3; k++) CHECK_OK(prt_mesh_generate(kinds[k], 20000, 3, &meshes[k]));
     meshes[3] = mesh_random_soup(3000, 5);
     uint32_t *order = NULL;
-    size_t differ = 0, hits = 0, rays_total = 0;
+    size_t differ = 0, odiffer = 0, blocked = 0, hits = 0, rays_total = 0;
     for (size_t mi = 0; mi < 4; mi++) {
         if (!meshes[mi]) continue;
         order = realloc(order, meshes[mi]->triangle_count * sizeof *order);
@@ -456,12 +456,34 @@ TEST(test_lossygrid_packets_equal_single_rays) {
                             if (tile == 8 && i % 4 == 2) rays[i].tnear = 2.0f, rays[i].tfar = 1.0f;
                         }
                         memcpy(single, rays, n * sizeof *rays);
+                        /* Any hit, on the camera rays and on shadow rays from their hits to a light. */
+                        uint8_t occ[256];
+                        const prt_packet po = {single, NULL, n, w};
+                        prt_occluded_packet(a, &po, occ);
+                        for (uint32_t i = 0; i < n; i++) odiffer += occ[i] != prt_occluded1(a, &single[i]);
                         prt_packet p = {rays, ph, n, w};
                         prt_intersect_packet(a, &p);
                         for (uint32_t i = 0; i < n; i++) {
                             prt_intersect1(a, &single[i], &sh1[i]);
                             differ += memcmp(&ph[i], &sh1[i], sizeof ph[i]) != 0 || memcmp(&rays[i].tfar, &single[i].tfar, 4) != 0;
                             hits += sh1[i].prim != PRT_INVALID;
+                        }
+                        prt_ray shadow[256];
+                        for (uint32_t i = 0; i < n; i++) {
+                            const float t = sh1[i].prim != PRT_INVALID ? 0.999f * sh1[i].t : 1.0f, light[3] = {0.3f, 3.0f, -0.2f};
+                            float len = 0;
+                            for (int k = 0; k < 3; k++) {
+                                shadow[i].org[k] = single[i].org[k] + t * single[i].dir[k];
+                                shadow[i].dir[k] = light[k] - shadow[i].org[k], len += shadow[i].dir[k] * shadow[i].dir[k];
+                            }
+                            shadow[i].tnear = 0, shadow[i].tfar = 1.0f;
+                            if (tile == 7 && i % 5 == 1) shadow[i].dir[1] = NAN;
+                        }
+                        const prt_packet ps = {shadow, NULL, n, w};
+                        prt_occluded_packet(a, &ps, occ);
+                        for (uint32_t i = 0; i < n; i++) {
+                            const bool o = prt_occluded1(a, &shadow[i]);
+                            odiffer += occ[i] != o, blocked += o;
                         }
                         rays_total += n;
                     }
@@ -470,6 +492,8 @@ TEST(test_lossygrid_packets_equal_single_rays) {
     }
     CHECK_MSG(differ == 0, "%zu of %zu packet rays answered differently from single rays", differ, rays_total);
     CHECK_MSG(hits > rays_total / 4, "only %zu of %zu rays hit: the views miss the models", hits, rays_total);
+    CHECK_MSG(odiffer == 0, "%zu any-hit packet answers differ from single rays", odiffer);
+    CHECK_MSG(blocked > rays_total / 20, "only %zu of %zu shadow rays blocked: the test sees no shadow", blocked, rays_total);
     for (size_t mi = 0; mi < 4; mi++) prt_mesh_free(meshes[mi]);
     free(order);
 }

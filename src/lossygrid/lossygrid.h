@@ -46,4 +46,8 @@ bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
 #define LG_PACKET 16
 void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n);
 
+/* Any hit for n <= LG_PACKET valid rays traced together (shadow rays of a tile), decoding
+ * shared as for lg_trace_packet; occluded[i] is lg_trace_any's answer for ray i. */
+void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays, uint8_t *occluded, uint32_t n);
+
 #endif

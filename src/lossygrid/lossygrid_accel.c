@@ -83,6 +83,25 @@ static void lg_intersect_packet(const prt_accel *a, prt_packet *p) {
     }
 }
 
+/* Any-hit packets: runs of up to LG_PACKET valid rays in the packet's order (shadow rays
+ * come as a list, not a pixel block); an invalid ray is not occluded, as prt_occluded1
+ * answers it. */
+static void lg_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded) {
+    const lg_accel *g = (const lg_accel *)a;
+    uint32_t idx[LG_PACKET], k = 0;
+    prt_ray rays[LG_PACKET];
+    uint8_t got[LG_PACKET];
+    for (uint32_t i = 0; i < p->count; i++) {
+        if (!prt__ray_valid(&p->rays[i])) occluded[i] = 0;
+        else idx[k] = i, rays[k++] = p->rays[i];
+        if (k == LG_PACKET || (i + 1 == p->count && k)) {
+            lg_occlude_packet(g->blob.data, &g->shared, rays, got, k);
+            for (uint32_t q = 0; q < k; q++) occluded[idx[q]] = got[q];
+            k = 0;
+        }
+    }
+}
+
 static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
     const lg_accel *g = (const lg_accel *)a;
     return lg_trace_any(g->blob.data, &g->shared, r);
@@ -247,6 +266,7 @@ const prt_accel_ops prt__lossygrid_ops = {
     .intersect1 = lg_intersect1,
     .occluded1 = lg_occluded1,
     .intersect_packet = lg_intersect_packet,
+    .occluded_packet = lg_occluded_packet,
     .stats = lg_stats,
     .save = lg_save,
     .load = lg_load,

@@ -304,24 +304,23 @@ PRT_INLINE void lgrec_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx
     }
 }
 
-PRT_INLINE bool lgrec_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, float tfar) {
+/* Whether one ray meets a decoded record within [tnear, tfar]. */
+PRT_INLINE bool lg_record_blocks(const lg_decoded *d, const prt__rayx *r, const lgrec_ray *c, float tfar) {
     const vf8 tf = vf8_set1(tfar);
+    vf8 t, u, v;
+    if (!d->g) return prt__tri8_hit(r, &c->r8, d->p, tf, &t, &u, &v) != 0;
+    lg_sheared sh;
+    lg_shear(&d->gv, d->ry + 1, r, &c->r8, &sh);
+    for (int row = 0; row < d->ry; row++)
+        if (lg_row_hit(&sh, row, d->g->diag >> (4 * row) & 15, &c->r8, tf, &t, &u, &v)) return true;
+    return false;
+}
+
+PRT_INLINE bool lgrec_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, float tfar) {
     for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES) {
-        vf8 t, u, v;
-        if (leaf[127] == LG_KIND_TRIS) {
-            float p[72] __attribute__((aligned(32)));
-            lg_tri_soa((const lg_tri_rec *)leaf, p);
-            if (prt__tri8_hit(r, &c->r8, p, tf, &t, &u, &v)) return true;
-            continue;
-        }
-        const lg_grid_rec *g = (const lg_grid_rec *)leaf;
-        lg_grid_vertices gv;
-        lg_grid_decode(g, &gv);
-        const int ry = lg_ry(g);
-        lg_sheared sh;
-        lg_shear(&gv, ry + 1, r, &c->r8, &sh);
-        for (int row = 0; row < ry; row++)
-            if (lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, tf, &t, &u, &v)) return true;
+        lg_decoded d;
+        lg_record_decode(leaf, &d);
+        if (lg_record_blocks(&d, r, c, tfar)) return true;
     }
     return false;
 }

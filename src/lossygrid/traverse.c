@@ -106,3 +106,72 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
 done:
     for (uint32_t i = 0; i < n; i++) bvh_finish_hit(&rays[i], &hits[i], &h[i]);
 }
+
+void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays, uint8_t *occluded, uint32_t n) {
+    prt__rayx r[LG_PACKET];
+    wide8_ray w[LG_PACKET];
+    lgrec_ray c[LG_PACKET];
+    for (uint32_t i = 0; i < n; i++) {
+        prt__rayx_init(&r[i], &rays[i]);
+        wide8_ray_init(&w[i], &r[i], blob);
+        lgrec_ray_init(&c[i], &r[i], sh);
+        occluded[i] = 0;
+    }
+    struct {
+        uint64_t ref;
+        uint32_t mask;
+    } stack[WIDE8_STACK];
+    int top = 0;
+    uint64_t ref = WIDE8_HEADER_BYTES;
+    uint32_t open = n == 32 ? ~0u : (1u << n) - 1, mask = open; /* open: rays not yet blocked */
+    for (;;) {
+        if (!(ref & WIDE8_LEAF)) {
+            const wide8_node *nd = (const wide8_node *)(blob + ref);
+            vf8 s[3], planes[6];
+            wide8_scales(nd, s);
+            for (int row = 0; row < 6; row++) planes[row] = wide8_plane(nd, s, row);
+            const unsigned occupied = wide8_occupied(nd);
+            uint32_t rays_of[8] = {0};
+            unsigned hit = 0;
+            for (uint32_t m = mask; m; m &= m - 1) {
+                const int i = __builtin_ctz(m);
+                const vf8 near[3] = {planes[w[i].near[0]], planes[w[i].near[1]], planes[w[i].near[2]]};
+                const vf8 far[3] = {planes[w[i].far[0]], planes[w[i].far[1]], planes[w[i].far[2]]};
+                vf8 te;
+                const unsigned b = wide8_slab(near, far, occupied, &w[i], rays[i].tfar, &te);
+                for (unsigned q = b; q; q &= q - 1) rays_of[__builtin_ctz(q)] |= 1u << i;
+                hit |= b;
+            }
+            if (hit) { /* any order serves an any-hit query */
+                ref = wide8_child_ref_lgrec(nd, __builtin_ctz(hit), &w[0]);
+                mask = rays_of[__builtin_ctz(hit)];
+                for (unsigned q = hit & (hit - 1); q; q &= q - 1, top++) {
+                    stack[top].ref = wide8_child_ref_lgrec(nd, __builtin_ctz(q), &w[0]);
+                    stack[top].mask = rays_of[__builtin_ctz(q)];
+                    __builtin_prefetch(blob + (stack[top].ref & WIDE8_OFFSET_MASK));
+                }
+                continue;
+            }
+        } else {
+            const uint8_t *leaf = blob + (ref & WIDE8_OFFSET_MASK);
+            const uint32_t count = (uint32_t)(ref >> 56 & 0x7F);
+            for (uint32_t k = 0; k < count && mask; k++, leaf += LG_RECORD_BYTES) {
+                lg_decoded d;
+                lg_record_decode(leaf, &d);
+                for (uint32_t m = mask; m; m &= m - 1) {
+                    const int i = __builtin_ctz(m);
+                    if (lg_record_blocks(&d, &r[i], &c[i], rays[i].tfar)) occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
+                }
+            }
+            if (!open) return;
+        }
+        for (;;) {
+            if (top == 0) return;
+            --top;
+            if ((mask = stack[top].mask & open) != 0) {
+                ref = stack[top].ref;
+                break;
+            }
+        }
+    }
+}
