@@ -246,7 +246,7 @@ typedef struct prt_stats {
 /* Build an acceleration structure for mesh m (which is validated first) according to
  * spec: "structure[:codec][,key=value]...", e.g. "aabb:float3", "quad:float3-soa4,leaf=8".
  * Keys for BVH representations: split=sah|mean|longest|morton|fixed, leaf=1..16,
- * order=df (node order, Rouwé §4.3; the other orders are not built yet), ids=mesh|none
+ * order=df|df-leaves-last|bf|bf-leaves-last (node order, Rouwé §4.3; aabb only), ids=mesh|none
  * (codecs that store one id per leaf: hits name mesh triangles through a 4-byte-per-triangle
  * map, or with none name positions in the accel's order, see triangle_order above).
  * options may be NULL.

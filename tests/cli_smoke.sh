@@ -54,6 +54,18 @@ python3 -c "import json,sys; d=json.load(open('$dir/out')); r=d['results'][0]; a
 # Mistakes: usage errors exit 2, failures exit 1 with a message, never a crash.
 check no_command 2 "$packrt"
 check unknown_command 2 "$packrt" frobnicate
+# ids=none: the triangle order goes to --order, a permutation of the mesh's triangles.
+check build_ids_none_needs_order 1 "$packrt" build "$dir/s.ply" -r wide8:idx8-soa4,ids=none -o "$dir/n.prt"
+grep -q -- "--order" "$dir/err" || { fail=$((fail + 1)); echo "FAIL build_ids_none_needs_order names --order"; }
+check build_ids_none_order 0 "$packrt" build "$dir/s.ply" -r wide8:idx8-soa4,ids=none -o "$dir/n.prt" --order "$dir/n.order"
+python3 - "$dir/n.order" "$dir/s.ply" <<'PY' || { fail=$((fail + 1)); echo "FAIL build_ids_none_order writes a permutation"; }
+import re, struct, sys
+order = open(sys.argv[1], "rb").read()
+faces = int(re.search(rb"element face (\d+)", open(sys.argv[2], "rb").read(4096)).group(1))
+ids = struct.unpack("<%dI" % (len(order) // 4), order)
+sys.exit(0 if len(order) == 4 * faces and sorted(ids) == list(range(faces)) else 1)
+PY
+check build_order_without_ids_none 2 "$packrt" build "$dir/s.ply" -r quad:float3 -o "$dir/q.prt" --order "$dir/q.order"
 check build_missing_args 2 "$packrt" build "$dir/s.ply"
 check build_bad_spec 1 "$packrt" build "$dir/s.ply" -r nosuch:thing -o "$dir/x.prt"
 check cast_missing_rays 1 "$packrt" cast "$dir/s.prt" --rays "$dir/nonexistent.rays" -o "$dir/x.hits"

@@ -10,12 +10,15 @@ static int usage(void) {
            "  builds representation SPEC (see `packrt list`) over MESH (PLY/OBJ, optionally gzipped)\n"
            "  and saves it as a .prt file that `cast`, `bench` and `info` load without rebuilding.\n"
            "  -r ooc streams the mesh (or the generator's triangles) into an out-of-core block file,\n"
-           "  holding at most --memory bytes (k/M/G suffixes; default 4G) whatever the mesh's size\n");
+           "  holding at most --memory bytes (k/M/G suffixes; default 4G) whatever the mesh's size\n"
+           "  --order FILE  for ids=none specs, which store no triangle ids: write the accel's triangle\n"
+           "                order there, one u32 (little endian) per position: a hit's prim p names\n"
+           "                mesh triangle ORDER[p]\n");
     return 0;
 }
 
 int cmd_build(int argc, char **argv) {
-    const char *mesh_path = NULL, *spec = NULL, *out = NULL, *gen = NULL;
+    const char *mesh_path = NULL, *spec = NULL, *out = NULL, *gen = NULL, *order_path = NULL;
     int threads = 0;
     size_t memory = 0;
     for (int i = 1; i < argc; i++) {
@@ -24,6 +27,7 @@ int cmd_build(int argc, char **argv) {
         else if (!strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--gen") && i + 1 < argc) gen = argv[++i];
+        else if (!strcmp(argv[i], "--order") && i + 1 < argc) order_path = argv[++i];
         else if (!strcmp(argv[i], "--memory") && i + 1 < argc) {
             if (!cli_parse_count(argv[++i], &memory)) return cli_usage("build", "--memory: bad size '%s'", argv[i]);
         }
@@ -32,6 +36,10 @@ int cmd_build(int argc, char **argv) {
         else return cli_usage("build", "more than one mesh given ('%s')", argv[i]);
     }
     if ((!mesh_path == !gen) || !spec || !out) return cli_usage("build", "needs MESH (or --gen), -r SPEC and -o out.prt");
+    if (order_path && !strstr(spec, "ids=none"))
+        return cli_usage("build", "--order: only ids=none specs hand out a triangle order");
+    if ((gen || !strncmp(spec, "ooc", 3)) && order_path)
+        return cli_usage("build", "--order: out-of-core and generated builds keep mesh ids; no order to write");
     if (gen || !strncmp(spec, "ooc", 3)) {
         /* Straight to the file: out-of-core builds stream, never holding the mesh. */
         cli_progress bar;
@@ -75,19 +83,49 @@ int cmd_build(int argc, char **argv) {
     if (s) return cli_fail("build", mesh_path, s);
     cli_progress bar;
     cli_progress_begin(&bar, "building");
-    prt_build_options o = {.threads = threads, .progress = cli_progress_callback, .progress_user = &bar};
+    uint32_t *order = order_path ? malloc((m->triangle_count ? m->triangle_count : 1) * sizeof *order) : NULL;
+    prt_build_options o = {.threads = threads, .progress = cli_progress_callback, .progress_user = &bar,
+                           .triangle_order = order};
     prt_accel *a;
-    s = prt_build(m, spec, &o, &a);
+    s = order_path && !order ? PRT_ERROR_NOMEM : prt_build(m, spec, &o, &a);
     cli_progress_end(&bar);
     prt_mesh_free(m);
-    if (s) return cli_fail("build", spec, s);
+    if (s == PRT_ERROR_ARGUMENT && !order_path && strstr(spec, "ids=none")) {
+        free(order);
+        fprintf(stderr, "packrt build: %s: ids=none stores no triangle ids, so hits name positions in the accel's own "
+                        "order; give --order FILE to receive it\n", spec);
+        return 1;
+    }
+    if (s) {
+        free(order);
+        return cli_fail("build", spec, s);
+    }
+    prt_stats st;
+    prt_accel_stats(a, &st);
+    if (order_path) {
+        /* Positions below triangles_built (degenerate triangles have none); little endian
+         * whatever the host, byte by byte. */
+        const size_t triangles = st.triangles_built;
+        FILE *f = fopen(order_path, "wb");
+        bool ok = f != NULL;
+        for (size_t i = 0; ok && i < triangles; i++) {
+            const unsigned char b[4] = {(unsigned char)order[i], (unsigned char)(order[i] >> 8),
+                                        (unsigned char)(order[i] >> 16), (unsigned char)(order[i] >> 24)};
+            ok = fwrite(b, 1, 4, f) == 4;
+        }
+        if (f && fclose(f)) ok = false;
+        free(order);
+        if (!ok) {
+            prt_accel_free(a);
+            fprintf(stderr, "packrt build: %s: cannot write the triangle order\n", order_path);
+            return 1;
+        }
+    }
     s = prt_accel_save(a, out);
     if (s) {
         prt_accel_free(a);
         return cli_fail("build", out, s);
     }
-    prt_stats st;
-    prt_accel_stats(a, &st);
     double n = (double)st.triangles;
     fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s, peak %.1f MB, %.2f B/tri (tree %.2f, geometry %.2f)\n",
             out, prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds, st.build_peak_bytes / 1e6,
