@@ -42,7 +42,7 @@ TEST(test_streamed_build_and_small_cache_answer_exactly) {
     const char *ply = tmp_path("sphere.ply");
     CHECK_OK(prt_mesh_save_ply(m, ply));
     const char *path = tmp_path("sphere.ooc");
-    prt_build_options o = {.memory_budget = 1 << 20}; /* 1 MB: 4096-triangle in-core subtrees */
+    prt_build_options o = {.memory_budget = 1 << 20}; /* 1 MB: in-core subtrees of 6553 triangles */
     CHECK_OK(prt_build_file(ply, "ooc", path, &o));
     prt_open_options oo = {.cache_bytes = 1}; /* the minimum: 64 slots, fewer than the blocks */
     prt_accel *a = NULL, *ref = NULL;
