@@ -15,17 +15,52 @@ bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) {
 
 /* --- packets ---------------------------------------------------------------------------- */
 
+/* Per-ray state of a packet's rays. */
+static void lg_packet_rays(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays, uint32_t n, prt__rayx *r,
+                           wide8_ray *w, lgrec_ray *c) {
+    for (uint32_t i = 0; i < n; i++) {
+        prt__rayx_init(&r[i], &rays[i]);
+        wide8_ray_init(&w[i], &r[i], blob);
+        lgrec_ray_init(&c[i], &r[i], sh);
+    }
+}
+
+/* One node for the rays of mask: its planes decoded once, then each ray's slab test up to
+ * its own tfar[i]. rays_of[j]: the rays that hit child j; t_of[j]: their smallest entry
+ * distance. Returns the mask of children any ray hit. */
+static unsigned lg_packet_node(const wide8_node *nd, uint32_t mask, const wide8_ray *w, const float *tfar,
+                               uint32_t rays_of[8], float t_of[8]) {
+    vf8 s[3], planes[6]; /* every plane once for the packet: row 2k lower, 2k + 1 upper */
+    wide8_scales(nd, s);
+    for (int row = 0; row < 6; row++) planes[row] = wide8_plane(nd, s, row);
+    const unsigned occupied = wide8_occupied(nd);
+    unsigned hit = 0;
+    for (int j = 0; j < 8; j++) rays_of[j] = 0, t_of[j] = INFINITY;
+    for (uint32_t m = mask; m; m &= m - 1) {
+        const int i = __builtin_ctz(m);
+        const vf8 near[3] = {planes[w[i].near[0]], planes[w[i].near[1]], planes[w[i].near[2]]};
+        const vf8 far[3] = {planes[w[i].far[0]], planes[w[i].far[1]], planes[w[i].far[2]]};
+        vf8 te;
+        const unsigned b = wide8_slab(near, far, occupied, &w[i], tfar[i], &te);
+        float tt[8];
+        memcpy(tt, &te, sizeof tt);
+        for (unsigned q = b; q; q &= q - 1) {
+            const int j = __builtin_ctz(q);
+            rays_of[j] |= 1u << i;
+            t_of[j] = t_of[j] < tt[j] ? t_of[j] : tt[j];
+        }
+        hit |= b;
+    }
+    return hit;
+}
+
 void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n) {
     prt__rayx r[LG_PACKET];
     wide8_ray w[LG_PACKET];
     lgrec_ray c[LG_PACKET];
     prt__hitx h[LG_PACKET];
-    for (uint32_t i = 0; i < n; i++) {
-        prt__rayx_init(&r[i], &rays[i]);
-        wide8_ray_init(&w[i], &r[i], blob);
-        lgrec_ray_init(&c[i], &r[i], sh);
-        h[i] = (prt__hitx){rays[i].tfar, 0, 0, PRT_INVALID};
-    }
+    lg_packet_rays(blob, sh, rays, n, r, w, c);
+    for (uint32_t i = 0; i < n; i++) h[i] = (prt__hitx){rays[i].tfar, 0, 0, PRT_INVALID};
     struct {
         uint64_t ref;
         uint32_t mask;
@@ -37,28 +72,10 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
     for (;;) {
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *nd = (const wide8_node *)(blob + ref);
-            vf8 s[3], planes[6]; /* every plane once for the packet: row 2k lower, 2k + 1 upper */
-            wide8_scales(nd, s);
-            for (int row = 0; row < 6; row++) planes[row] = wide8_plane(nd, s, row);
-            const unsigned occupied = wide8_occupied(nd);
-            uint32_t rays_of[8] = {0};
-            float t_of[8] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
-            unsigned hit = 0;
-            for (uint32_t m = mask; m; m &= m - 1) {
-                const int i = __builtin_ctz(m);
-                const vf8 near[3] = {planes[w[i].near[0]], planes[w[i].near[1]], planes[w[i].near[2]]};
-                const vf8 far[3] = {planes[w[i].far[0]], planes[w[i].far[1]], planes[w[i].far[2]]};
-                vf8 te;
-                const unsigned b = wide8_slab(near, far, occupied, &w[i], h[i].t, &te);
-                float tt[8];
-                memcpy(tt, &te, sizeof tt);
-                for (unsigned q = b; q; q &= q - 1) {
-                    const int j = __builtin_ctz(q);
-                    rays_of[j] |= 1u << i;
-                    t_of[j] = t_of[j] < tt[j] ? t_of[j] : tt[j];
-                }
-                hit |= b;
-            }
+            uint32_t rays_of[8];
+            float t_of[8], tfar[LG_PACKET];
+            for (uint32_t m = mask; m; m &= m - 1) tfar[__builtin_ctz(m)] = h[__builtin_ctz(m)].t;
+            const unsigned hit = lg_packet_node(nd, mask, w, tfar, rays_of, t_of);
             if (hit) {
                 /* Nearest first by the packet's smallest entry distance (ties by slot). */
                 int order[8], k = 0;
@@ -111,12 +128,9 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
     prt__rayx r[LG_PACKET];
     wide8_ray w[LG_PACKET];
     lgrec_ray c[LG_PACKET];
-    for (uint32_t i = 0; i < n; i++) {
-        prt__rayx_init(&r[i], &rays[i]);
-        wide8_ray_init(&w[i], &r[i], blob);
-        lgrec_ray_init(&c[i], &r[i], sh);
-        occluded[i] = 0;
-    }
+    float tfar[LG_PACKET];
+    lg_packet_rays(blob, sh, rays, n, r, w, c);
+    for (uint32_t i = 0; i < n; i++) occluded[i] = 0, tfar[i] = rays[i].tfar;
     struct {
         uint64_t ref;
         uint32_t mask;
@@ -127,21 +141,9 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
     for (;;) {
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *nd = (const wide8_node *)(blob + ref);
-            vf8 s[3], planes[6];
-            wide8_scales(nd, s);
-            for (int row = 0; row < 6; row++) planes[row] = wide8_plane(nd, s, row);
-            const unsigned occupied = wide8_occupied(nd);
-            uint32_t rays_of[8] = {0};
-            unsigned hit = 0;
-            for (uint32_t m = mask; m; m &= m - 1) {
-                const int i = __builtin_ctz(m);
-                const vf8 near[3] = {planes[w[i].near[0]], planes[w[i].near[1]], planes[w[i].near[2]]};
-                const vf8 far[3] = {planes[w[i].far[0]], planes[w[i].far[1]], planes[w[i].far[2]]};
-                vf8 te;
-                const unsigned b = wide8_slab(near, far, occupied, &w[i], rays[i].tfar, &te);
-                for (unsigned q = b; q; q &= q - 1) rays_of[__builtin_ctz(q)] |= 1u << i;
-                hit |= b;
-            }
+            uint32_t rays_of[8];
+            float t_of[8];
+            const unsigned hit = lg_packet_node(nd, mask, w, tfar, rays_of, t_of);
             if (hit) { /* any order serves an any-hit query */
                 ref = wide8_child_ref_lgrec(nd, __builtin_ctz(hit), &w[0]);
                 mask = rays_of[__builtin_ctz(hit)];
@@ -160,7 +162,7 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
                 lg_record_decode(leaf, &d);
                 for (uint32_t m = mask; m; m &= m - 1) {
                     const int i = __builtin_ctz(m);
-                    if (lg_record_blocks(&d, &r[i], &c[i], rays[i].tfar)) occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
+                    if (lg_record_blocks(&d, &r[i], &c[i], tfar[i])) occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
                 }
             }
             if (!open) return;
