@@ -71,6 +71,25 @@ static void finish(walker *w) {
 /* A LOD node at off of the current block: its radius, child block and voxel (copied into
  * vox / *nvox / *vox_radius when it lies inside the block). False when the node itself
  * does not fit the block. */
+/* An inner node's split axis and plane (w0, w1 its two words): false, counted as a
+ * failure, for a corrupt axis or a path deeper than any the builder writes. */
+static inline bool inner_plane(const walker *w, uint32_t w0, uint32_t w1, int depth, int *axis, float *split) {
+    *axis = (int)(w0 & 3);
+    memcpy(split, &w1, 4);
+    if (*axis == 3 || depth >= OOC_MAX_DEPTH) {
+        atomic_fetch_add(&w->a->cache.failures, 1);
+        return false;
+    }
+    return true;
+}
+
+/* An inner node's children: offsets from base (the node itself, or the start of the
+ * child block after a LOD node) and which of the two exist. */
+static inline void inner_children(uint32_t w0, uint32_t base, uint32_t kid[2], bool has[2]) {
+    kid[0] = base + (w0 & 0xFFFC), kid[1] = kid[0] + 4 * ((w0 >> 18) & 0x7FF);
+    has[0] = (w0 & OOC_LEFT) != 0, has[1] = (w0 & OOC_RIGHT) != 0;
+}
+
 static bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *child_block, uint32_t vox[6], int *nvox,
                      float *vox_radius) {
     if (off + 16 > w->size) return false;
@@ -228,12 +247,10 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                 pop = true;
                 break;
             }
-            const int axis = (int)(w0 & 3);
+            int axis;
             float split;
-            memcpy(&split, &w1, 4);
             uint32_t base = off, child_block = block;
-            if (axis == 3 || depth >= OOC_MAX_DEPTH) {
-                atomic_fetch_add(&w->a->cache.failures, 1);
+            if (!inner_plane(w, w0, w1, depth, &axis, &split)) {
                 pop = true;
                 break;
             }
@@ -246,9 +263,9 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                 if (w->lod && radius <= tmin * w->C) VOXEL_HIT();
                 base = 0;
             }
-            uint32_t left = base + (w0 & 0xFFFC), right = left + 4 * ((w0 >> 18) & 0x7FF);
-            bool has[2] = {(w0 & OOC_LEFT) != 0, (w0 & OOC_RIGHT) != 0};
-            uint32_t kid[2] = {left, right};
+            uint32_t kid[2];
+            bool has[2];
+            inner_children(w0, base, kid, has);
             /* Front: the side the ray is on before it crosses the plane. A ray parallel to
              * the plane stays on its origin's side, or visits both when it lies in the
              * plane (an empty-space cut gives what touches the plane to the full side). */
@@ -488,12 +505,10 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
                 pop = true;
                 break;
             }
-            const int axis = (int)(w0 & 3);
+            int axis;
             float split;
-            memcpy(&split, &w1, 4);
             uint32_t base = off, child_block = block;
-            if (axis == 3 || depth >= OOC_MAX_DEPTH) {
-                atomic_fetch_add(&w->a->cache.failures, 1);
+            if (!inner_plane(w, w0, w1, depth, &axis, &split)) {
                 pop = true;
                 break;
             }
@@ -516,9 +531,9 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
                 }
                 base = 0;
             }
-            uint32_t left = base + (w0 & 0xFFFC), right = left + 4 * ((w0 >> 18) & 0x7FF);
-            bool has[2] = {(w0 & OOC_LEFT) != 0, (w0 & OOC_RIGHT) != 0};
-            uint32_t kid[2] = {left, right};
+            uint32_t kid[2];
+            bool has[2];
+            inner_children(w0, base, kid, has);
             const int first = __builtin_ctz(mask);
             const int front = ps->rx[first].dir[axis] > 0.0f ? 0 : 1, back = 1 - front;
             /* Per ray: the front part [tmin, min(tmax, t)], the back part [max(tmin, t), tmax];
