@@ -28,7 +28,7 @@ static const float *vertex(const prt_mesh *m, uint32_t index) { return m->vertic
  * with fewest unchained neighbours and continuing to the neighbour with fewest (the usual
  * rule that leaves no isolated triangles behind, Evans et al. 1996). */
 static int chain(const uint32_t adj[LEAF_MAX], uint32_t n, uint32_t order[LEAF_MAX], uint32_t len[LEAF_MAX]) {
-    uint32_t left = n == 32 ? ~0u : (1u << n) - 1, k = 0;
+    uint32_t left = (1u << n) - 1, k = 0; /* n <= LEAF_MAX */
     int strips = 0;
     while (left) {
         uint32_t cur = 0, best = UINT32_MAX;

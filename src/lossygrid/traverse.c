@@ -68,7 +68,7 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
     } stack[WIDE8_STACK];
     int top = 0;
     uint64_t ref = WIDE8_HEADER_BYTES;
-    uint32_t mask = n == 32 ? ~0u : (1u << n) - 1;
+    uint32_t mask = (1u << n) - 1; /* n <= LG_PACKET */
     for (;;) {
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *nd = (const wide8_node *)(blob + ref);
@@ -137,7 +137,7 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
     } stack[WIDE8_STACK];
     int top = 0;
     uint64_t ref = WIDE8_HEADER_BYTES;
-    uint32_t open = n == 32 ? ~0u : (1u << n) - 1, mask = open; /* open: rays not yet blocked */
+    uint32_t open = (1u << n) - 1, mask = open; /* n <= LG_PACKET; open: rays not yet blocked */
     for (;;) {
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *nd = (const wide8_node *)(blob + ref);
