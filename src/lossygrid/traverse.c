@@ -15,51 +15,157 @@ bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) {
 
 /* --- packets ---------------------------------------------------------------------------- */
 
-/* Per-ray state of a packet's rays. */
-static void lg_packet_rays(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays, uint32_t n, prt__rayx *r,
-                           wide8_ray *w, lgrec_ray *c) {
-    for (uint32_t i = 0; i < n; i++) {
-        prt__rayx_init(&r[i], &rays[i]);
-        wide8_ray_init(&w[i], &r[i], blob);
-        lgrec_ray_init(&c[i], &r[i], sh);
-    }
+/* A packet's rays in SoA form, lanes 0-7 and 8-15 in two vectors (lanes past n repeat ray 0,
+ * so they never widen the bounds; masks leave them out). tf[i] is ray i's current tfar: its
+ * closest hit so far, or its any-hit tfar. */
+typedef struct lg_packet {
+    vf8 org[3][2], inv[3][2], tnear[2];
+    vi8 neg[3][2]; /* -1 where inv < 0: the upper plane is the near one */
+    float tf[LG_PACKET] __attribute__((aligned(32)));
+    /* The packet's bounds, when every ray's inv is finite and of one sign per axis: the
+     * origin's and inv's ranges, broadcast. Otherwise frustum = 0 and nodes test every ray. */
+    int frustum;
+    int near[3], far[3];
+    vf8 omin[3], omax[3], ilo[3], ihi[3], tnear_min;
+    uint32_t n;
+    /* Per-ray triangle-test state, set up the first time a ray reaches a record. */
+    uint32_t ready;
+    prt__rayx r[LG_PACKET];
+    lgrec_ray c[LG_PACKET];
+    const bvh_shared *sh;
+} lg_packet;
+
+static inline float lg_hmax8(vf8 a) { return -vf8_hmin(-a); }
+static inline vi8 lg_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
+static inline vf8 lg_vf8_abs(vf8 a) { return (vf8)((vi8)a & lg_vi8_set1(0x7FFFFFFF)); }
+
+/* Lanes of the 16-bit mask as two vector masks. */
+static inline void lg_lanes(uint32_t mask, vi8 out[2]) {
+    const vi8 bit = {1, 2, 4, 8, 16, 32, 64, 128};
+    out[0] = (lg_vi8_set1((int32_t)(mask & 0xFF)) & bit) != 0;
+    out[1] = (lg_vi8_set1((int32_t)(mask >> 8 & 0xFF)) & bit) != 0;
 }
 
-/* One node for the rays of mask: its planes decoded once, then each ray's slab test up to
- * its own tfar[i]. rays_of[j]: the rays that hit child j; t_of[j]: their smallest entry
- * distance. Returns the mask of children any ray hit. */
-static unsigned lg_packet_node(const wide8_node *nd, uint32_t mask, const wide8_ray *w, const float *tfar,
-                               uint32_t rays_of[8], float t_of[8]) {
-    vf8 s[3], planes[6]; /* every plane once for the packet: row 2k lower, 2k + 1 upper */
+static void lg_packet_init(lg_packet *pk, const bvh_shared *sh, const prt_ray *rays, uint32_t n) {
+    float o[3][LG_PACKET], d[3][LG_PACKET], tn[LG_PACKET];
+    for (uint32_t i = 0; i < LG_PACKET; i++) {
+        const prt_ray *r = &rays[i < n ? i : 0];
+        for (int k = 0; k < 3; k++) o[k][i] = r->org[k], d[k][i] = r->dir[k];
+        tn[i] = r->tnear, pk->tf[i] = r->tfar;
+    }
+    const vf8 one = vf8_set1(1.0f), zero = vf8_set1(0.0f), inf = vf8_set1(INFINITY);
+    pk->frustum = 1;
+    for (int k = 0; k < 3; k++) {
+        vi8 fin = {0}, neg = {0}, pos = {0};
+        for (int hh = 0; hh < 2; hh++) {
+            pk->org[k][hh] = vf8_load(&o[k][8 * hh]);
+            pk->inv[k][hh] = one / vf8_load(&d[k][8 * hh]); /* prt__rayx_init's inv, bit for bit */
+            pk->neg[k][hh] = pk->inv[k][hh] < zero;
+            fin |= ~(lg_vf8_abs(pk->inv[k][hh]) < inf);
+            neg |= pk->neg[k][hh], pos |= ~pk->neg[k][hh];
+        }
+        if (vi8_mask(fin) || (vi8_mask(neg) && vi8_mask(pos))) pk->frustum = 0;
+        pk->near[k] = 2 * k + (vi8_mask(neg) != 0), pk->far[k] = 2 * k + 1 - (vi8_mask(neg) != 0);
+        pk->omin[k] = vf8_set1(vf8_hmin(vf8_min(pk->org[k][0], pk->org[k][1])));
+        pk->omax[k] = vf8_set1(lg_hmax8(vf8_max(pk->org[k][0], pk->org[k][1])));
+        pk->ilo[k] = vf8_set1(vf8_hmin(vf8_min(pk->inv[k][0], pk->inv[k][1])));
+        pk->ihi[k] = vf8_set1(lg_hmax8(vf8_max(pk->inv[k][0], pk->inv[k][1])));
+    }
+    pk->tnear[0] = vf8_load(&tn[0]), pk->tnear[1] = vf8_load(&tn[8]);
+    pk->tnear_min = vf8_set1(vf8_hmin(vf8_min(pk->tnear[0], pk->tnear[1])));
+    pk->n = n, pk->ready = 0, pk->sh = sh;
+}
+
+/* The per-ray state of the triangle tests for the rays of mask not set up yet. */
+static inline void lg_packet_ready(lg_packet *pk, const prt_ray *rays, uint32_t mask) {
+    for (uint32_t m = mask & ~pk->ready; m; m &= m - 1) {
+        const int i = __builtin_ctz(m);
+        prt__rayx_init(&pk->r[i], &rays[i]);
+        lgrec_ray_init(&pk->c[i], &pk->r[i], pk->sh);
+    }
+    pk->ready |= mask;
+}
+
+/* The slots the packet's bounds may enter: an interval version of wide8_slab over every
+ * ray of the packet. Each bound is the float operations of the per-ray test applied to the
+ * ends of the ranges, and rounding is monotonic, so no ray's entry distance lies below the
+ * bound's nor its exit above: a slot missed here is missed by every ray. tfmax: the largest
+ * tfar of the rays. */
+static inline unsigned lg_frustum(const lg_packet *pk, const vf8 planes[6], float tfmax) {
+    vf8 tmin = pk->tnear_min, tmax = vf8_set1(tfmax);
+    for (int k = 0; k < 3; k++) {
+        const vf8 np = planes[pk->near[k]], fp = planes[pk->far[k]];
+        vf8 a, b;
+        if (pk->near[k] & 1) { /* inv < 0: products fall as the distance grows */
+            a = np - pk->omin[k], b = fp - pk->omax[k];
+        } else {
+            a = np - pk->omax[k], b = fp - pk->omin[k];
+        }
+        tmin = vf8_max(tmin, vf8_min(a * pk->ilo[k], a * pk->ihi[k]));
+        tmax = vf8_min(tmax, vf8_max(b * pk->ilo[k], b * pk->ihi[k]));
+    }
+    const vi8 magnitude = (vi8)tmax & lg_vi8_set1(0x7FFFFFFF);
+    tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
+    return (unsigned)vi8_mask(tmin <= tmax);
+}
+
+/* One node for the rays of mask: its planes decoded once; the slots the packet's bounds
+ * may enter; then, slot by slot, the slab test of wide8_slab for eight rays per vector
+ * (the same operations on the same bits as each ray's own test). rays_of[j]: the rays
+ * that hit slot j; t_of[j]: their smallest entry distance. Returns the slots any ray hit. */
+static unsigned lg_packet_node(const wide8_node *nd, uint32_t mask, const lg_packet *pk, uint32_t rays_of[8],
+                               float t_of[8]) {
+    vf8 s[3], planes[6]; /* row 2k lower, 2k + 1 upper */
     wide8_scales(nd, s);
     for (int row = 0; row < 6; row++) planes[row] = wide8_plane(nd, s, row);
-    const unsigned occupied = wide8_occupied(nd);
+    unsigned cand = wide8_occupied(nd);
+    vi8 lanes[2];
+    lg_lanes(mask, lanes);
+    const vf8 tf[2] = {vf8_load(&pk->tf[0]), vf8_load(&pk->tf[8])}, inf = vf8_set1(INFINITY);
+    if (pk->frustum) {
+        const vf8 act = vf8_max(vf8_select(lanes[0], tf[0], -inf), vf8_select(lanes[1], tf[1], -inf));
+        cand &= lg_frustum(pk, planes, lg_hmax8(act));
+        if (!cand) return 0;
+    }
+    float pl[6][8];
+    memcpy(pl, planes, sizeof pl);
+    const int halves = (mask & 0xFF ? 1 : 0) | (mask >> 8 ? 2 : 0);
     unsigned hit = 0;
-    for (int j = 0; j < 8; j++) rays_of[j] = 0, t_of[j] = INFINITY;
-    for (uint32_t m = mask; m; m &= m - 1) {
-        const int i = __builtin_ctz(m);
-        const vf8 near[3] = {planes[w[i].near[0]], planes[w[i].near[1]], planes[w[i].near[2]]};
-        const vf8 far[3] = {planes[w[i].far[0]], planes[w[i].far[1]], planes[w[i].far[2]]};
-        vf8 te;
-        const unsigned b = wide8_slab(near, far, occupied, &w[i], tfar[i], &te);
-        float tt[8];
-        memcpy(tt, &te, sizeof tt);
-        for (unsigned q = b; q; q &= q - 1) {
-            const int j = __builtin_ctz(q);
-            rays_of[j] |= 1u << i;
-            t_of[j] = t_of[j] < tt[j] ? t_of[j] : tt[j];
+    for (unsigned q = cand; q; q &= q - 1) {
+        const int j = __builtin_ctz(q);
+        uint32_t got = 0;
+        vf8 tbest = inf;
+        for (int hh = 0; hh < 2; hh++) {
+            if (!(halves >> hh & 1)) continue;
+            vf8 tmin = pk->tnear[hh], tmax = tf[hh];
+            for (int k = 0; k < 3; k++) {
+                const vf8 lo = vf8_set1(pl[2 * k][j]), hi = vf8_set1(pl[2 * k + 1][j]);
+                const vf8 nearp = vf8_select(pk->neg[k][hh], hi, lo), farp = vf8_select(pk->neg[k][hh], lo, hi);
+                tmin = vf8_max((nearp - pk->org[k][hh]) * pk->inv[k][hh], tmin); /* NaN in the first operand: tmin */
+                tmax = vf8_min((farp - pk->org[k][hh]) * pk->inv[k][hh], tmax);
+            }
+            const vi8 magnitude = (vi8)tmax & lg_vi8_set1(0x7FFFFFFF);
+            tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
+            const vi8 in = (tmin <= tmax) & lanes[hh];
+            got |= (uint32_t)vi8_mask(in) << (8 * hh);
+            tbest = vf8_min(tbest, vf8_select(in, tmin, inf));
         }
-        hit |= b;
+        rays_of[j] = got;
+        if (got) hit |= 1u << j, t_of[j] = vf8_hmin(tbest);
     }
     return hit;
 }
 
 void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n) {
-    prt__rayx r[LG_PACKET];
-    wide8_ray w[LG_PACKET];
-    lgrec_ray c[LG_PACKET];
+    lg_packet pk;
+    wide8_ray w0; /* the blob's header fields for child_ref */
     prt__hitx h[LG_PACKET];
-    lg_packet_rays(blob, sh, rays, n, r, w, c);
+    lg_packet_init(&pk, sh, rays, n);
+    {
+        prt__rayx r0;
+        prt__rayx_init(&r0, &rays[0]);
+        wide8_ray_init(&w0, &r0, blob);
+    }
     for (uint32_t i = 0; i < n; i++) h[i] = (prt__hitx){rays[i].tfar, 0, 0, PRT_INVALID};
     struct {
         uint64_t ref;
@@ -73,9 +179,8 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *nd = (const wide8_node *)(blob + ref);
             uint32_t rays_of[8];
-            float t_of[8], tfar[LG_PACKET];
-            for (uint32_t m = mask; m; m &= m - 1) tfar[__builtin_ctz(m)] = h[__builtin_ctz(m)].t;
-            const unsigned hit = lg_packet_node(nd, mask, w, tfar, rays_of, t_of);
+            float t_of[8];
+            const unsigned hit = lg_packet_node(nd, mask, &pk, rays_of, t_of);
             if (hit) {
                 /* Nearest first by the packet's smallest entry distance (ties by slot). */
                 int order[8], k = 0;
@@ -86,12 +191,12 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
                     order[at] = j;
                 }
                 for (int q = k - 1; q >= 1; q--, top++) {
-                    stack[top].ref = wide8_child_ref_lgrec(nd, order[q], &w[0]);
+                    stack[top].ref = wide8_child_ref_lgrec(nd, order[q], &w0);
                     stack[top].mask = rays_of[order[q]];
                     stack[top].t = t_of[order[q]];
                     __builtin_prefetch(blob + (stack[top].ref & WIDE8_OFFSET_MASK));
                 }
-                ref = wide8_child_ref_lgrec(nd, order[0], &w[0]);
+                ref = wide8_child_ref_lgrec(nd, order[0], &w0);
                 mask = rays_of[order[0]];
                 continue;
             }
@@ -99,14 +204,16 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
             /* Each record decoded once for every ray that reached it. */
             const uint8_t *leaf = blob + (ref & WIDE8_OFFSET_MASK);
             const uint32_t count = (uint32_t)(ref >> 56 & 0x7F);
+            lg_packet_ready(&pk, rays, mask);
             for (uint32_t k = 0; k < count; k++, leaf += LG_RECORD_BYTES) {
                 lg_decoded d;
                 lg_record_decode(leaf, &d);
                 for (uint32_t m = mask; m; m &= m - 1) {
                     const int i = __builtin_ctz(m);
-                    lg_record_hit(leaf, &d, &r[i], &c[i], &h[i]);
+                    lg_record_hit(leaf, &d, &pk.r[i], &pk.c[i], &h[i]);
                 }
             }
+            for (uint32_t m = mask; m; m &= m - 1) pk.tf[__builtin_ctz(m)] = h[__builtin_ctz(m)].t;
         }
         for (;;) { /* the next entry some ray of which can still find a nearer hit */
             if (top == 0) goto done;
@@ -125,12 +232,15 @@ done:
 }
 
 void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays, uint8_t *occluded, uint32_t n) {
-    prt__rayx r[LG_PACKET];
-    wide8_ray w[LG_PACKET];
-    lgrec_ray c[LG_PACKET];
-    float tfar[LG_PACKET];
-    lg_packet_rays(blob, sh, rays, n, r, w, c);
-    for (uint32_t i = 0; i < n; i++) occluded[i] = 0, tfar[i] = rays[i].tfar;
+    lg_packet pk;
+    wide8_ray w0;
+    lg_packet_init(&pk, sh, rays, n);
+    {
+        prt__rayx r0;
+        prt__rayx_init(&r0, &rays[0]);
+        wide8_ray_init(&w0, &r0, blob);
+    }
+    for (uint32_t i = 0; i < n; i++) occluded[i] = 0;
     struct {
         uint64_t ref;
         uint32_t mask;
@@ -143,12 +253,12 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
             const wide8_node *nd = (const wide8_node *)(blob + ref);
             uint32_t rays_of[8];
             float t_of[8];
-            const unsigned hit = lg_packet_node(nd, mask, w, tfar, rays_of, t_of);
+            const unsigned hit = lg_packet_node(nd, mask, &pk, rays_of, t_of);
             if (hit) { /* any order serves an any-hit query */
-                ref = wide8_child_ref_lgrec(nd, __builtin_ctz(hit), &w[0]);
+                ref = wide8_child_ref_lgrec(nd, __builtin_ctz(hit), &w0);
                 mask = rays_of[__builtin_ctz(hit)];
                 for (unsigned q = hit & (hit - 1); q; q &= q - 1, top++) {
-                    stack[top].ref = wide8_child_ref_lgrec(nd, __builtin_ctz(q), &w[0]);
+                    stack[top].ref = wide8_child_ref_lgrec(nd, __builtin_ctz(q), &w0);
                     stack[top].mask = rays_of[__builtin_ctz(q)];
                     __builtin_prefetch(blob + (stack[top].ref & WIDE8_OFFSET_MASK));
                 }
@@ -157,12 +267,13 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
         } else {
             const uint8_t *leaf = blob + (ref & WIDE8_OFFSET_MASK);
             const uint32_t count = (uint32_t)(ref >> 56 & 0x7F);
+            lg_packet_ready(&pk, rays, mask);
             for (uint32_t k = 0; k < count && mask; k++, leaf += LG_RECORD_BYTES) {
                 lg_decoded d;
                 lg_record_decode(leaf, &d);
                 for (uint32_t m = mask; m; m &= m - 1) {
                     const int i = __builtin_ctz(m);
-                    if (lg_record_blocks(&d, &r[i], &c[i], tfar[i])) occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
+                    if (lg_record_blocks(&d, &pk.r[i], &pk.c[i], pk.tf[i])) occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
                 }
             }
             if (!open) return;
