@@ -59,9 +59,18 @@ static void lg_intersect_packet(const prt_accel *a, prt_packet *p) {
     uint32_t idx[LG_PACKET], k = 0;
     prt_ray rays[LG_PACKET];
     prt_hit hits[LG_PACKET];
+    /* j-th ray in block order: block b of 16 at (bx, by) in blocks, pixel (x, y) inside it;
+     * counted without divisions, which cost more than the rest of this loop. */
+    uint32_t bx = 0, by = 0, in = 0;
     for (uint32_t j = 0; j < n; j++) {
-        /* j-th ray in block order: block b of 16, pixel (x, y) inside it */
-        const uint32_t i = blocks ? (j / 16 / (wd / 4) * 4 + j % 16 / 4) * wd + j / 16 % (wd / 4) * 4 + j % 4 : j;
+        uint32_t i = j;
+        if (blocks) {
+            i = (4 * by + in / 4) * wd + 4 * bx + in % 4;
+            if (++in == 16) {
+                in = 0;
+                if (++bx == wd / 4) bx = 0, by++;
+            }
+        }
         if (!prt__ray_valid(&p->rays[i])) {
             prt_intersect1(a, &p->rays[i], &p->hits[i]);
         } else {
