@@ -417,8 +417,9 @@ static void camera_packet(const prt_mesh *m, const float from[3], float fov, uin
 }
 
 /* Packets (prt_intersect_packet and prt_occluded_packet: nodes and records decoded once
- * for the packet) answer exactly as single rays, bit for bit: coherent camera tiles of several shapes, tiles
- * half off the model, rays with tfar cut short, invalid rays, and incoherent packets. */
+ * for the packet, slots culled by the packet's bounds) answer exactly as single rays, bit for
+ * bit: coherent camera tiles of several shapes, tiles half off the model, rays with tfar cut
+ * short, invalid rays, zero direction components, differing tnear, and incoherent packets. */
 TEST(test_lossygrid_packets_equal_single_rays) {
     const char *kinds[] = {"terrain", "torus", "canyon"};
     const char *specs[] = {"lossygrid", "lossygrid,ids=none,enc=oct"};
@@ -454,6 +455,10 @@ TEST(test_lossygrid_packets_equal_single_rays) {
                             if (tile == 5 && i % 3 == 0) rays[i].tfar = 0.5f * (float)(seed >> 40 & 255) / 64.0f;
                             if (tile == 7 && i % 5 == 1) rays[i].dir[0] = NAN;
                             if (tile == 8 && i % 4 == 2) rays[i].tnear = 2.0f, rays[i].tfar = 1.0f;
+                            /* A zero direction component (infinite inverse: the packet's
+                             * bounds test is off) and near distances that differ. */
+                            if (tile == 9 && i % 2 == 0) rays[i].dir[i % 6 / 2] = 0.0f;
+                            if (tile == 10) rays[i].tnear = 0.05f * (float)(i % 7);
                         }
                         memcpy(single, rays, n * sizeof *rays);
                         /* Any hit, on the camera rays and on shadow rays from their hits to a light. */
