@@ -46,6 +46,20 @@ static inline void lg_lanes(uint32_t mask, vi8 out[2]) {
     out[1] = (lg_vi8_set1((int32_t)(mask >> 8 & 0xFF)) & bit) != 0;
 }
 
+/* The rays whose closest hit so far is not nearer than t (tf[i] >= t). */
+static inline uint32_t lg_not_nearer(const lg_packet *pk, float t) {
+    const vf8 tt = vf8_set1(t);
+    return (uint32_t)vi8_mask(vf8_load(&pk->tf[0]) >= tt) | (uint32_t)vi8_mask(vf8_load(&pk->tf[8]) >= tt) << 8;
+}
+
+/* The header fields wide8's child_ref reads (the rest of a wide8_ray is per ray). */
+static inline void lg_header(wide8_ray *w, const uint8_t *blob) {
+    wide8_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    w->geometry = hd.geometry;
+    w->grain = hd.grain;
+}
+
 static void lg_packet_init(lg_packet *pk, const bvh_shared *sh, const prt_ray *rays, uint32_t n) {
     float o[3][LG_PACKET], d[3][LG_PACKET], tn[LG_PACKET];
     for (uint32_t i = 0; i < LG_PACKET; i++) {
@@ -161,11 +175,7 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
     wide8_ray w0; /* the blob's header fields for child_ref */
     prt__hitx h[LG_PACKET];
     lg_packet_init(&pk, sh, rays, n);
-    {
-        prt__rayx r0;
-        prt__rayx_init(&r0, &rays[0]);
-        wide8_ray_init(&w0, &r0, blob);
-    }
+    lg_header(&w0, blob);
     for (uint32_t i = 0; i < n; i++) h[i] = (prt__hitx){rays[i].tfar, 0, 0, PRT_INVALID};
     struct {
         uint64_t ref;
@@ -218,9 +228,7 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
         for (;;) { /* the next entry some ray of which can still find a nearer hit */
             if (top == 0) goto done;
             --top;
-            uint32_t keep = 0;
-            for (uint32_t m = stack[top].mask; m; m &= m - 1)
-                if (stack[top].t <= h[__builtin_ctz(m)].t) keep |= m & -m;
+            const uint32_t keep = stack[top].mask & lg_not_nearer(&pk, stack[top].t);
             if (keep) {
                 ref = stack[top].ref, mask = keep;
                 break;
@@ -235,11 +243,7 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
     lg_packet pk;
     wide8_ray w0;
     lg_packet_init(&pk, sh, rays, n);
-    {
-        prt__rayx r0;
-        prt__rayx_init(&r0, &rays[0]);
-        wide8_ray_init(&w0, &r0, blob);
-    }
+    lg_header(&w0, blob);
     for (uint32_t i = 0; i < n; i++) occluded[i] = 0;
     struct {
         uint64_t ref;
