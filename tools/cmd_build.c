@@ -10,12 +10,15 @@
 /* The out-of-core build allocates and frees arrays of hundreds of MB for every in-core
  * subtree. glibc returns such blocks to the kernel at once (mmap/munmap), so each subtree
  * faults every page in again: most of the 245 s of system time of the 354M Mandelbulb's
- * 690 s (docs/results/ooc.md). This process keeps them in its heap instead; the library
- * leaves its host's allocator alone. */
+ * 690 s (docs/results/ooc.md). This process keeps them in its heap instead: no block is
+ * mmapped, the heap is never trimmed, and one arena serves every thread (the kd build's
+ * worker threads otherwise get arenas of at most 64 MB, which mmap anything larger).
+ * The library leaves its host's allocator alone. */
 static void keep_freed_memory(void) {
 #if defined(__GLIBC__)
-    mallopt(M_MMAP_THRESHOLD, 1 << 30);
+    mallopt(M_MMAP_THRESHOLD, INT32_MAX);
     mallopt(M_TRIM_THRESHOLD, INT32_MAX);
+    mallopt(M_ARENA_MAX, 1);
 #endif
 }
 

@@ -10,6 +10,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -48,6 +49,7 @@ typedef struct builder {
     /* PRT_OOC_STATS=1: process CPU seconds by phase, printed to stderr at the end. */
     bool stats;
     double cpu_produce, cpu_sift, cpu_read, cpu_kd, cpu_layout, cpu_finish;
+    long faults_kd, faults_layout; /* minor page faults */
     unsigned sift_passes;
     uint64_t sifted;
 } builder;
@@ -57,6 +59,11 @@ static double cpu_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static long faults_now(void) {
+    struct rusage r;
+    return getrusage(RUSAGE_SELF, &r) ? 0 : r.ru_minflt;
 }
 
 static void box_empty(float b[6]) {
@@ -213,8 +220,10 @@ static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32
     spool_close(s);
     double c1 = cpu_now();
     ooc_tree t;
+    long f1 = faults_now();
     if (!st) st = ooc_kd_build(tris, s->count, cell, depth, b->p, &t);
     double c2 = cpu_now();
+    long f2 = faults_now();
     if (!st) {
         b->depth = PRT_MAX(b->depth, t.depth);
         st = ooc_writer_tree(b->w, &t, tris, depth, out);
@@ -222,6 +231,7 @@ static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32
     }
     double c3 = cpu_now();
     b->cpu_read += c1 - c0, b->cpu_kd += c2 - c1, b->cpu_layout += c3 - c2;
+    b->faults_kd += f2 - f1, b->faults_layout += faults_now() - f2;
     prt__free(tris);
     report(b, s->count);
     return st;
@@ -332,10 +342,12 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
         double lz4 = ooc_writer_compress_seconds(b.w), all = cpu_now() - c0, per = 1e6 / (double)PRT_MAX(built, 1);
         fprintf(stderr,
                 "ooc build CPU (s, us/tri): produce %.2f %.3f | sift %u passes over %.2f tris/tri %.2f %.3f | read %.2f %.3f | "
-                "kd %.2f %.3f | layout+looks %.2f %.3f (of which compression %.2f %.3f) | finish %.2f | all %.2f %.3f\n",
+                "kd %.2f %.3f | layout+looks %.2f %.3f (of which compression %.2f %.3f) | finish %.2f | all %.2f %.3f\n"
+                "ooc build page faults: kd %ld | layout+looks %ld | all %ld\n",
                 b.cpu_produce, b.cpu_produce * per, b.sift_passes, (double)b.sifted / (double)PRT_MAX(built, 1), b.cpu_sift,
                 b.cpu_sift * per, b.cpu_read, b.cpu_read * per, b.cpu_kd, b.cpu_kd * per, b.cpu_layout + b.cpu_finish - lz4,
-                (b.cpu_layout + b.cpu_finish - lz4) * per, lz4, lz4 * per, b.cpu_finish, all, all * per);
+                (b.cpu_layout + b.cpu_finish - lz4) * per, lz4, lz4 * per, b.cpu_finish, all, all * per, b.faults_kd,
+                b.faults_layout, faults_now());
     }
     spool_close(&b.root);
     prt__free(root);
