@@ -180,11 +180,12 @@ static bool choose_split(const ctx *c, const summary *m, size_t n, const float c
         for (int i = 0; i < BINS; i++) {
             float s = lo + ext * (float)i / BINS;
             float al = (s - lo) * side + face, ar = (hi - s) * side + face;
+            float sah = COST_TRAVERSE + COST_INTERSECT * (al * (float)nl[i] + ar * (float)nr[i]) / area;
             pos[i] = s;
-            cost[i] = COST_TRAVERSE + COST_INTERSECT * (al * (float)nl[i] + ar * (float)nr[i]) / area;
+            cost[i] = nl[i] < n || nr[i] < n ? sah : INFINITY; /* a plane that separates nothing never wins */
         }
         for (int i = 1; i < BINS; i++)
-            if (cost[i] < best_cost && (nl[i] < n || nr[i] < n)) best_cost = cost[i], best_axis = k, best_split = pos[i];
+            if (cost[i] < best_cost) best_cost = cost[i], best_axis = k, best_split = pos[i];
     }
     if (best_axis >= 0) {
         *axis_out = best_axis, *split_out = best_split;
@@ -266,12 +267,7 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
         prt__free(refs);
         return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
     }
-    summary *sm = prt__alloc(2 * sizeof *sm);
-    if (!sm) {
-        if (side[1] != refs) prt__free(side[1]);
-        prt__free(refs);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting a kd-tree node of %zu triangles", n);
-    }
+    summary sm[2]; /* on the stack: the tasks that read it end before this call does */
     summary_init(&sm[0], box[0]), summary_init(&sm[1], box[1]);
     gather g0 = gather_begin(&sm[0]), g1 = gather_begin(&sm[1]);
     size_t c0 = 0, c1 = 0;
@@ -300,7 +296,7 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
      * both sides then hold every item, the left one in refs unchanged but for a bound
      * clipped to the plane, so the leaf takes the right side's references (same order). */
     if (cnt[0] == n && cnt[1] == n) {
-        prt__free(refs), prt__free(sm);
+        prt__free(refs);
         return make_leaf(t, side[1], n, cell, out);
     }
 
@@ -319,7 +315,6 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
             }
         }
 #pragma omp taskwait
-        prt__free(sm);
         prt_status s = st[0] ? st[0] : st[1];
         if (!s) s = push_node(t, out);
         for (int k = 0; k < 2 && !s; k++) s = graft(t, &sub[k], &kid[k]);
@@ -328,14 +323,13 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
     } else {
         prt_status s = push_node(t, out);
         if (s) {
-            prt__free(side[0]), prt__free(side[1]), prt__free(sm);
+            prt__free(side[0]), prt__free(side[1]);
             return s;
         }
         for (int k = 0; k < 2; k++) {
             if (!st[0]) st[k] = build_node(c, t, side[k], cnt[k], box[k], &sm[k], depth + 1, &kid[k]);
             else prt__free(side[k]);
         }
-        prt__free(sm);
         if (st[0] || st[1]) return st[0] ? st[0] : st[1];
     }
     ooc_bnode *nd = &t->nodes[*out];
