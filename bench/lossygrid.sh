@@ -7,7 +7,8 @@
 #   BUILD=dir (default build), OUT=dir to keep the meshes and JSON (default a temp dir; JSON
 #   files already there are reported too, so a 40M run can be added to a kept one),
 #   REPS=n (default 5), KINDS="terrain canyon torus", REAL=0 to skip ../shared/data,
-#   RESULTS=file (default docs/results/lossygrid.md)
+#   RESULTS=file (default docs/results/lossygrid.md), SPECS="spec ..." to bench only these
+#   representations (default: the three encodings, ids=mesh and three triangle BVHs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${BUILD:-build}
@@ -22,6 +23,10 @@ if [ ! -x "$build/packrt" ]; then
 fi
 specs=(-r lossygrid,ids=none -r lossygrid -r lossygrid,enc=oct,ids=none -r lossygrid,enc=exp,ids=none
        -r wide8:float3-soa8 -r quad:idx32-soa4 -r wide8:idx8-bitpack-soa4,ids=none)
+if [ -n "${SPECS:-}" ]; then
+  specs=()
+  for s in $SPECS; do specs+=(-r "$s"); done
+fi
 meshes=()
 for n in $sizes; do
   for k in ${KINDS:-terrain canyon torus}; do
