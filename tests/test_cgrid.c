@@ -456,9 +456,9 @@ TEST(test_damaged_files_are_errors_never_crashes) {
     prt_mesh_free(m);
 }
 
-/* Above CG_BUILD_GRAIN triangles the build runs on several threads (atomic counts and
- * scatter, then a per-cell sort): the grid must be the one a single thread builds, byte for
- * byte in its file, and answer the same. */
+/* Above CG_BUILD_GRAIN triangles a thread the build runs on several threads, each owning a
+ * slab of z slices of cells (build.c): the grid must be the one a single thread builds, byte
+ * for byte in its file, with the same macrocell flags, and answer the same. */
 static size_t file_bytes(const char *path, uint8_t **out) {
     FILE *f = fopen(path, "rb");
     if (!f) return 0;
@@ -471,31 +471,84 @@ static size_t file_bytes(const char *path, uint8_t **out) {
     return n;
 }
 
+/* Saved sections after the header (whose build time differs). */
+static size_t saved_body(prt_accel *a, uint8_t **out) {
+    char path[] = "/tmp/test_cgrid_par_XXXXXX";
+    int fd = mkstemp(path);
+    if (fd >= 0) close(fd);
+    CHECK_OK(prt_accel_save(a, path));
+    size_t n = file_bytes(path, out);
+    unlink(path);
+    return n;
+}
+
+/* The macrocell flags the build set in its prefix-sum pass equal the definition (§2.4): a
+ * block is occupied when any cell below holds a reference, read from the cell starts. */
+static size_t macro_flags_wrong(const prt_accel *a) {
+    const cg_grid *g = &((const cg_accel *)a)->g;
+    size_t wrong = 0;
+    if (!g->macro) return 0;
+    for (uint32_t mz = 0; mz < g->mres[2]; mz++)
+        for (uint32_t my = 0; my < g->mres[1]; my++)
+            for (uint32_t mx = 0; mx < g->mres[0]; mx++) {
+                bool occ = false;
+                for (uint32_t z = mz * g->macro; z < (mz + 1) * g->macro && z < g->res[2]; z++)
+                    for (uint32_t y = my * g->macro; y < (my + 1) * g->macro && y < g->res[1]; y++)
+                        for (uint32_t x = mx * g->macro; x < (mx + 1) * g->macro && x < g->res[0]; x++) {
+                            size_t c = ((size_t)z * g->res[1] + y) * g->res[0] + x;
+                            occ |= g->cell_start[c + 1] != g->cell_start[c];
+                        }
+                wrong += g->mflags[((size_t)mz * g->mres[1] + my) * g->mres[0] + mx] != occ;
+            }
+    return wrong;
+}
+
+static void expect_thread_counts_agree(const prt_mesh *m, const float *moved, const char *spec, const char *what) {
+    static const int counts[] = {1, 2, 3, 7};
+    prt_accel *a[4] = {NULL};
+    uint8_t *body[4] = {NULL};
+    size_t len[4] = {0};
+    for (int k = 0; k < 4; k++) {
+        prt_build_options o = {.threads = counts[k]};
+        CHECK_OK(prt_build(m, spec, &o, &a[k]));
+        if (!a[k]) continue;
+        CHECK_MSG(macro_flags_wrong(a[k]) == 0, "%s, %d threads, built: macrocell flags wrong", what, counts[k]);
+        CHECK_OK(prt_accel_update(a[k], moved));
+        CHECK_MSG(macro_flags_wrong(a[k]) == 0, "%s, %d threads, updated: macrocell flags wrong", what, counts[k]);
+        len[k] = saved_body(a[k], &body[k]);
+    }
+    for (int k = 1; k < 4; k++)
+        CHECK_MSG(len[k] == len[0] && len[0] > 256 && body[k] && body[0] && !memcmp(body[0] + 256, body[k] + 256, len[0] - 256),
+                  "%s: the file of %d threads (%zu bytes) differs from one thread's (%zu bytes)", what, counts[k], len[k],
+                  len[0]);
+    for (int k = 0; k < 4; k++) prt_accel_free(a[k]), free(body[k]);
+}
+
 TEST(test_parallel_build_equals_single_thread_build) {
-    prt_mesh *m = mesh_grid(400); /* 320k triangles */
-    CHECK(m->triangle_count > CG_BUILD_GRAIN); /* so two threads build it */
+    /* A deformed grid (refs spread over many z slices), the same grid flat (every
+     * reference in one z slice: one thread's slab holds all), and a soup with degenerate
+     * triangles, each over several build threads. */
+    prt_mesh *m = mesh_grid(150); /* 45k triangles */
+    CHECK(m->triangle_count > 2 * CG_BUILD_GRAIN); /* so several threads build it */
+    prt_mesh *moved = mesh_transformed(m, 1.0f, 0.0f);
+    deform(m, 0.9f, moved->vertices);
+    expect_thread_counts_agree(m, moved->vertices, "cgrid", "deformed grid");
+    expect_thread_counts_agree(m, moved->vertices, "cgrid,lambda=2,macro=5", "deformed grid, lambda 2, macro 5");
+    expect_thread_counts_agree(moved, m->vertices, "cgrid,macro=0", "flat grid, no macrocells");
+    prt_mesh *soup = mesh_random_soup(3 * CG_BUILD_GRAIN, 21);
+    for (size_t t = 0; t < soup->triangle_count; t += 97) /* collapse some: never inserted */
+        memcpy(soup->vertices + 3 * soup->triangles[3 * t + 1], soup->vertices + 3 * soup->triangles[3 * t], 12);
+    prt_mesh *soup2 = mesh_transformed(soup, 0.8f, 0.1f);
+    expect_thread_counts_agree(soup, soup2->vertices, "cgrid,macro=3", "soup with degenerate triangles");
+
+    /* The answers agree too. */
     prt_build_options one = {.threads = 1}, two = {.threads = 2};
     prt_accel *a = NULL, *b = NULL;
     CHECK_OK(prt_build(m, "cgrid", &one, &a));
     CHECK_OK(prt_build(m, "cgrid", &two, &b));
     if (a && b) {
-        /* Move the mesh, update both, compare the files and some hits. */
-        prt_mesh *moved = mesh_transformed(m, 1.0f, 0.0f);
-        deform(m, 0.9f, moved->vertices);
         CHECK_OK(prt_accel_update(a, moved->vertices));
         CHECK_OK(prt_accel_update(b, moved->vertices));
-        char pa[] = "/tmp/test_cgrid_t1_XXXXXX", pb[] = "/tmp/test_cgrid_t2_XXXXXX";
-        int fa = mkstemp(pa), fb = mkstemp(pb);
-        if (fa >= 0) close(fa);
-        if (fb >= 0) close(fb);
-        CHECK_OK(prt_accel_save(a, pa));
-        CHECK_OK(prt_accel_save(b, pb));
-        uint8_t *da = NULL, *db = NULL;
-        size_t na = file_bytes(pa, &da), nb = file_bytes(pb, &db);
-        /* The header's build time differs; the sections after it must not. */
-        CHECK_MSG(na == nb && na > 256 && !memcmp(da + 256, db + 256, na - 256), "files of %zu and %zu bytes differ", na, nb);
-        free(da), free(db);
-        unlink(pa), unlink(pb);
         prt_ray *rays = rays_random(moved, 2000, 8);
         size_t wrong = 0;
         for (size_t i = 0; i < 2000; i++) {
@@ -507,10 +560,12 @@ TEST(test_parallel_build_equals_single_thread_build) {
         }
         CHECK_MSG(wrong == 0, "%zu rays differ", wrong);
         free(rays);
-        prt_mesh_free(moved);
     }
     prt_accel_free(a);
     prt_accel_free(b);
+    prt_mesh_free(soup2);
+    prt_mesh_free(soup);
+    prt_mesh_free(moved);
     prt_mesh_free(m);
 }
 

@@ -1,24 +1,27 @@
 /* The per-frame grid rebuild (Wald et al. 2006 §3): from scratch, from vertex positions,
  * in parallel, into pooled buffers that only grow, so an animation allocates nothing after
- * its first frames.
- *   1. per triangle: gather its vertices (the triangle test reads 36 contiguous bytes),
- *      mark exactly degenerate ones (never hit, never inserted), bound the rest;
- *   2. resolution: cubic cells, about lambda * N of them (N = triangles that can be hit);
- *   3. count the cells each triangle's bounding box overlaps (atomic increments), prefix
- *      sum, scatter the ids (atomic decrements from each cell's end);
- *   4. macrocells: one flag per M x M x M block, set when any cell below is occupied. */
+ * its first frames. One parallel region with two barriers:
+ *   A. per triangle (threads split the triangles): gather its vertices (the triangle test
+ *      reads 36 contiguous bytes), mark exactly degenerate ones (never hit, never
+ *      inserted), bound the rest;                                              barrier
+ *   B. every thread chooses the same resolution from the summed bounds (cubic cells,
+ *      about lambda * N of them); per triangle (the same split): its cell range, 4 lanes
+ *      at a time, and the references it adds to each z slice of cells;        barrier
+ *   C. the z slices are cut into one slab of consecutive slices per thread, balanced by
+ *      the references counted in B; each thread owns its slab's cells: it counts the
+ *      references of every triangle reaching into it, sets the macrocell flags (§2.4)
+ *      there, turns its counts into cell starts (its first offset is known from B), and
+ *      scatters the ids walking the triangles backwards, so every cell holds ascending
+ *      ids and the grid is the same for any thread count. No atomics, no sorting; a
+ *      thread writes only its own cells, references and scratch. */
 #include "cgrid/cgrid.h"
 #include "cgrid/wald_tri.h"
+#include "core/simd.h"
 #include "mesh/mesh.h"
 
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
-
-static int cmp_u32(const void *a, const void *b) {
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
-}
 
 static prt_status grow(void **p, size_t *cap, size_t need, size_t elem) {
     if (need <= *cap) return PRT_OK;
@@ -29,14 +32,6 @@ static prt_status grow(void **p, size_t *cap, size_t need, size_t elem) {
     *p = q;
     *cap = n;
     return PRT_OK;
-}
-
-static inline void tri_box(const float *t, float lo[3], float hi[3]) {
-    for (int k = 0; k < 3; k++) {
-        float a = t[k], b = t[3 + k], c = t[6 + k];
-        lo[k] = cg_min(a, cg_min(b, c));
-        hi[k] = cg_max(a, cg_max(b, c));
-    }
 }
 
 /* Resolution from lambda * n cells of cubic shape over bounds lo..hi. */
@@ -72,13 +67,8 @@ static void choose_resolution(cg_grid *g, const float lo[3], const float hi[3], 
     g->ncells = (size_t)g->res[0] * g->res[1] * g->res[2];
 }
 
-prt_status cg_macro_flags(cg_accel *c, int threads) {
-    cg_grid *g = &c->g;
-    const int nt = prt__threads(threads);
-    const uint32_t *start = g->cell_start;
-    prt_status s;
-    uint32_t M = (uint32_t)c->opt.macro;
-    cg_pool *pl = &c->pool;
+/* Macrocell resolution for block size M (0: none). */
+static void macro_dims(cg_grid *g, uint32_t M) {
     g->macro = M;
     if (M) {
         for (int k = 0; k < 3; k++) g->mres[k] = (g->res[k] + M - 1) / M;
@@ -87,6 +77,17 @@ prt_status cg_macro_flags(cg_accel *c, int threads) {
         g->mres[0] = g->mres[1] = g->mres[2] = 0;
         g->nmacro = 0;
     }
+}
+
+/* Macrocell flags from the cell starts (a loaded grid; the rebuild sets them in pass C). */
+prt_status cg_macro_flags(cg_accel *c, int threads) {
+    cg_grid *g = &c->g;
+    const int nt = prt__threads(threads);
+    const uint32_t *start = g->cell_start;
+    prt_status s;
+    uint32_t M = (uint32_t)c->opt.macro;
+    cg_pool *pl = &c->pool;
+    macro_dims(g, M);
     if ((s = grow((void **)&pl->mflags, &pl->cap_macro, g->nmacro ? g->nmacro : 1, 1))) return s;
     uint8_t *mf = pl->mflags;
     if (M) {
@@ -123,142 +124,266 @@ prt_status cg_wald_rebuild(cg_accel *c, int threads) {
     return PRT_OK;
 }
 
+/* prt__triangle_degenerate (mesh.c), the repo's rule for a triangle that is never hit,
+ * inlined here where it runs for every triangle of every frame: exactly zero area,
+ * decided in double. It must stay the same expression. */
+static inline bool degenerate(const float *a, const float *b, const float *c) {
+    double e1[3], e2[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = (double)b[k] - (double)a[k];
+        e2[k] = (double)c[k] - (double)a[k];
+    }
+    double nx = e1[1] * e2[2] - e1[2] * e2[1];
+    double ny = e1[2] * e2[0] - e1[0] * e2[2];
+    double nz = e1[0] * e2[1] - e1[1] * e2[0];
+    return nx == 0.0 && ny == 0.0 && nz == 0.0;
+}
+
+/* Per-thread scratch of the parallel build, one block of CG_TBLOCK bytes each (a multiple
+ * of the cache line, so no two threads write the same line): the thread's bounds and
+ * count of buildable triangles (pass A); the references its triangles add to each z
+ * slice, as differences (zdiff[z0] += r, zdiff[z1 + 1] -= r; pass B); and the running
+ * weight of the slices, which it sums from every thread's differences (pass C). */
+typedef struct cg_tstate {
+    float lo[4], hi[4];
+    uint64_t built;
+    uint8_t pad[24];
+} cg_tstate;
+_Static_assert(sizeof(cg_tstate) == 64, "one cache line");
+#define CG_ZLEN (CG_MAX_RES + 8u) /* 8-byte entries an array (res[2] + 1 used), a multiple of 8 */
+#define CG_TBLOCK (sizeof(cg_tstate) + 2 * 8 * (size_t)CG_ZLEN)
+
+static inline cg_tstate *tstate(uint8_t *scratch, int t) { return (cg_tstate *)(scratch + (size_t)t * CG_TBLOCK); }
+static inline int64_t *tzdiff(uint8_t *scratch, int t) {
+    return (int64_t *)(scratch + (size_t)t * CG_TBLOCK + sizeof(cg_tstate));
+}
+static inline uint64_t *tcum(uint8_t *scratch, int t) {
+    return (uint64_t *)(scratch + (size_t)t * CG_TBLOCK + sizeof(cg_tstate) + 8 * (size_t)CG_ZLEN);
+}
+
+/* x / M for x < CG_MAX_RES and 1 <= M <= 32 without a division: with mrec = ceil(2^24 / M)
+ * = (2^24 + e) / M, e < M, x * mrec / 2^24 exceeds x / M by x * e / (M 2^24) < 1 / M while
+ * x * M <= 2^24, too little to reach the next integer. */
+_Static_assert((uint64_t)CG_MAX_RES * 32 <= (1u << 24), "mdiv is exact");
+static inline uint32_t mdiv(uint32_t x, uint64_t mrec) { return (uint32_t)((x * mrec) >> 24); }
+
+/* The first z slice of slab j of nt, given cum[z] = weight of the slices below z: the
+ * slice where the running weight first reaches j / nt of the total. Every thread computes
+ * the same cuts from the same weights. */
+static uint32_t slab_cut(const uint64_t *cum, uint32_t rz, int j, int nt) {
+    if (j <= 0) return 0;
+    if (j >= nt) return rz;
+    const uint64_t w = cum[rz], q = (uint64_t)nt, k = (uint64_t)j;
+    const uint64_t goal = w / q * k + w % q * k / q; /* w * j / nt without overflow */
+    uint32_t a = 0, b = rz; /* the smallest z with cum[z] >= goal */
+    while (a < b) {
+        uint32_t m = a + (b - a) / 2;
+        if (cum[m] < goal) a = m + 1;
+        else b = m;
+    }
+    return a;
+}
+
 prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     cg_grid *g = &c->g;
     cg_pool *pl = &c->pool;
     const size_t n = c->ntris;
-    /* One thread per CG_BUILD_GRAIN triangles at most: below that, waking and joining a
-     * team cost more than the work on the shared 2-core machine we measured on (kitchen,
-     * 110k triangles: 3.9 ms on one thread, 12.6 ms on two; docs/results/cgrid.md). */
+    /* At most one thread per CG_BUILD_GRAIN triangles: below that a second thread costs
+     * more in waking and barriers than it saves (docs/results/cgrid.md). */
     int nt = prt__threads(threads);
     if ((size_t)nt > n / CG_BUILD_GRAIN + 1) nt = (int)(n / CG_BUILD_GRAIN + 1);
     prt_status s;
-    if ((s = grow((void **)&pl->tris, &pl->cap_tris, 9 * n, sizeof(float)))) return s;
+    /* 3 floats of slack: pass B reads each gathered vertex as 4 floats. */
+    if ((s = grow((void **)&pl->tris, &pl->cap_tris, 9 * n + 3, sizeof(float))) ||
+        (s = grow((void **)&pl->ranges, &pl->cap_ranges, 6 * n, sizeof(uint16_t))) ||
+        (s = grow((void **)&pl->scratch, &pl->cap_scratch, (size_t)nt * CG_TBLOCK + 64, 1)))
+        return s;
     float *tris = pl->tris;
-
-    /* 1. Gather, degenerate flags, bounds. */
-    float blo[3] = {INFINITY, INFINITY, INFINITY}, bhi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    size_t built = 0;
+    uint16_t *ranges = pl->ranges;
+    uint8_t *scratch = (uint8_t *)(((uintptr_t)pl->scratch + 63) & ~(uintptr_t)63);
     const uint32_t *idx = c->indices;
+    const int lambda = c->opt.lambda;
+    const uint32_t M = (uint32_t)c->opt.macro;
+    const cg_grid g0 = *g; /* what every thread starts its own copy of the grid from */
+    /* Written by thread 0 only, read by the others after a barrier or after the region. */
+    prt_status status_b = PRT_OK, status_c = PRT_OK;
+    uint64_t total_refs = 0, built = 0;
+    float blo[3] = {0, 0, 0}, bhi[3] = {0, 0, 0};
+
 #pragma omp parallel num_threads(nt)
     {
-        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        size_t cnt = 0;
-#pragma omp for schedule(static)
-        for (size_t t = 0; t < n; t++) {
+        const int me = omp_get_thread_num(), team = omp_get_num_threads();
+        const size_t t_lo = n * (size_t)me / (size_t)team, t_hi = n * (size_t)(me + 1) / (size_t)team;
+
+        /* A. Gather, degenerate flags, bounds. The vertices go through registers (w) so
+         * that no load reaches into a triangle another thread is writing. */
+        vf4 lo4 = vf4_set1(INFINITY), hi4 = vf4_set1(-INFINITY);
+        uint64_t cnt = 0;
+        for (size_t t = t_lo; t < t_hi; t++) {
             float *d = tris + 9 * t;
             const uint32_t *i = idx + 3 * t;
-            for (int v = 0; v < 3; v++) memcpy(d + 3 * v, vertices + 3 * (size_t)i[v], 3 * sizeof(float));
-            if (i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || prt__triangle_degenerate(d, d + 3, d + 6)) {
+            float w[12];
+            for (int v = 0; v < 3; v++) {
+                memcpy(w + 4 * v, vertices + 3 * (size_t)i[v], 3 * sizeof(float));
+                w[4 * v + 3] = 0.0f;
+            }
+            if (i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || degenerate(w, w + 4, w + 8)) {
                 for (int k = 0; k < 9; k++) d[k] = NAN; /* never hits, never inserted */
                 continue;
             }
+            for (int v = 0; v < 3; v++) memcpy(d + 3 * v, w + 4 * v, 3 * sizeof(float));
             cnt++;
-            float a[3], b[3];
-            tri_box(d, a, b);
-            for (int k = 0; k < 3; k++) lo[k] = cg_min(lo[k], a[k]), hi[k] = cg_max(hi[k], b[k]);
+            vf4 a = vf4_load(w), b = vf4_load(w + 4), e = vf4_load(w + 8);
+            lo4 = vf4_min(lo4, vf4_min(a, vf4_min(b, e)));
+            hi4 = vf4_max(hi4, vf4_max(a, vf4_max(b, e)));
         }
-#pragma omp critical(cgrid_bounds)
+        cg_tstate *ts = tstate(scratch, me);
+        memcpy(ts->lo, &lo4, sizeof ts->lo);
+        memcpy(ts->hi, &hi4, sizeof ts->hi);
+        ts->built = cnt;
+#pragma omp barrier
+
+        /* B. The same resolution on every thread (the same operations on the same data),
+         * then the cell range of each of this thread's triangles and its references per
+         * z slice. */
+        float glo_b[3] = {INFINITY, INFINITY, INFINITY}, ghi_b[3] = {-INFINITY, -INFINITY, -INFINITY};
+        uint64_t nbuilt = 0;
+        for (int j = 0; j < team; j++) {
+            const cg_tstate *o = tstate(scratch, j);
+            nbuilt += o->built;
+            for (int k = 0; k < 3; k++) glo_b[k] = cg_min(glo_b[k], o->lo[k]), ghi_b[k] = cg_max(ghi_b[k], o->hi[k]);
+        }
+        if (!nbuilt)
+            for (int k = 0; k < 3; k++) glo_b[k] = 0, ghi_b[k] = 0;
+        cg_grid lg = g0;
+        choose_resolution(&lg, glo_b, ghi_b, (size_t)nbuilt, lambda);
+        macro_dims(&lg, M);
+        if (me == 0) {
+            /* Only thread 0 touches the pool here; the others use these arrays after the
+             * barrier. */
+            if ((status_b = grow((void **)&pl->cell_start, &pl->cap_cells, lg.ncells + 1, sizeof(uint32_t))) == PRT_OK &&
+                (status_b = grow((void **)&pl->mflags, &pl->cap_macro, lg.nmacro ? lg.nmacro : 1, 1)) == PRT_OK)
+                memset(pl->mflags, 0, lg.nmacro);
+            *g = lg;
+            built = nbuilt;
+            memcpy(blo, glo_b, sizeof blo);
+            memcpy(bhi, ghi_b, sizeof bhi);
+        }
+        const uint32_t rz = lg.res[2];
+        int64_t *zd = tzdiff(scratch, me);
+        memset(zd, 0, (rz + 1) * sizeof *zd);
         {
-            built += cnt;
-            for (int k = 0; k < 3; k++) blo[k] = cg_min(blo[k], lo[k]), bhi[k] = cg_max(bhi[k], hi[k]);
-        }
-    }
-    if (!built)
-        for (int k = 0; k < 3; k++) blo[k] = 0, bhi[k] = 0;
-
-    /* 2. Resolution. */
-    choose_resolution(g, blo, bhi, built, c->opt.lambda);
-
-    /* 3. Count, prefix sum, scatter. Cell ranges are computed once into the pool (6 x 16
-     * bits a triangle; CG_MAX_RES fits) and read back by the scatter; grid constants are
-     * copied to locals so the stores into start[] cannot make the compiler reload them. */
-    if ((s = grow((void **)&pl->cell_start, &pl->cap_cells, g->ncells + 1, sizeof(uint32_t))) ||
-        (s = grow((void **)&pl->ranges, &pl->cap_ranges, 6 * n, sizeof(uint16_t))))
-        return s;
-    uint32_t *start = pl->cell_start;
-    uint16_t *ranges = pl->ranges;
-    memset(start, 0, (g->ncells + 1) * sizeof(uint32_t));
-    uint64_t total = 0;
-    const float glo[3] = {g->lo[0], g->lo[1], g->lo[2]}, ginv = g->inv_cell;
-    const float gtop[3] = {(float)(g->res[0] - 1), (float)(g->res[1] - 1), (float)(g->res[2] - 1)};
-    const size_t rx = g->res[0], rxy = (size_t)g->res[0] * g->res[1];
-#pragma omp parallel for num_threads(nt) schedule(static) reduction(+ : total)
-    for (size_t t = 0; t < n; t++) {
-        const float *d = tris + 9 * t;
-        uint16_t *rg = ranges + 6 * t;
-        if (isnan(d[0])) {
-            rg[0] = 1, rg[3] = 0; /* empty range: never inserted */
-            continue;
-        }
-        uint32_t c0[3], c1[3];
-        for (int k = 0; k < 3; k++) {
-            float lo = cg_min(d[k], cg_min(d[3 + k], d[6 + k])), hi = cg_max(d[k], cg_max(d[3 + k], d[6 + k]));
-            float a = (lo - glo[k]) * ginv - CG_INSERT_MARGIN, b = (hi - glo[k]) * ginv + CG_INSERT_MARGIN;
-            a = cg_min(cg_max(a, 0.0f), gtop[k]);
-            b = cg_min(cg_max(b, 0.0f), gtop[k]);
-            c0[k] = (uint32_t)a, c1[k] = (uint32_t)b;
-            rg[k] = (uint16_t)c0[k], rg[3 + k] = (uint16_t)c1[k];
-        }
-        total += (uint64_t)(c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1);
-        if (total > UINT32_MAX) continue; /* reported below; stop writing counts that wrap */
-        for (uint32_t z = c0[2]; z <= c1[2]; z++)
-            for (uint32_t y = c0[1]; y <= c1[1]; y++) {
-                uint32_t *row = start + z * rxy + y * rx;
-                if (nt == 1)
-                    for (uint32_t x = c0[0]; x <= c1[0]; x++) row[x]++;
-                else
-                    for (uint32_t x = c0[0]; x <= c1[0]; x++) __atomic_fetch_add(&row[x], 1u, __ATOMIC_RELAXED);
+            const vf4 glo = {lg.lo[0], lg.lo[1], lg.lo[2], 0}, ginv = vf4_set1(lg.inv_cell);
+            /* Lane 3 clamps to [0, 0]: it holds the next vertex's x, possibly NaN. */
+            const vf4 top = {(float)(lg.res[0] - 1), (float)(lg.res[1] - 1), (float)(lg.res[2] - 1), 0};
+            const vf4 zero = vf4_set1(0.0f), margin = vf4_set1(CG_INSERT_MARGIN);
+            for (size_t t = t_lo; t < t_hi; t++) {
+                const float *d = tris + 9 * t;
+                uint16_t *rg = ranges + 6 * t;
+                if (isnan(d[0])) {
+                    rg[0] = rg[1] = rg[2] = 1, rg[3] = rg[4] = rg[5] = 0; /* empty range: never inserted */
+                    continue;
+                }
+                /* The scalar order of operations: min of the three, then (lo - corner) *
+                 * inv_cell -/+ margin, clamped to the grid, truncated. */
+                vf4 a = vf4_load(d), b = vf4_load(d + 3), e = vf4_load(d + 6);
+                vf4 lo = vf4_min(a, vf4_min(b, e)), hi = vf4_max(a, vf4_max(b, e));
+                vf4 ca = (lo - glo) * ginv - margin, cb = (hi - glo) * ginv + margin;
+                ca = vf4_min(vf4_max(ca, zero), top);
+                cb = vf4_min(vf4_max(cb, zero), top);
+                vi4 ia = __builtin_convertvector(ca, vi4), ib = __builtin_convertvector(cb, vi4);
+                for (int k = 0; k < 3; k++) rg[k] = (uint16_t)ia[k], rg[3 + k] = (uint16_t)ib[k];
+                int64_t area = (int64_t)(ib[0] - ia[0] + 1) * (ib[1] - ia[1] + 1);
+                zd[ia[2]] += area;
+                zd[ib[2] + 1] -= area;
             }
+        }
+#pragma omp barrier
+
+        /* C. Slabs of z slices, balanced by references plus an eighth of the cells (a
+         * reference costs a count and a scatter, a cell a clear and a prefix-sum step). */
+        const size_t rx = lg.res[0], rxy = (size_t)lg.res[0] * lg.res[1];
+        const uint64_t cell_w = rxy / 8;
+        uint64_t *cum = tcum(scratch, me);
+        int64_t slice_refs = 0;
+        cum[0] = 0;
+        for (uint32_t z = 0; z < rz; z++) {
+            for (int j = 0; j < team; j++) slice_refs += tzdiff(scratch, j)[z];
+            cum[z + 1] = cum[z] + (uint64_t)slice_refs + cell_w;
+        }
+        const uint64_t nrefs = cum[rz] - rz * cell_w;
+        const bool too_many = nrefs > UINT32_MAX - 1;
+        if (me == 0) total_refs = nrefs;
+        bool ok = status_b == PRT_OK && !too_many;
+        if (ok && PRT_MAX(nrefs, 1) > pl->cap_refs) { /* the same decision on every thread */
+#pragma omp barrier
+            if (me == 0) status_c = grow((void **)&pl->refs, &pl->cap_refs, (size_t)PRT_MAX(nrefs, 1), sizeof(uint32_t));
+#pragma omp barrier
+            ok = status_c == PRT_OK;
+        }
+        if (ok) {
+            const uint32_t zlo = slab_cut(cum, rz, me, team), zhi = slab_cut(cum, rz, me + 1, team);
+            uint32_t *start = pl->cell_start, *refs = pl->refs;
+            uint8_t *mf = pl->mflags;
+            const uint32_t mx = lg.mres[0], mxy = lg.mres[0] * lg.mres[1];
+            const uint64_t mrec = M ? ((1u << 24) + M - 1) / M : 0;
+            memset(start + zlo * rxy, 0, (zhi - zlo) * rxy * sizeof *start);
+            for (size_t t = 0; zlo < zhi && t < n; t++) {
+                const uint16_t *rg = ranges + 6 * t;
+                const uint32_t z0 = PRT_MAX((uint32_t)rg[2], zlo), z1 = PRT_MIN((uint32_t)rg[5], zhi - 1);
+                if (z0 > z1) continue;
+                for (uint32_t z = z0; z <= z1; z++)
+                    for (uint32_t y = rg[1]; y <= rg[4]; y++) {
+                        uint32_t *row = start + z * rxy + y * rx;
+                        for (uint32_t x = rg[0]; x <= rg[3]; x++) row[x]++;
+                    }
+            }
+            /* Inclusive prefix sum: start[c] = end of cell c; the scatter decrements it to
+             * the cell's start. The slab's first offset: the references of the slices below.
+             * Row by row, M cells at a time: a block whose sum grows sets its macrocell's
+             * flag (§2.4), which may be shared with the next slab's thread, so the store is
+             * atomic (both store 1; thread 0 cleared the flags before the last barrier). */
+            uint32_t run = (uint32_t)(cum[zlo] - zlo * cell_w);
+            for (size_t z = zlo; z < zhi; z++)
+                for (size_t y = 0; y < lg.res[1]; y++) {
+                    uint32_t *row = start + z * rxy + y * rx;
+                    if (!M) {
+                        for (size_t x = 0; x < rx; x++) run += row[x], row[x] = run;
+                        continue;
+                    }
+                    uint8_t *mrow = mf + mdiv((uint32_t)z, mrec) * mxy + mdiv((uint32_t)y, mrec) * mx;
+                    for (size_t x0 = 0, b = 0; x0 < rx; x0 += M, b++) {
+                        const uint32_t before = run;
+                        for (size_t x = x0; x < PRT_MIN(x0 + M, rx); x++) run += row[x], row[x] = run;
+                        if (run != before) __atomic_store_n(&mrow[b], (uint8_t)1, __ATOMIC_RELAXED);
+                    }
+                }
+            if (me == team - 1) start[lg.ncells] = (uint32_t)nrefs;
+            /* Backwards, so decrementing leaves each cell's ids ascending. */
+            for (size_t t = n; zlo < zhi && t-- > 0;) {
+                const uint16_t *rg = ranges + 6 * t;
+                const uint32_t z0 = PRT_MAX((uint32_t)rg[2], zlo), z1 = PRT_MIN((uint32_t)rg[5], zhi - 1);
+                if (z0 > z1) continue;
+                for (uint32_t z = z0; z <= z1; z++)
+                    for (uint32_t y = rg[1]; y <= rg[4]; y++) {
+                        uint32_t *row = start + z * rxy + y * rx;
+                        for (uint32_t x = rg[0]; x <= rg[3]; x++) refs[--row[x]] = (uint32_t)t;
+                    }
+            }
+        }
     }
-    if (total > UINT32_MAX - 1)
+    if (status_b) return status_b;
+    if (total_refs > UINT32_MAX - 1)
         return prt__fail(PRT_ERROR_LIMIT, "cgrid: %llu cell references exceed the 32-bit limit (lower lambda)",
-                         (unsigned long long)total);
-    /* Inclusive prefix sum: start[c] = end of cell c; the scatter decrements it to its start. */
-    uint32_t run = 0;
-    for (size_t i = 0; i < g->ncells; i++) run += start[i], start[i] = run;
-    start[g->ncells] = run;
-    g->nrefs = run;
-    if ((s = grow((void **)&pl->refs, &pl->cap_refs, g->nrefs ? g->nrefs : 1, sizeof(uint32_t)))) return s;
-    uint32_t *refs = pl->refs;
-#pragma omp parallel for num_threads(nt) schedule(static)
-    for (size_t t0 = 0; t0 < n; t0++) {
-        /* One thread walks the triangles backwards, so decrementing leaves each cell's ids
-         * ascending: the order several threads reach by sorting. */
-        const size_t t = nt == 1 ? n - 1 - t0 : t0;
-        const uint16_t *rg = ranges + 6 * t;
-        for (uint32_t z = rg[2]; z <= rg[5]; z++)
-            for (uint32_t y = rg[1]; y <= rg[4]; y++) {
-                uint32_t *row = start + z * rxy + y * rx;
-                if (nt == 1)
-                    for (uint32_t x = rg[0]; x <= rg[3]; x++) refs[--row[x]] = (uint32_t)t;
-                else
-                    for (uint32_t x = rg[0]; x <= rg[3]; x++) refs[__atomic_sub_fetch(&row[x], 1u, __ATOMIC_RELAXED)] = (uint32_t)t;
-            }
-    }
-    /* With several threads the order inside a cell depends on scheduling; sort each cell so
-     * that a grid (and its .prt file) is a function of the input alone. Cells are short. */
-    if (nt > 1) {
-#pragma omp parallel for num_threads(nt) schedule(dynamic, 4096)
-        for (size_t i = 0; i < g->ncells; i++) {
-            uint32_t *r = refs + start[i];
-            uint32_t len = start[i + 1] - start[i];
-            if (len > 16) {
-                qsort(r, len, sizeof *r, cmp_u32);
-                continue;
-            }
-            for (uint32_t j = 1; j < len; j++) {
-                uint32_t v = r[j], k = j;
-                while (k > 0 && r[k - 1] > v) r[k] = r[k - 1], k--;
-                r[k] = v;
-            }
-        }
-    }
-    g->cell_start = start;
-    g->refs = refs;
+                         (unsigned long long)total_refs);
+    if (status_c) return status_c;
+    g->nrefs = (size_t)total_refs;
+    g->cell_start = pl->cell_start;
+    g->refs = pl->refs;
+    g->mflags = pl->mflags;
     g->tris = tris;
-    if ((s = cg_macro_flags(c, nt)) || (s = cg_wald_rebuild(c, nt))) return s;
-    c->base.triangles_built = built;
+    if ((s = cg_wald_rebuild(c, nt))) return s;
+    c->base.triangles_built = (size_t)built;
     memcpy(c->base.bounds, blo, sizeof blo);
     memcpy(c->base.bounds + 3, bhi, sizeof bhi);
     return PRT_OK;

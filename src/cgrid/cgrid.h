@@ -18,8 +18,8 @@
 /* The build refuses grids beyond this many cells (the resolution is lowered instead). */
 #define CG_MAX_CELLS (1u << 26)
 #define CG_MAX_RES 4096u
-/* Triangles per build thread (build.c). */
-#define CG_BUILD_GRAIN 262144u
+/* Triangles per build thread at least (build.c). */
+#define CG_BUILD_GRAIN 16384u
 
 /* min / max that compile to one instruction (fminf / fmaxf are library calls unless NaNs
  * are ruled out by flags); a NaN in a gives b. */
@@ -68,9 +68,10 @@ typedef struct cg_pool {
     uint8_t *mflags;
     float *tris;
     uint16_t *ranges; /* build scratch: each triangle's cell range */
+    void *scratch;    /* build scratch: per-thread bounds and z-slice counts (build.c) */
     struct cg_wald *wald;
     size_t cap_wald;
-    size_t cap_cells, cap_refs, cap_macro, cap_tris, cap_ranges;
+    size_t cap_cells, cap_refs, cap_macro, cap_tris, cap_ranges, cap_scratch;
 } cg_pool;
 
 typedef struct cg_accel {
