@@ -47,7 +47,7 @@ typedef struct frustum {
     uint32_t live[PRT_PACKET_MAX], nlive;
     rblock *blocks;
     uint32_t nblocks;
-    vf4 plane_u, plane_v, plane_k, plane_c; /* four culling planes over grid coordinates */
+    vf4 plane_k, plane_c; /* four culling planes over grid coordinates (cg_planes_cull) */
     float cull_eps;
     const cg_grid *g;
     int K, U, V;
@@ -78,7 +78,7 @@ static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
 
 /* True when all three vertices lie outside one of the four frustum planes. */
 static inline bool frustum_culls(const frustum *f, const float *p) {
-    return cg_planes_cull(f->g, f->K, f->U, f->V, f->plane_u, f->plane_v, f->plane_k, f->plane_c, f->cull_eps, p);
+    return cg_planes_cull(f->g, f->K, f->U, f->V, f->plane_k, f->plane_c, f->cull_eps, p);
 }
 
 _Static_assert(sizeof(prt_ray) == 32 && offsetof(prt_ray, tnear) == 12 && offsetof(prt_ray, dir) == 16 &&
@@ -132,6 +132,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     float seg0[PRT_PACKET_MAX + 8], seg1[PRT_PACKET_MAX + 8], a_ogK[PRT_PACKET_MAX + 8], a_invK[PRT_PACKET_MAX + 8];
     float a_ou[PRT_PACKET_MAX + 8], a_ov[PRT_PACKET_MAX + 8], a_su[PRT_PACKET_MAX + 8], a_sv[PRT_PACKET_MAX + 8];
     float a_sout[PRT_PACKET_MAX + 8];
+    /* The rays themselves, transposed (for blocks built 8 lanes at a time). */
+    float a_o[3][PRT_PACKET_MAX + 8], a_d[3][PRT_PACKET_MAX + 8], a_tn[PRT_PACKET_MAX + 8], a_tf[PRT_PACKET_MAX + 8];
     float su0 = INFINITY, su1 = -INFINITY, sv0 = INFINITY, sv1 = -INFINITY;
     float a_sx[PRT_PACKET_MAX + 8], a_sy[PRT_PACKET_MAX + 8], a_sz[PRT_PACKET_MAX + 8];
     uint8_t a_key[PRT_PACKET_MAX + 8];
@@ -150,7 +152,6 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             transpose8(c);
             const vf8 o[3] = {c[0], c[1], c[2]}, d[3] = {c[4], c[5], c[6]};
             const vf8 tn = c[3], tf = c[7];
-            float db[3][8], dkx[8], dky[8], dkz[8];
             vf8 og[3], dg[3];
             for (int k = 0; k < 3; k++) og[k] = (o[k] - vf8_set1(g->lo[k])) * inv_cell, dg[k] = d[k] * inv_cell;
             const vf8 aK = dg[K] * fsg;
@@ -167,24 +168,27 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             enter_bits[i0 / 32] |= (uint32_t)vi8_mask(t0 <= t1) << (i0 % 32);
             const vi8 mem = elig & (t0 <= t1);
             if (!vi8_mask(mem)) continue; /* no frustum ray here: the rest is not needed */
-            /* The watertight test's permutation and shear, as prt__rayx_init computes them. */
-            memcpy(db[0], &d[0], sizeof d[0]), memcpy(db[1], &d[1], sizeof d[1]), memcpy(db[2], &d[2], sizeof d[2]);
-            for (uint32_t l = 0; l < 8; l++) {
-                const float dx = db[0][l], dy = db[1][l], dz = db[2][l];
-                const float ax = fabsf(dx), ay = fabsf(dy), az = fabsf(dz);
-                int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-                int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
-                const int neg = db[kz][l] < 0.0f;
-                if (neg) {
-                    int x = kx;
-                    kx = ky, ky = x;
-                }
-                dkx[l] = db[kx][l], dky[l] = db[ky][l], dkz[l] = db[kz][l];
-                a_key[i0 + l] = (uint8_t)(kz * 2 + neg);
+            /* The watertight test's permutation and shear, as prt__rayx_init computes them,
+             * 8 lanes at a time: kz is the axis of the largest |d| (x on ties with y or z
+             * only when strictly larger, as there), kx, ky the next two, swapped when d[kz]
+             * is negative. */
+            const vf8 ax = vf8_max(d[0], -d[0]), ay = vf8_max(d[1], -d[1]), az = vf8_max(d[2], -d[2]);
+            const vi8 z0 = (ax > ay) & (ax > az), z1 = ~(ax > ay) & (ay > az); /* kz = 0, kz = 1; else 2 */
+            const vf8 vkz = vf8_select(z0, d[0], vf8_select(z1, d[1], d[2]));
+            const vf8 nx = vf8_select(z0, d[1], vf8_select(z1, d[2], d[0]));
+            const vf8 ny = vf8_select(z0, d[2], vf8_select(z1, d[0], d[1]));
+            const vi8 neg = vkz < zero;
+            const vf8 dkx = vf8_select(neg, ny, nx), dky = vf8_select(neg, nx, ny);
+            {
+                const int mz0 = vi8_mask(z0), mz1 = vi8_mask(z1), mneg = vi8_mask(neg);
+                for (uint32_t l = 0; l < 8; l++)
+                    a_key[i0 + l] = (uint8_t)(2 * ((mz0 >> l & 1) ? 0 : (mz1 >> l & 1) ? 1 : 2) + (mneg >> l & 1));
             }
             const vf8 absK = vf8_max(d[K], -d[K]), invK = one / dg[K];
             const vf8 su = d[U] / absK, sv = d[V] / absK, kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
-            const vf8 vkz = vf8_load(dkz), sx = vf8_load(dkx) / vkz, sy = vf8_load(dky) / vkz, sz = one / vkz;
+            const vf8 sx = dkx / vkz, sy = dky / vkz, sz = one / vkz;
+            for (int k = 0; k < 3; k++) memcpy(a_o[k] + i0, &o[k], sizeof t0), memcpy(a_d[k] + i0, &d[k], sizeof t0);
+            memcpy(a_tn + i0, &tn, sizeof t0), memcpy(a_tf + i0, &tf, sizeof t0);
             memcpy(seg0 + i0, &t0, sizeof t0), memcpy(seg1 + i0, &t1, sizeof t1);
             memcpy(a_ogK + i0, &og[K], sizeof t0), memcpy(a_invK + i0, &invK, sizeof t0);
             memcpy(a_ou + i0, &og[U], sizeof t0), memcpy(a_ov + i0, &og[V], sizeof t0);
@@ -282,8 +286,6 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     /* Culling planes in grid coordinates, w = (k - P0) * sgn slices from the entry plane:
      * u - su0 w - Lu >= 0, Hu + su1 w - u >= 0, likewise v. */
     const float fs = (float)sgn;
-    f.plane_u = (vf4){1, -1, 0, 0};
-    f.plane_v = (vf4){0, 0, 1, -1};
     f.plane_k = (vf4){-su0 * fs, su1 * fs, -sv0 * fs, sv1 * fs};
     f.plane_c = (vf4){su0 * fs * P0 - Lu, Hu - su1 * fs * P0, sv0 * fs * P0 - Lv, Hv - sv1 * fs * P0};
     {
@@ -310,6 +312,23 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     for (uint32_t i = 0; i < f.n; i++) {
         const uint32_t j = src_of[i];
         const int key = a_key[j];
+        uint64_t keys8;
+        memcpy(&keys8, a_key + j, sizeof keys8);
+        if (j % 8 == 0 && i + 8 <= f.n && src_of[i + 7] == j + 7 && keys8 == (uint64_t)key * 0x0101010101010101ull) {
+            /* Eight frustum rays in a row, as the set-up loaded them, with one permutation
+             * (the common case for camera rays): a full block straight from the vectors. */
+            rblock *B = &blocks[f.nblocks++];
+            const int kz = key / 2, kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+            B->kz = kz, B->kx = key % 2 ? ky : kx, B->ky = key % 2 ? kx : ky;
+            for (int k = 0; k < 3; k++) B->org[k] = vf8_load(a_o[k] + j), B->dir[k] = vf8_load(a_d[k] + j);
+            B->sx = vf8_load(a_sx + j), B->sy = vf8_load(a_sy + j), B->sz = vf8_load(a_sz + j);
+            B->tnear = vf8_load(a_tn + j), B->t = vf8_load(a_tf + j);
+            B->live = 0xffu;
+            for (uint32_t l = 0; l < 8; l++)
+                B->ray[l] = (uint16_t)(i + l), pr[i + l].block = (uint16_t)(B - blocks), pr[i + l].lane = (uint16_t)l;
+            i += 7;
+            continue;
+        }
         rblock *B = open_block[key];
         if (!B || B->live == 0xffu) {
             B = open_block[key] = &blocks[f.nblocks++];

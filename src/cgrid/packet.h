@@ -96,18 +96,22 @@ static inline vi4 floor4_clamped(vf4 x, vf4 top) {
 }
 
 /* True when all three vertices of triangle p lie outside one of four planes over grid
- * coordinates (pu u + pv v + pk k + pc >= 0 inside, K, U, V the packet's axes) by more
- * than eps: no ray inside the four planes can hit it (§2.3). */
-static inline bool cg_planes_cull(const cg_grid *g, int K, int U, int V, vf4 pu, vf4 pv, vf4 pk, vf4 pc, float eps,
-                                  const float *p) {
-    int out = 0xf;
-    for (int v = 0; v < 3 && out; v++) {
-        const float *q = p + 3 * v;
-        float gu = (q[U] - g->lo[U]) * g->inv_cell, gv = (q[V] - g->lo[V]) * g->inv_cell, gk = (q[K] - g->lo[K]) * g->inv_cell;
-        vf4 d = pu * vf4_set1(gu) + pv * vf4_set1(gv) + pk * vf4_set1(gk) + pc;
-        out &= vi4_mask(d < vf4_set1(-eps));
-    }
-    return out != 0;
+ * coordinates by more than eps: u + pk[0] k + pc[0], -u + pk[1] k + pc[1], v + pk[2] k +
+ * pc[2], -v + pk[3] k + pc[3] (each >= 0 inside; K, U, V the packet's axes): no ray inside
+ * the four planes can hit it (§2.3). The three vertices are the lanes (the fourth repeats
+ * the third); each lane computes what one vertex did alone before, operation by operation:
+ * g = (q - corner) * inv_cell, then (+-g + pk * gk) + pc. */
+static inline bool cg_planes_cull(const cg_grid *g, int K, int U, int V, vf4 pk, vf4 pc, float eps, const float *p) {
+    const vf4 a = vf4_load(p), b = vf4_load(p + 3), c = vf4_load(p + 5); /* x0 y0 z0 x1, x1 y1 z1 x2, z1 x2 y2 z2 */
+    const vf4 xy = __builtin_shufflevector(a, b, 0, 4, 1, 5), zz = __builtin_shufflevector(a, b, 2, 6, 2, 6);
+    const vf4 G[3] = {__builtin_shufflevector(xy, c, 0, 1, 5, 5), __builtin_shufflevector(xy, c, 2, 3, 6, 6),
+                      __builtin_shufflevector(zz, c, 0, 1, 7, 7)};
+    const vf4 inv = vf4_set1(g->inv_cell), ne = vf4_set1(-eps);
+    const vf4 gu = (G[U] - vf4_set1(g->lo[U])) * inv, gv = (G[V] - vf4_set1(g->lo[V])) * inv,
+              gk = (G[K] - vf4_set1(g->lo[K])) * inv;
+    const vi4 o0 = (gu + vf4_set1(pk[0]) * gk) + vf4_set1(pc[0]) < ne, o1 = (-gu + vf4_set1(pk[1]) * gk) + vf4_set1(pc[1]) < ne;
+    const vi4 o2 = (gv + vf4_set1(pk[2]) * gk) + vf4_set1(pc[2]) < ne, o3 = (-gv + vf4_set1(pk[3]) * gk) + vf4_set1(pc[3]) < ne;
+    return (vi4_mask(o0) == 0xf) | (vi4_mask(o1) == 0xf) | (vi4_mask(o2) == 0xf) | (vi4_mask(o3) == 0xf);
 }
 
 #endif

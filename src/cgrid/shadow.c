@@ -159,9 +159,9 @@ static void walk(const shadow_ctx *x, const sray *sr, uint32_t n, int K, int sgn
     cnt->packets++;
 
     /* Culling planes over grid coordinates (inside >= 0), valid between A and B, where every
-     * segment lies: u >= L0 + dL (k - A) w, u <= H0 + dH (k - A) w, likewise v. */
+     * segment lies: u >= L0 + dL (k - A) w, u <= H0 + dH (k - A) w, likewise v, in the
+     * form of cg_planes_cull (u, -u, v, -v plus plane_k k plus plane_c). */
     const float fw = (float)w;
-    const vf4 plane_u = {1, -1, 0, 0}, plane_v = {0, 0, 1, -1};
     const vf4 plane_k = {-delta[0] * fw, delta[1] * fw, -delta[2] * fw, delta[3] * fw};
     const vf4 plane_c = {delta[0] * fw * A - base[0], base[1] - delta[1] * fw * A, delta[2] * fw * A - base[2],
                          base[3] - delta[3] * fw * A};
@@ -259,7 +259,7 @@ static void walk(const shadow_ctx *x, const sray *sr, uint32_t n, int K, int sgn
                             continue;
                         }
                         const float *p = g->tris + 9 * (size_t)tri;
-                        if (c->opt.cull && cg_planes_cull(g, K, U, V, plane_u, plane_v, plane_k, plane_c, cull_eps, p)) {
+                        if (c->opt.cull && cg_planes_cull(g, K, U, V, plane_k, plane_c, cull_eps, p)) {
                             culled++;
                             continue;
                         }
