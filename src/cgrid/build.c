@@ -125,9 +125,21 @@ prt_status cg_wald_rebuild(cg_accel *c, int threads) {
 }
 
 /* prt__triangle_degenerate (mesh.c), the repo's rule for a triangle that is never hit,
- * inlined here where it runs for every triangle of every frame: exactly zero area,
- * decided in double. It must stay the same expression. */
-static inline bool degenerate(const float *a, const float *b, const float *c) {
+ * inlined here where it runs for every triangle of every frame: exactly zero area, decided
+ * in double. It must stay the same operations: e1 = b - a, e2 = c - a in double, then
+ * n = (e1y e2z - e1z e2y, e1z e2x - e1x e2z, e1x e2y - e1y e2x) all zero. With AVX2 the
+ * three components are the lanes of one 4-wide double computation. */
+static inline bool degenerate(vf4 a, vf4 b, vf4 c) {
+#if defined(__AVX2__)
+    const __m256d da = _mm256_cvtps_pd((__m128)a), e1 = _mm256_sub_pd(_mm256_cvtps_pd((__m128)b), da),
+                  e2 = _mm256_sub_pd(_mm256_cvtps_pd((__m128)c), da);
+    const __m256d e1_yzx = _mm256_permute4x64_pd(e1, _MM_SHUFFLE(3, 0, 2, 1)),
+                  e1_zxy = _mm256_permute4x64_pd(e1, _MM_SHUFFLE(3, 1, 0, 2)),
+                  e2_yzx = _mm256_permute4x64_pd(e2, _MM_SHUFFLE(3, 0, 2, 1)),
+                  e2_zxy = _mm256_permute4x64_pd(e2, _MM_SHUFFLE(3, 1, 0, 2));
+    const __m256d n = _mm256_sub_pd(_mm256_mul_pd(e1_yzx, e2_zxy), _mm256_mul_pd(e1_zxy, e2_yzx));
+    return (_mm256_movemask_pd(_mm256_cmp_pd(n, _mm256_setzero_pd(), _CMP_EQ_OQ)) & 7) == 7;
+#else
     double e1[3], e2[3];
     for (int k = 0; k < 3; k++) {
         e1[k] = (double)b[k] - (double)a[k];
@@ -137,6 +149,27 @@ static inline bool degenerate(const float *a, const float *b, const float *c) {
     double ny = e1[2] * e2[0] - e1[0] * e2[2];
     double nz = e1[0] * e2[1] - e1[1] * e2[0];
     return nx == 0.0 && ny == 0.0 && nz == 0.0;
+#endif
+}
+
+/* The vertex at p as x, y, z, 0, reading its 12 bytes only. */
+static inline vf4 load3(const float *p) {
+#if defined(__SSE4_1__)
+    const __m128 xy = _mm_castpd_ps(_mm_load_sd((const double *)(const void *)p));
+    return (vf4)_mm_insert_ps(xy, _mm_load_ss(p + 2), 0x20);
+#else
+    return (vf4){p[0], p[1], p[2], 0.0f};
+#endif
+}
+
+/* Lanes 0..2 of v to p[0..2]. */
+static inline void store3(float *p, vf4 v) {
+#if defined(__SSE4_1__)
+    _mm_storel_pi((__m64 *)(void *)p, (__m128)v);
+    _mm_store_ss(p + 2, _mm_movehl_ps((__m128)v, (__m128)v));
+#else
+    p[0] = v[0], p[1] = v[1], p[2] = v[2];
+#endif
 }
 
 /* Per-thread scratch of the parallel build, one block of CG_TBLOCK bytes each (a multiple
@@ -215,25 +248,21 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
         const int me = omp_get_thread_num(), team = omp_get_num_threads();
         const size_t t_lo = n * (size_t)me / (size_t)team, t_hi = n * (size_t)(me + 1) / (size_t)team;
 
-        /* A. Gather, degenerate flags, bounds. The vertices go through registers (w) so
-         * that no load reaches into a triangle another thread is writing. */
+        /* A. Gather, degenerate flags, bounds. Each vertex is loaded once into a vector
+         * (never past its 12 bytes, never from a triangle another thread writes). */
         vf4 lo4 = vf4_set1(INFINITY), hi4 = vf4_set1(-INFINITY);
         uint64_t cnt = 0;
         for (size_t t = t_lo; t < t_hi; t++) {
             float *d = tris + 9 * t;
             const uint32_t *i = idx + 3 * t;
-            float w[12];
-            for (int v = 0; v < 3; v++) {
-                memcpy(w + 4 * v, vertices + 3 * (size_t)i[v], 3 * sizeof(float));
-                w[4 * v + 3] = 0.0f;
-            }
-            if (i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || degenerate(w, w + 4, w + 8)) {
+            const vf4 a = load3(vertices + 3 * (size_t)i[0]), b = load3(vertices + 3 * (size_t)i[1]),
+                      e = load3(vertices + 3 * (size_t)i[2]);
+            if (i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || degenerate(a, b, e)) {
                 for (int k = 0; k < 9; k++) d[k] = NAN; /* never hits, never inserted */
                 continue;
             }
-            for (int v = 0; v < 3; v++) memcpy(d + 3 * v, w + 4 * v, 3 * sizeof(float));
+            store3(d, a), store3(d + 3, b), store3(d + 6, e);
             cnt++;
-            vf4 a = vf4_load(w), b = vf4_load(w + 4), e = vf4_load(w + 8);
             lo4 = vf4_min(lo4, vf4_min(a, vf4_min(b, e)));
             hi4 = vf4_max(hi4, vf4_max(a, vf4_max(b, e)));
         }
