@@ -38,6 +38,7 @@ typedef struct pray {
     float t, u, v;   /* closest hit so far; t starts at tfar */
     uint32_t prim, index;
     int send;        /* slice where the segment ends (an index along K) */
+    int khit;        /* slice of the closest hit so far (set with it) */
     uint16_t block, lane; /* its place in the ray blocks */
 } pray;
 
@@ -51,6 +52,7 @@ typedef struct frustum {
     float cull_eps;
     const cg_grid *g;
     int K, U, V;
+    float topK; /* the last slice along K */
     uint64_t tests;
 } frustum;
 
@@ -70,7 +72,10 @@ static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
                 int l = __builtin_ctz((unsigned)mask);
                 mask &= mask - 1;
                 pray *r = &f->rays[B->ray[l]];
-                if (t[l] < r->t || tri < r->prim) r->t = t[l], r->u = u[l], r->v = v[l], r->prim = tri, B->t[l] = t[l];
+                if (t[l] < r->t || tri < r->prim) {
+                    r->t = t[l], r->u = u[l], r->v = v[l], r->prim = tri, B->t[l] = t[l];
+                    r->khit = (int)cg_min(cg_max(r->ogK + r->t / r->invK, 0.0f), f->topK);
+                }
             }
         }
     }
@@ -120,7 +125,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     const int sgn = sum[K] >= 0.0f ? 1 : -1;
 
     pray pr[PRT_PACKET_MAX];
-    frustum f = {.rays = pr, .g = g, .K = K, .U = U, .V = V};
+    frustum f = {.rays = pr, .g = g, .K = K, .U = U, .V = V, .topK = (float)((int)g->res[K] - 1)};
     uint32_t single[PRT_PACKET_MAX], nsingle = 0;
     int k_first = sgn > 0 ? INT32_MAX : INT32_MIN, k_last = sgn > 0 ? INT32_MIN : INT32_MAX;
     const int topK = (int)g->res[K] - 1;
@@ -417,9 +422,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                     continue;
                 }
                 f.live[w++] = f.live[li];
-                int e = r->send;
-                if (r->prim != PRT_INVALID) /* the slice of the hit: the ray is done there */
-                    e = (int)cg_min(cg_max(r->ogK + r->t / r->invK, 0.0f), (float)topK);
+                const int e = r->prim != PRT_INVALID ? r->khit : r->send; /* a hit's slice: done there */
                 next_end = PRT_MIN(next_end, (e - k_first) * sgn);
             }
             f.nlive = w;
@@ -439,6 +442,14 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     }
 }
 
+/* prt__ray_valid (geom/ray.h) on one ray as one vector: its six coordinates finite (x * 0
+ * is 0 exactly then, NaN otherwise), the direction not zero, tnear <= tfar. */
+static inline bool ray_valid(const prt_ray *r) {
+    const vf8 v = vf8_load((const float *)r), zero = vf8_set1(0.0f);
+    const int fin = vi8_mask(v * zero == zero), nz = vi8_mask(v != zero);
+    return (fin & 0x77) == 0x77 && (nz & 0x70) && r->tnear <= r->tfar;
+}
+
 void cg_intersect_packet(const prt_accel *a, prt_packet *p) {
     const cg_accel *c = (const cg_accel *)a;
     const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
@@ -455,7 +466,7 @@ void cg_intersect_packet(const prt_accel *a, prt_packet *p) {
     if (N == 0 || (N >= W && N >= rows)) {
         uint32_t m = 0;
         for (uint32_t i = 0; i < n; i++)
-            if (prt__ray_valid(&p->rays[i])) idx[m++] = i;
+            if (ray_valid(&p->rays[i])) idx[m++] = i;
         if (m) trace_group(c, p->rays, p->hits, idx, m);
         return;
     }
@@ -465,7 +476,7 @@ void cg_intersect_packet(const prt_accel *a, prt_packet *p) {
             for (uint32_t y = ty; y < ty + N && y < rows; y++)
                 for (uint32_t x = tx; x < tx + N && x < W; x++) {
                     uint32_t i = y * W + x;
-                    if (i < n && prt__ray_valid(&p->rays[i])) idx[m++] = i;
+                    if (i < n && ray_valid(&p->rays[i])) idx[m++] = i;
                 }
             if (m) trace_group(c, p->rays, p->hits, idx, m);
         }
