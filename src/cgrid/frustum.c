@@ -39,6 +39,7 @@ typedef struct pray {
     uint32_t prim, index;
     int send;        /* slice where the segment ends (an index along K) */
     int khit;        /* slice of the closest hit so far (set with it) */
+    float dgK;       /* direction along K in grid units: k = ogK + t dgK */
     uint16_t block, lane; /* its place in the ray blocks */
 } pray;
 
@@ -74,7 +75,7 @@ static void test_candidates(frustum *f, const uint32_t *cand, uint32_t nc) {
                 pray *r = &f->rays[B->ray[l]];
                 if (t[l] < r->t || tri < r->prim) {
                     r->t = t[l], r->u = u[l], r->v = v[l], r->prim = tri, B->t[l] = t[l];
-                    r->khit = (int)cg_min(cg_max(r->ogK + r->t / r->invK, 0.0f), f->topK);
+                    r->khit = (int)cg_min(cg_max(r->ogK + r->t * r->dgK, 0.0f), f->topK);
                 }
             }
         }
@@ -135,6 +136,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
      * the single-ray bits). A zero direction component gives an infinite reciprocal; an
      * origin exactly on that slab plane gives NaN, which the min/max order ignores. */
     float seg0[PRT_PACKET_MAX + 8], seg1[PRT_PACKET_MAX + 8], a_ogK[PRT_PACKET_MAX + 8], a_invK[PRT_PACKET_MAX + 8];
+    float a_dgK[PRT_PACKET_MAX + 8];
     float a_ou[PRT_PACKET_MAX + 8], a_ov[PRT_PACKET_MAX + 8], a_su[PRT_PACKET_MAX + 8], a_sv[PRT_PACKET_MAX + 8];
     float a_sout[PRT_PACKET_MAX + 8];
     /* The rays themselves, transposed (for blocks built 8 lanes at a time). */
@@ -162,9 +164,9 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             const vf8 aK = dg[K] * fsg;
             const vf8 zero = vf8_set1(0.0f);
             const vi8 elig = (aK > zero) & (vf8_max(dg[U], -dg[U]) <= slope * aK) & (vf8_max(dg[V], -dg[V]) <= slope * aK);
-            vf8 t0 = tn, t1 = tf;
+            vf8 t0 = tn, t1 = tf, invs[3];
             for (int k = 0; k < 3; k++) {
-                const vf8 inv = one / dg[k];
+                const vf8 inv = invs[k] = one / dg[k];
                 const vf8 a = (lo_m - og[k]) * inv, b = (vf8_set1((float)g->res[k] + CG_TRAVERSE_MARGIN) - og[k]) * inv;
                 t0 = vf8_max(vf8_min(a, b), t0);
                 t1 = vf8_min(vf8_max(a, b), t1);
@@ -189,13 +191,14 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                 for (uint32_t l = 0; l < 8; l++)
                     a_key[i0 + l] = (uint8_t)(2 * ((mz0 >> l & 1) ? 0 : (mz1 >> l & 1) ? 1 : 2) + (mneg >> l & 1));
             }
-            const vf8 absK = vf8_max(d[K], -d[K]), invK = one / dg[K];
+            const vf8 absK = vf8_max(d[K], -d[K]), invK = invs[K];
             const vf8 su = d[U] / absK, sv = d[V] / absK, kin = og[K] + dg[K] * t0, kout = og[K] + dg[K] * t1;
             const vf8 sx = dkx / vkz, sy = dky / vkz, sz = one / vkz;
             for (int k = 0; k < 3; k++) memcpy(a_o[k] + i0, &o[k], sizeof t0), memcpy(a_d[k] + i0, &d[k], sizeof t0);
             memcpy(a_tn + i0, &tn, sizeof t0), memcpy(a_tf + i0, &tf, sizeof t0);
             memcpy(seg0 + i0, &t0, sizeof t0), memcpy(seg1 + i0, &t1, sizeof t1);
             memcpy(a_ogK + i0, &og[K], sizeof t0), memcpy(a_invK + i0, &invK, sizeof t0);
+            memcpy(a_dgK + i0, &dg[K], sizeof t0);
             memcpy(a_ou + i0, &og[U], sizeof t0), memcpy(a_ov + i0, &og[V], sizeof t0);
             memcpy(a_su + i0, &su, sizeof t0), memcpy(a_sv + i0, &sv, sizeof t0);
             memcpy(a_sx + i0, &sx, sizeof t0), memcpy(a_sy + i0, &sy, sizeof t0), memcpy(a_sz + i0, &sz, sizeof t0);
@@ -228,7 +231,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         if (!(enter_bits[i / 32] >> (i % 32) & 1)) continue; /* misses the grid: stays a miss */
         src_of[f.n] = (uint16_t)i;
         pray *p = &pr[f.n++];
-        p->ogK = a_ogK[i], p->invK = a_invK[i];
+        p->ogK = a_ogK[i], p->invK = a_invK[i], p->dgK = a_dgK[i];
         p->t1 = seg1[i], p->t = rays[idx[i]].tfar, p->u = p->v = 0, p->prim = PRT_INVALID, p->index = idx[i];
         p->send = (int)a_sout[i];
     }
