@@ -528,8 +528,8 @@ TEST(test_parallel_build_equals_single_thread_build) {
     /* A deformed grid (refs spread over many z slices), the same grid flat (every
      * reference in one z slice: one thread's slab holds all), and a soup with degenerate
      * triangles, each over several build threads. */
-    prt_mesh *m = mesh_grid(150); /* 45k triangles */
-    CHECK(m->triangle_count > 2 * CG_BUILD_GRAIN); /* so several threads build it */
+    prt_mesh *m = mesh_grid(250); /* 125k triangles */
+    CHECK(m->triangle_count > 3 * CG_BUILD_GRAIN); /* so up to 4 threads build it */
     prt_mesh *moved = mesh_transformed(m, 1.0f, 0.0f);
     deform(m, 0.9f, moved->vertices);
     expect_thread_counts_agree(m, moved->vertices, "cgrid", "deformed grid");

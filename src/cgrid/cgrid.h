@@ -19,7 +19,7 @@
 #define CG_MAX_CELLS (1u << 26)
 #define CG_MAX_RES 4096u
 /* Triangles per build thread at least (build.c). */
-#define CG_BUILD_GRAIN 16384u
+#define CG_BUILD_GRAIN 32768u
 
 /* min / max that compile to one instruction (fminf / fmaxf are library calls unless NaNs
  * are ruled out by flags); a NaN in a gives b. */
