@@ -84,6 +84,35 @@ TEST(test_idx8_bitpack_reuses_shared_vertices) {
     prt_mesh_free(soup), prt_mesh_free(g);
 }
 
+/* Reuse goes by position: a grid whose triangles each have their own three vertices (an
+ * exported CAD part, the level's pieces) takes the bytes the welded grid takes, and the
+ * float variant still answers as Float3SOA4 does on the unwelded mesh. */
+TEST(test_idx8_reuses_vertices_by_position_not_index) {
+    prt_mesh *g = mesh_grid(100), *u = mesh_unwelded(g);
+    const char *specs[] = {"quad:idx8-bitpack-soa4,ids=none", "wide8:idx8-soa4,ids=none"};
+    for (int k = 0; k < 2; k++) {
+        prt_stats gs = stats_of(g, specs[k]), us = stats_of(u, specs[k]);
+        CHECK_MSG(us.bytes_geometry == gs.bytes_geometry, "%s: unwelded grid %zu geometry bytes, welded %zu", specs[k],
+                  (size_t)us.bytes_geometry, (size_t)gs.bytes_geometry);
+    }
+    prt_accel *a, *b;
+    CHECK_OK(prt_build(u, "quad:idx8-soa4", NULL, &a));
+    CHECK_OK(prt_build(u, "quad:float3-soa4", NULL, &b));
+    prt_ray *rays = rays_random(u, 3000, 5);
+    size_t differ = 0;
+    for (size_t i = 0; a && b && i < 3000; i++) {
+        prt_ray r1 = rays[i], r2 = rays[i];
+        prt_hit h1, h2;
+        prt_intersect1(a, &r1, &h1);
+        prt_intersect1(b, &r2, &h2);
+        differ += h1.prim != h2.prim || memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4);
+    }
+    CHECK_MSG(differ == 0, "%zu of 3000 rays answered differently from float3-soa4 on the unwelded grid", differ);
+    free(rays);
+    prt_accel_free(a), prt_accel_free(b);
+    prt_mesh_free(g), prt_mesh_free(u);
+}
+
 /* Rounding to the nearest of 2^21 - 1 steps moves a component by at most half a step,
  * and decoding lo + q * step adds float rounding of the coordinates' magnitude. */
 TEST(test_idx8_bitpack_error_within_the_quantization_step) {
@@ -202,6 +231,7 @@ TEST(test_idx8_bitpack_leaf_outside_the_buffer_is_invalid) {
 int main(void) {
     RUN(test_idx8_float_is_exactly_float3_soa4);
     RUN(test_idx8_bitpack_reuses_shared_vertices);
+    RUN(test_idx8_reuses_vertices_by_position_not_index);
     RUN(test_idx8_bitpack_error_within_the_quantization_step);
     RUN(test_idx8_bitpack_ids_none_hands_out_its_order);
     RUN(test_idx8_bitpack_shared_vertex_beyond_the_window);

@@ -14,17 +14,6 @@
 static const char *const g_layouts[] = {"aabb", "aabb-split", "aabb-pns", "aabb-compressed", "skd", "quad", "quad-half", "wide8"};
 static const char *const g_codecs[] = {"strip", "strip-bitpack"};
 
-/* m with every triangle given its own three vertices: nothing shared by index. */
-static prt_mesh *unwelded(const prt_mesh *m) {
-    prt_mesh *u;
-    if (prt_mesh_create(3 * m->triangle_count, m->triangle_count, &u)) return NULL;
-    for (size_t i = 0; i < 3 * m->triangle_count; i++) {
-        memcpy(u->vertices + 3 * i, m->vertices + 3 * (size_t)m->triangles[i], 12);
-        u->triangles[i] = (uint32_t)i;
-    }
-    return u;
-}
-
 /* m with its triangles in a scrambled order and every third one's winding reversed, so
  * neighbours in a strip disagree in winding and start at any vertex. */
 static prt_mesh *scrambled(const prt_mesh *m) {
@@ -141,7 +130,7 @@ static void check_hits(const expected *e, const char *spec, const char *what) {
 
 TEST(test_strip_hits_name_the_triangle_in_mesh_order) {
     prt_mesh *g = mesh_grid(30);
-    prt_mesh *meshes[] = {g, unwelded(g), scrambled(g), mesh_random_soup(1500, 4)};
+    prt_mesh *meshes[] = {g, mesh_unwelded(g), scrambled(g), mesh_random_soup(1500, 4)};
     const char *names[] = {"grid", "unwelded grid", "scrambled grid", "soup"};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
         expected e = expect(meshes[mi], 1000);
@@ -173,7 +162,7 @@ static double geometry_per_triangle(const prt_mesh *m, const char *spec) {
 }
 
 TEST(test_strip_leaves_chain_connected_triangles) {
-    prt_mesh *g = mesh_grid(100), *soup = mesh_random_soup(20000, 3), *u = unwelded(g);
+    prt_mesh *g = mesh_grid(100), *soup = mesh_random_soup(20000, 3), *u = mesh_unwelded(g);
     /* A soup: a strip per triangle, three entries each (2 bits of rotation besides). */
     const double soup32 = geometry_per_triangle(soup, "wide8:strip,ids=none");
     const double soup8 = geometry_per_triangle(soup, "wide8:strip-bitpack,ids=none");

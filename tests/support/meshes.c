@@ -91,3 +91,13 @@ prt_mesh *mesh_transformed(const prt_mesh *m, float scale, float offset) {
     memcpy(t->triangles, m->triangles, 3 * sizeof(uint32_t) * m->triangle_count);
     return t;
 }
+
+prt_mesh *mesh_unwelded(const prt_mesh *m) {
+    prt_mesh *u;
+    if (prt_mesh_create(3 * m->triangle_count, m->triangle_count, &u)) return NULL;
+    for (size_t i = 0; i < 3 * m->triangle_count; i++) {
+        memcpy(u->vertices + 3 * i, m->vertices + 3 * (size_t)m->triangles[i], 12);
+        u->triangles[i] = (uint32_t)i;
+    }
+    return u;
+}

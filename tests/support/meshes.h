@@ -17,6 +17,9 @@ prt_mesh *mesh_grid(uint32_t n);
 /* A copy of m with every vertex scaled then moved: v * scale + offset. */
 prt_mesh *mesh_transformed(const prt_mesh *m, float scale, float offset);
 
+/* m with every triangle given its own three vertices: nothing shared by index. */
+prt_mesh *mesh_unwelded(const prt_mesh *m);
+
 /* Random rays: origins on a sphere around the mesh, aimed inside it (Rouwé's workload). */
 prt_ray *rays_random(const prt_mesh *m, size_t n, uint64_t seed);
 

@@ -10,6 +10,7 @@
 
 #include "bvh/codecs/codec.h"
 #include "core/simd.h"
+#include "mesh/mesh.h"
 
 #include <assert.h>
 
@@ -27,20 +28,25 @@ static inline prt_status vw_build(prt_mesh *m, const char *codec, uint32_t **sou
     const size_t nt = m->triangle_count, nv = m->vertex_count;
     if (3 * nt > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "%s: %zu triangles exceed the 32-bit vertex buffer", codec, nt);
+    /* Vertices are matched by position, not index: a mesh whose faces do not share their
+     * vertices (CAD exports, the level's parts) then reuses entries as a welded one does. */
+    uint32_t *canon = NULL;
+    prt_status s = prt__mesh_weld(m, &canon);
+    if (s) return s;
     uint32_t *last = prt__alloc(prt__mul_size(nv, sizeof *last));
     uint32_t *src = prt__alloc(prt__mul_size(nt, 3 * sizeof *src));
     if (!last || !src) {
-        prt__free(last), prt__free(src);
+        prt__free(canon), prt__free(last), prt__free(src);
         return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the vertex buffer of %zu triangles", codec, nt);
     }
     memset(last, 0xFF, nv * sizeof *last);
     uint32_t len = 0;
     for (size_t i = 0; i < 3 * nt; i++) {
-        uint32_t v = m->triangles[i], p = last[v];
+        uint32_t v = canon[m->triangles[i]], p = last[v];
         if (p == UINT32_MAX || len - p > VERTEX_WINDOW) p = len++, src[p] = v, last[v] = p;
         m->triangles[i] = p;
     }
-    prt__free(last);
+    prt__free(canon), prt__free(last);
     *source = src;
     *count = len;
     return PRT_OK;
