@@ -6,6 +6,8 @@
 #include "support/meshes.h"
 #include "support/repr.h"
 
+#include "ooc/ooc_accel.h"
+
 #include <math.h>
 #include <unistd.h>
 
@@ -199,7 +201,8 @@ TEST(test_lod_queries_stop_at_voxels_that_contain_the_surface) {
 
 /* Packets of 4x4 give each ray the answer it gets alone, at every error bound: coherent
  * camera rays (a 64x64 image in 4x4 blocks) and incoherent random ones, some with a zero
- * direction component (traced alone inside the packet). */
+ * direction component (traced alone inside the packet). The SIMD packets and the scalar
+ * reference packets agree bit for bit (every field of every answer, and the rays' tfar). */
 TEST(test_lod_packets_answer_as_single_rays) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("mandelbulb", 60000, 3, &m));
@@ -211,14 +214,15 @@ TEST(test_lod_packets_answer_as_single_rays) {
     }
     enum { N = 4096 };
     prt_ray *rays = malloc(N * sizeof *rays), *r1 = malloc(N * sizeof *r1);
-    prt_lod_hit *hp = malloc(N * sizeof *hp);
+    prt_lod_hit *hp = malloc(N * sizeof *hp), *href = malloc(N * sizeof *href);
+    prt_ray *r2 = malloc(N * sizeof *r2);
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
     prt_camera cam;
     prt_camera_default(lo, hi, &cam);
     prt_ray *rnd = rays_random(m, N, 5);
     const float errors[] = {0.0f, 1e-3f, 1e-2f, 1e9f};
-    size_t differ = 0, voxels = 0;
+    size_t differ = 0, voxels = 0, differ_ref = 0, triangles = 0;
     for (int set = 0; set < 2; set++) {
         for (int i = 0; i < N; i++) {
             if (set == 0) { /* camera rays, 4x4 blocks of a 64x64 image in order */
@@ -244,6 +248,12 @@ TEST(test_lod_packets_answer_as_single_rays) {
             }
             memcpy(r1, rays, N * sizeof *r1);
             prt_intersect_lod_packet(a, r1, hp, N, errors[e]);
+            memcpy(r2, rays, N * sizeof *r2);
+            ooc_intersect_lod_packet_scalar(a, r2, href, N, errors[e]);
+            for (int i = 0; i < N; i++) {
+                triangles += hp[i].hit.prim < PRT_VOXEL_HIT;
+                if (memcmp(&hp[i], &href[i], sizeof hp[i]) || memcmp(&r1[i], &r2[i], sizeof r1[i])) differ_ref++;
+            }
             for (int i = 0; i < N; i++) {
                 prt_ray q = rays[i];
                 prt_lod_hit hs;
@@ -260,7 +270,9 @@ TEST(test_lod_packets_answer_as_single_rays) {
     }
     CHECK_MSG(differ == 0, "%zu packet answers differ from single rays", differ);
     CHECK_MSG(voxels > 1000, "only %zu voxel answers: the LOD bound was not exercised", voxels);
-    free(rays), free(r1), free(hp), free(rnd);
+    CHECK_MSG(differ_ref == 0, "%zu SIMD packet answers differ from the scalar packets'", differ_ref);
+    CHECK_MSG(triangles > 1000, "only %zu triangle answers: the leaf test was not exercised", triangles);
+    free(rays), free(r1), free(r2), free(hp), free(href), free(rnd);
     prt_accel_free(a);
     prt_mesh_free(m);
 }

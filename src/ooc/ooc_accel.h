@@ -22,6 +22,9 @@ bool ooc_intersect_lod(const prt_accel *a, prt_ray *r, float C, bool any, prt_lo
 /* Closest LOD hits of n rays, 16 at a time as packets (rays whose direction signs differ
  * from the packet's are traced alone); the same answers as ooc_intersect_lod. */
 void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
+/* The same with the lanes of each packet walked one by one: the reference the SIMD packets
+ * (traverse.c) are tested against. */
+void ooc_intersect_lod_packet_scalar(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
 
 /* Open a block file image (memory) or file (fd >= 0); checks header and table.
  * verify_crc=false skips every checksum, so fuzzing reaches the structural checks. */
