@@ -38,6 +38,27 @@ static prt_stats stats_of(const prt_mesh *m, const char *spec) {
     return st;
 }
 
+/* Rays of n random ones (seed 21) that quad:idx8-soa4 and quad:float3-soa4 built over m
+ * answer differently, closest hit (bit for bit) or any hit; SIZE_MAX if a build fails. */
+static size_t differ_from_float3_soa4(const prt_mesh *m, size_t n) {
+    prt_accel *a = NULL, *b = NULL;
+    CHECK_OK(prt_build(m, "quad:idx8-soa4", NULL, &a));
+    CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &b));
+    prt_ray *rays = rays_random(m, n, 21);
+    size_t differ = a && b ? 0 : SIZE_MAX;
+    for (size_t i = 0; a && b && i < n; i++) {
+        prt_ray r1 = rays[i], r2 = rays[i];
+        prt_hit h1, h2;
+        prt_intersect1(a, &r1, &h1);
+        prt_intersect1(b, &r2, &h2);
+        differ += h1.prim != h2.prim || memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4);
+        differ += prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i]);
+    }
+    free(rays);
+    prt_accel_free(a), prt_accel_free(b);
+    return differ;
+}
+
 /* Float entries: 12 bytes per entry instead of 8, otherwise the same buffer; the same
  * vertex floats through the same kernel give Float3SOA4's hits bit for bit. */
 TEST(test_idx8_float_is_exactly_float3_soa4) {
@@ -50,22 +71,8 @@ TEST(test_idx8_float_is_exactly_float3_soa4) {
     CHECK(ss.vertex_error == 0 && gs.vertex_error == 0);
     const prt_mesh *meshes[] = {soup, g};
     for (size_t mi = 0; mi < 2; mi++) {
-        prt_accel *a, *b;
-        CHECK_OK(prt_build(meshes[mi], "quad:idx8-soa4", NULL, &a));
-        CHECK_OK(prt_build(meshes[mi], "quad:float3-soa4", NULL, &b));
-        prt_ray *rays = rays_random(meshes[mi], 5000, 21);
-        size_t differ = 0;
-        for (size_t i = 0; a && b && i < 5000; i++) {
-            prt_ray r1 = rays[i], r2 = rays[i];
-            prt_hit h1, h2;
-            prt_intersect1(a, &r1, &h1);
-            prt_intersect1(b, &r2, &h2);
-            differ += h1.prim != h2.prim || memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4);
-            differ += prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i]);
-        }
+        size_t differ = differ_from_float3_soa4(meshes[mi], 5000);
         CHECK_MSG(differ == 0, "mesh %zu: %zu of 5000 rays answered differently from float3-soa4", mi, differ);
-        free(rays);
-        prt_accel_free(a), prt_accel_free(b);
     }
     prt_mesh_free(soup), prt_mesh_free(g);
 }
@@ -95,21 +102,8 @@ TEST(test_idx8_reuses_vertices_by_position_not_index) {
         CHECK_MSG(us.bytes_geometry == gs.bytes_geometry, "%s: unwelded grid %zu geometry bytes, welded %zu", specs[k],
                   (size_t)us.bytes_geometry, (size_t)gs.bytes_geometry);
     }
-    prt_accel *a, *b;
-    CHECK_OK(prt_build(u, "quad:idx8-soa4", NULL, &a));
-    CHECK_OK(prt_build(u, "quad:float3-soa4", NULL, &b));
-    prt_ray *rays = rays_random(u, 3000, 5);
-    size_t differ = 0;
-    for (size_t i = 0; a && b && i < 3000; i++) {
-        prt_ray r1 = rays[i], r2 = rays[i];
-        prt_hit h1, h2;
-        prt_intersect1(a, &r1, &h1);
-        prt_intersect1(b, &r2, &h2);
-        differ += h1.prim != h2.prim || memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4);
-    }
+    size_t differ = differ_from_float3_soa4(u, 3000);
     CHECK_MSG(differ == 0, "%zu of 3000 rays answered differently from float3-soa4 on the unwelded grid", differ);
-    free(rays);
-    prt_accel_free(a), prt_accel_free(b);
     prt_mesh_free(g), prt_mesh_free(u);
 }
 
