@@ -79,6 +79,19 @@ static inline void ooc_cache_put(ooc_cache *c, uint32_t b) {
 }
 /* Without waiting: the block if it is published, else NULL (and the block is requested). */
 const uint8_t *ooc_cache_try(ooc_cache *c, uint32_t b, uint32_t *size);
+/* The same, with the published case inline (a LOD frame enters millions of blocks); the
+ * call only records a request. */
+static inline const uint8_t *ooc_cache_try_inline(ooc_cache *c, uint32_t b, uint32_t *size) {
+    uint32_t s = atomic_load_explicit(&c->map[b], memory_order_acquire);
+    if (!s) return ooc_cache_try(c, b, size);
+    *size = c->table[b].raw;
+    /* Store only when it changes: a shared line written by every ray would bounce
+     * between the cores. */
+    uint32_t f = atomic_load_explicit(&c->frame, memory_order_relaxed);
+    if (atomic_load_explicit(&c->slots[s - 1].stamp, memory_order_relaxed) != f)
+        atomic_store_explicit(&c->slots[s - 1].stamp, f, memory_order_relaxed);
+    return c->slot_mem + (size_t)(s - 1) * OOC_BLOCK;
+}
 
 /* The cache update between frames. */
 typedef struct ooc_frame_info {

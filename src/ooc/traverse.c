@@ -40,13 +40,13 @@ typedef struct walker {
     uint16_t tcolor;
 } walker;
 
-static const uint8_t *acquire(walker *w, uint32_t b, uint32_t kind, uint32_t *size) {
+static inline const uint8_t *acquire(walker *w, uint32_t b, uint32_t kind, uint32_t *size) {
     ooc_cache *c = &w->a->cache;
     if (b >= c->nblocks || c->table[b].kind != kind || c->table[b].raw == 0) {
         atomic_fetch_add(&c->failures, 1);
         return NULL;
     }
-    return w->lod ? ooc_cache_try(c, b, size) : ooc_cache_get(c, b, size);
+    return w->lod ? ooc_cache_try_inline(c, b, size) : ooc_cache_get(c, b, size);
 }
 
 static void release(walker *w, uint32_t b) {
@@ -54,7 +54,7 @@ static void release(walker *w, uint32_t b) {
 }
 
 /* Make node block b current. False when it is missing (LOD) or corrupt. */
-static bool enter_block(walker *w, uint32_t b) {
+static inline bool enter_block(walker *w, uint32_t b) {
     if (w->held == b) return true;
     uint32_t size;
     const uint8_t *p = acquire(w, b, OOC_BLOCK_NODES, &size);
