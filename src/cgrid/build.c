@@ -155,7 +155,8 @@ static inline bool degenerate(vf4 a, vf4 b, vf4 c) {
 /* The vertex at p as x, y, z, 0, reading its 12 bytes only. */
 static inline vf4 load3(const float *p) {
 #if defined(__SSE4_1__)
-    const __m128 xy = _mm_castpd_ps(_mm_load_sd((const double *)(const void *)p));
+    /* x and y as one 8-byte load (movlps: no alignment needed, p is only 4-byte aligned). */
+    const __m128 xy = _mm_loadl_pi(_mm_setzero_ps(), (const __m64 *)(const void *)p);
     return (vf4)_mm_insert_ps(xy, _mm_load_ss(p + 2), 0x20);
 #else
     return (vf4){p[0], p[1], p[2], 0.0f};
@@ -165,7 +166,7 @@ static inline vf4 load3(const float *p) {
 /* Lanes 0..2 of v to p[0..2]. */
 static inline void store3(float *p, vf4 v) {
 #if defined(__SSE4_1__)
-    _mm_storel_pi((__m64 *)(void *)p, (__m128)v);
+    _mm_storel_pi((__m64 *)(void *)p, (__m128)v); /* movlps: no alignment needed */
     _mm_store_ss(p + 2, _mm_movehl_ps((__m128)v, (__m128)v));
 #else
     p[0] = v[0], p[1] = v[1], p[2] = v[2];
