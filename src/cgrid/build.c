@@ -140,15 +140,9 @@ static inline bool degenerate(vf4 a, vf4 b, vf4 c) {
     const __m256d n = _mm256_sub_pd(_mm256_mul_pd(e1_yzx, e2_zxy), _mm256_mul_pd(e1_zxy, e2_yzx));
     return (_mm256_movemask_pd(_mm256_cmp_pd(n, _mm256_setzero_pd(), _CMP_EQ_OQ)) & 7) == 7;
 #else
-    double e1[3], e2[3];
-    for (int k = 0; k < 3; k++) {
-        e1[k] = (double)b[k] - (double)a[k];
-        e2[k] = (double)c[k] - (double)a[k];
-    }
-    double nx = e1[1] * e2[2] - e1[2] * e2[1];
-    double ny = e1[2] * e2[0] - e1[0] * e2[2];
-    double nz = e1[0] * e2[1] - e1[1] * e2[0];
-    return nx == 0.0 && ny == 0.0 && nz == 0.0;
+    float fa[4], fb[4], fc[4];
+    memcpy(fa, &a, sizeof fa), memcpy(fb, &b, sizeof fb), memcpy(fc, &c, sizeof fc);
+    return prt__triangle_degenerate(fa, fb, fc);
 #endif
 }
 
