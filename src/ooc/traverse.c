@@ -695,7 +695,7 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
     for (uint32_t j = 0; ok && j < n; j++) {
         uint16_t ti;
         memcpy(&ti, p + list + 2 * j, 2);
-        __builtin_prefetch(p + sec[0] + (size_t)ti * sizeof(ooc_tri));
+        if (ti < ntri) __builtin_prefetch(p + sec[0] + (size_t)ti * sizeof(ooc_tri));
     }
     for (uint32_t j0 = 0; more && j0 < n; j0 += 8) {
         /* Decode up to 8 triangles: component c of vertex k of triangle l at soa[(3k+c)*8+l]. */
