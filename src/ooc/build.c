@@ -342,7 +342,7 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
         double lz4 = ooc_writer_compress_seconds(b.w), all = cpu_now() - c0, per = 1e6 / (double)PRT_MAX(built, 1);
         fprintf(stderr,
                 "ooc build CPU (s, us/tri): produce %.2f %.3f | sift %u passes over %.2f tris/tri %.2f %.3f | read %.2f %.3f | "
-                "kd %.2f %.3f | layout+looks %.2f %.3f (of which compression %.2f %.3f) | finish %.2f | all %.2f %.3f\n"
+                "kd %.2f %.3f | layout+looks %.2f %.3f | compression %.2f %.3f | finish %.2f | all %.2f %.3f\n"
                 "ooc build page faults: kd %ld | layout+looks %ld | all %ld\n",
                 b.cpu_produce, b.cpu_produce * per, b.sift_passes, (double)b.sifted / (double)PRT_MAX(built, 1), b.cpu_sift,
                 b.cpu_sift * per, b.cpu_read, b.cpu_read * per, b.cpu_kd, b.cpu_kd * per, b.cpu_layout + b.cpu_finish - lz4,
