@@ -111,7 +111,8 @@ static inline bool cg_planes_cull(const cg_grid *g, int K, int U, int V, vf4 pk,
               gk = (G[K] - vf4_set1(g->lo[K])) * inv;
     const vi4 o0 = (gu + vf4_set1(pk[0]) * gk) + vf4_set1(pc[0]) < ne, o1 = (-gu + vf4_set1(pk[1]) * gk) + vf4_set1(pc[1]) < ne;
     const vi4 o2 = (gv + vf4_set1(pk[2]) * gk) + vf4_set1(pc[2]) < ne, o3 = (-gv + vf4_set1(pk[3]) * gk) + vf4_set1(pc[3]) < ne;
-    return (vi4_mask(o0) == 0xf) | (vi4_mask(o1) == 0xf) | (vi4_mask(o2) == 0xf) | (vi4_mask(o3) == 0xf);
+    /* Without branches: (int) so that clang does not read the bitwise | as a typo for ||. */
+    return (int)(vi4_mask(o0) == 0xf) | (int)(vi4_mask(o1) == 0xf) | (int)(vi4_mask(o2) == 0xf) | (int)(vi4_mask(o3) == 0xf);
 }
 
 #endif
