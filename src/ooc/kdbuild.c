@@ -141,15 +141,16 @@ static inline void gather_end(const gather *g, summary *m) {
  * of eight lanes, each group then offset by the total of the ones before. */
 static inline void prefix_sums(const uint32_t in[BINS], uint32_t out[BINS]) {
     _Static_assert(BINS == 32, "four groups of eight lanes");
-    const vi8 zero = {0, 0, 0, 0, 0, 0, 0, 0};
-    int32_t carry = 0;
+    typedef uint32_t vu8 __attribute__((vector_size(32))); /* unsigned: counts reach n */
+    const vu8 zero = {0, 0, 0, 0, 0, 0, 0, 0};
+    uint32_t carry = 0;
     for (int g = 0; g < BINS; g += 8) {
-        vi8 x;
+        vu8 x;
         memcpy(&x, in + g, sizeof x);
         x += __builtin_shufflevector(zero, x, 0, 8, 9, 10, 11, 12, 13, 14);
         x += __builtin_shufflevector(zero, x, 0, 1, 8, 9, 10, 11, 12, 13);
         x += __builtin_shufflevector(zero, x, 0, 1, 2, 3, 8, 9, 10, 11);
-        x += (vi8){carry, carry, carry, carry, carry, carry, carry, carry};
+        x += carry; /* broadcast */
         memcpy(out + g, &x, sizeof x);
         carry = x[7];
     }
@@ -305,6 +306,7 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
     /* An item moves as two overlapping 16-byte vectors, b[0..3] and b[3..5] + ref, clipped
      * in registers (min/max pick as MINF/MAXF do); a copy through a struct on the stack
      * stalled on store forwarding. Lane 3 of hi is the ref, kept bit for bit. */
+    _Static_assert(sizeof(item) == 28 && offsetof(item, ref) == 24, "item: six floats, then the ref");
     const vi4 ref_lane = {0, 0, 0, -1};
     for (size_t i = 0; i < n; i++) {
         const float *b = refs[i].b;
@@ -313,14 +315,14 @@ static prt_status build_node(const ctx *c, ooc_tree *t, item *refs, size_t n, co
         if (empty != 0 && blo <= split) {
             const vf4 h = vf4_min(hi, clip_hi), hr = vf4_select(ref_lane, hi, h);
             gather_add(&g0, lo, h);
-            memcpy(s0[c0].b, &lo, sizeof lo), memcpy(s0[c0].b + 3, &hr, sizeof hr);
-            c0++;
+            unsigned char *d = (unsigned char *)&s0[c0++]; /* the whole item's 28 bytes */
+            memcpy(d, &lo, sizeof lo), memcpy(d + 3 * sizeof(float), &hr, sizeof hr);
         }
         if (empty != 1 && bhi >= split) {
             const vf4 l = vf4_max(lo, clip_lo);
             gather_add(&g1, l, hi);
-            memcpy(s1[c1].b, &l, sizeof l), memcpy(s1[c1].b + 3, &hi, sizeof hi);
-            c1++;
+            unsigned char *d = (unsigned char *)&s1[c1++];
+            memcpy(d, &l, sizeof l), memcpy(d + 3 * sizeof(float), &hi, sizeof hi);
         }
     }
     gather_end(&g0, &sm[0]), gather_end(&g1, &sm[1]);
