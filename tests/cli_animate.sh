@@ -27,6 +27,8 @@ expect three_frame_images [ "$n" -eq 3 ]
 check marbles_bench 0 "$packrt" animate marbles --tris 2k --frames 3 --size 32x32 --bench -r cgrid -r aabb:float3 --packet 4
 expect bench_prints_medians grep -q "medians over frames 1..2" "$dir/out"
 expect bvh_agrees_with_cgrid awk '/^aabb:float3/ && $NF == "100.000" {ok=1} END {exit !ok}' "$dir/out"
+check toys_bench 0 "$packrt" animate toys --tris 3k --frames 3 --size 32x32 --bench -r cgrid -r aabb:float3 --packet 8
+expect toys_bvh_agrees_with_cgrid awk '/^aabb:float3/ && $NF == "100.000" {ok=1} END {exit !ok}' "$dir/out"
 # Frames on disk: two copies of one mesh, the second moved; a third with other faces.
 check gen 0 "$packrt" gen sphere --tris 2k -o "$dir/s.ply"
 mkdir -p "$dir/seq"

@@ -3,6 +3,7 @@
  * count. Expected values come from geometry (Euler's formula, normals, volume), not from
  * the generators' code. */
 #include "test.h"
+#include "mesh/gen.h"
 
 #include <omp.h>
 #include <stdint.h>
@@ -296,7 +297,7 @@ TEST(test_cad_parts_face_outward_with_unwelded_faces) {
 }
 
 TEST(test_generators_are_deterministic_for_any_thread_count) {
-    static const char *kinds[] = {"sphere", "terrain", "mandelbulb", "cad", "canyon", "torus"};
+    static const char *kinds[] = {"sphere", "terrain", "mandelbulb", "cad", "canyon", "torus", "toys"};
     int threads = omp_get_max_threads();
     for (size_t i = 0; i < N_OF(kinds); i++) {
         prt_mesh *a = NULL, *b = NULL, *c = NULL;
@@ -366,6 +367,62 @@ TEST(test_level_count_is_close_and_rocks_sit_on_the_ground) {
     }
 }
 
+static double edge_length(const float *v, uint32_t a, uint32_t b) {
+    double d = 0;
+    for (int k = 0; k < 3; k++) d += ((double)v[3 * a + k] - v[3 * b + k]) * ((double)v[3 * a + k] - v[3 * b + k]);
+    return sqrt(d);
+}
+
+/* The walking toys: rigid parts on a static floor, so every frame keeps every edge's
+ * length and the closed parts' volume, stands on the floor (y >= 0) inside its extent,
+ * frame 0 of the frame function is the generated mesh, and the last frame the first. */
+TEST(test_toys_move_rigidly_over_the_floor) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("toys", 20000, 9, &m));
+    if (!m) return;
+    CHECK_OK(prt_mesh_validate(m));
+    CHECK(prt_mesh_count_degenerate(m) == 0);
+    CHECK_MSG(fabs(ratio(m, 20000) - 1) < 0.05, "%zu triangles for 20000", m->triangle_count);
+    size_t repeated, boundary;
+    edge_census(m, &repeated, &boundary);
+    CHECK_MSG(repeated == 0, "%zu repeated directed edges", repeated);
+    const double vol0 = signed_volume(m);
+    CHECK_MSG(vol0 > 0, "volume %g", vol0);
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    prt_mesh *f;
+    CHECK_OK(prt_mesh_create(m->vertex_count, m->triangle_count, &f));
+    if (!f) { prt_mesh_free(m); return; }
+    memcpy(f->triangles, m->triangles, 12 * m->triangle_count);
+    gen_toys_frame(m, 9, 0.0f, f->vertices);
+    CHECK(same_mesh(m, f));
+    const float times[] = {0.13f, 0.5f, 0.77f};
+    for (size_t i = 0; i < COUNT_OF(times); i++) {
+        gen_toys_frame(m, 9, times[i], f->vertices);
+        double worst = 0, moved = 0;
+        for (size_t t = 0; t < 3 * m->triangle_count; t++) {
+            uint32_t a = m->triangles[t], b = m->triangles[t - t % 3 + (t + 1) % 3];
+            double l0 = edge_length(m->vertices, a, b), l1 = edge_length(f->vertices, a, b);
+            worst = fmax(worst, fabs(l1 - l0) / l0);
+        }
+        for (size_t v = 0; v < 3 * m->vertex_count; v++) moved = fmax(moved, fabs((double)f->vertices[v] - m->vertices[v]));
+        CHECK_MSG(worst < 1e-4, "t=%g: an edge changed length by %g", times[i], worst);
+        CHECK_MSG(moved > 0.1, "t=%g: nothing moved", times[i]);
+        CHECK_MSG(fabs(signed_volume(f) / vol0 - 1) < 1e-3, "t=%g: volume %g against %g", times[i], signed_volume(f), vol0);
+        float l[3], h[3];
+        prt_mesh_bounds(f, l, h);
+        CHECK_MSG(l[1] >= 0.0f && l[0] >= lo[0] && l[2] >= lo[2] && h[0] <= hi[0] && h[2] <= hi[2],
+                  "t=%g: a toy leaves the floor: (%g %g %g) - (%g %g %g)", times[i], l[0], l[1], l[2], h[0], h[1], h[2]);
+    }
+    /* Whole laps and steps: the last frame is the first again, so sequences loop. */
+    gen_toys_frame(m, 9, 1.0f, f->vertices);
+    double back = 0;
+    for (size_t v = 0; v < 3 * m->vertex_count; v++) back = fmax(back, fabs((double)f->vertices[v] - m->vertices[v]));
+    CHECK_MSG(back < 1e-3, "t=1 is %g away from t=0", back);
+    prt_mesh_free(f);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_gen_kinds_names_every_generator);
     RUN(test_gen_unknown_kind_is_an_argument_error_listing_the_kinds);
@@ -383,5 +440,6 @@ int main(void) {
     RUN(test_generators_are_deterministic_for_any_thread_count);
     RUN(test_canyon_and_torus_are_displaced_grids);
     RUN(test_level_count_is_close_and_rocks_sit_on_the_ground);
+    RUN(test_toys_move_rigidly_over_the_floor);
     TEST_END();
 }

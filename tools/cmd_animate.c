@@ -6,7 +6,7 @@
  * --shadows adds a second pass of shadow rays from the primary hits to a point light
  * (prt_occluded_packet, rtcOccluded16 for Embree), timed on its own (Wald 2006 §4.6).
  * DIR holds one mesh per frame (.ply, .ply.gz, .obj; name order), every frame with the same
- * faces; SCENE is an animated generator kind (twist, marbles). */
+ * faces; SCENE is an animated generator kind (twist, marbles, toys). */
 #include "cli.h"
 #include "cgrid/cgrid.h"
 #include "embree_animate.h"
@@ -29,7 +29,7 @@ static int usage(void) {
     printf("usage: packrt animate DIR|SCENE [-r SPEC]... [-o frames/] [--bench] [--vs embree] [--json] [options]\n"
            "\n"
            "DIR: one mesh file per frame (.ply, .ply.gz, .obj, in name order), all with the same faces\n"
-           "(the BART scenes in ../shared/data). SCENE: an animated generator: twist | marbles.\n"
+           "(the BART scenes in ../shared/data). SCENE: an animated generator: twist | marbles | toys.\n"
            "Every frame, representations with prt_accel_update (cgrid) are updated in place, the\n"
            "others built again from scratch.\n"
            "\n"
@@ -63,7 +63,7 @@ typedef struct anim {
     prt_mesh *base;     /* frame 0 (faces of every frame) */
     float **frames;     /* DIR: vertex arrays of every frame */
     size_t nframes;
-    int kind;           /* 0: DIR, 1: twist, 2: marbles */
+    int kind;           /* 0: DIR, 1: twist, 2: marbles, 3: toys */
     uint64_t seed;
 } anim;
 
@@ -77,6 +77,7 @@ static void frame_vertices(const anim *a, size_t f, float *out) {
     float t = a->nframes > 1 ? (float)f / (float)(a->nframes - 1) : 0.0f;
     if (a->kind == 1) gen_twist_frame(a->base, t, out);
     else if (a->kind == 2) gen_marbles_frame(a->base, a->seed, t, out);
+    else if (a->kind == 3) gen_toys_frame(a->base, a->seed, t, out);
     else memcpy(out, a->frames[f], 12 * a->base->vertex_count);
 }
 
@@ -359,7 +360,7 @@ int cmd_animate(int argc, char **argv) {
         } else
             return cli_usage("animate", "unknown option '%s'", a);
     }
-    if (!src) return cli_usage("animate", "give a frame directory or a scene (twist, marbles)");
+    if (!src) return cli_usage("animate", "give a frame directory or a scene (twist, marbles, toys)");
     if (!bench && !outdir) return cli_usage("animate", "nothing to do: give -o DIR and/or --bench");
     if (!nspecs) specs[nspecs++] = "cgrid";
     if (!threads) threads = omp_get_max_threads();
@@ -367,8 +368,8 @@ int cmd_animate(int argc, char **argv) {
     anim an = {{0}, NULL, NULL, 0, 0, seed};
     struct stat st;
     int rc = 0;
-    if (!strcmp(src, "twist") || !strcmp(src, "marbles")) {
-        an.kind = !strcmp(src, "twist") ? 1 : 2;
+    if (!strcmp(src, "twist") || !strcmp(src, "marbles") || !strcmp(src, "toys")) {
+        an.kind = !strcmp(src, "twist") ? 1 : !strcmp(src, "marbles") ? 2 : 3;
         an.nframes = frames ? frames : 21;
         snprintf(an.name, sizeof an.name, "%s", src);
         prt_status s = prt_mesh_generate(src, tris, seed, &an.base);
@@ -379,7 +380,7 @@ int cmd_animate(int argc, char **argv) {
             return rc;
         }
     } else {
-        return cli_usage("animate", "'%s' is neither a directory of frames nor a scene (twist, marbles)", src);
+        return cli_usage("animate", "'%s' is neither a directory of frames nor a scene (twist, marbles, toys)", src);
     }
     if (outdir && mkdir(outdir, 0777) && errno != EEXIST) {
         fprintf(stderr, "packrt animate: %s: %s\n", outdir, strerror(errno));

@@ -18,10 +18,11 @@ static const struct {
     {"torus", gen_torus},
     {"twist", gen_twist},
     {"marbles", gen_marbles},
+    {"toys", gen_toys},
 };
 
 const char *prt_gen_kinds(void) {
-    return "sphere terrain mandelbulb cad level canyon torus twist marbles";
+    return "sphere terrain mandelbulb cad level canyon torus twist marbles toys";
 }
 
 prt_status prt_mesh_generate(const char *kind, size_t triangles, uint64_t seed, prt_mesh **out) {

@@ -44,6 +44,8 @@ prt_status gen_twist(size_t triangles, uint64_t seed, prt_mesh **out);
 void gen_twist_frame(const prt_mesh *base, float time, float *vertices);
 prt_status gen_marbles(size_t triangles, uint64_t seed, prt_mesh **out);
 void gen_marbles_frame(const prt_mesh *base, uint64_t seed, float time, float *vertices);
+prt_status gen_toys(size_t triangles, uint64_t seed, prt_mesh **out);
+void gen_toys_frame(const prt_mesh *base, uint64_t seed, float time, float *vertices);
 
 /* Grid surfaces (gen_grid.c): the two triangles of each of nu x nv cells over vertices
  * laid out row by row (nu + 1 a row, or nu when wrap_u; likewise rows), split along the
