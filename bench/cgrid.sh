@@ -17,10 +17,11 @@ trap 'rm -rf "$tmp"' EXIT
 
 scenes=()
 for s in bart_robots bart_kitchen bart_museum5; do [ -d "$data/$s" ] && scenes+=("$data/$s"); done
-scenes+=(twist marbles)
+scenes+=(twist marbles toys)
 # Generated scenes: the twisting column at 100k triangles, 110 marbles (21k triangles; the
-# paper's marbles were 8.8k, 110 of them).
-gen_opts() { case "$1" in twist) echo "--tris 100k";; marbles) echo "--tris 21120";; *) echo "";; esac; }
+# paper's marbles were 8.8k, 110 of them), 119 walking toys on a floor (72k triangles, the
+# size of BART robots).
+gen_opts() { case "$1" in twist) echo "--tris 100k";; marbles) echo "--tris 21120";; toys) echo "--tris 72k";; *) echo "";; esac; }
 name() { basename "$1"; }
 bvh="quad:float3-soa4"
 run() { # run OUT ARGS...: one animate run, JSON into OUT
