@@ -262,10 +262,12 @@ prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_option
  * triangles stay those of the mesh a was built from; only their corners move). vertices
  * holds 3 * vertex_count floats of that mesh, each finite and within
  * +-PRT_MAX_COORDINATE (else PRT_ERROR_MESH or PRT_ERROR_LIMIT, a unchanged). Memory is
- * reused from call to call. Representations that cannot update ("cgrid" can; BVH ones
- * cannot yet) answer PRT_ERROR_UNSUPPORTED: build them again from the moved mesh.
- * prt_stats.build_seconds then reports the update's time. Works on built and loaded
- * accels; like building, it must not run concurrently with queries on a. */
+ * reused from call to call. "cgrid" rebuilds its grid (built and loaded accels alike); a
+ * BVH built with the spec option update=refit keeps its tree and refits it (its splits stay
+ * those of the first frame; a loaded one keeps no tree). The others answer
+ * PRT_ERROR_UNSUPPORTED: build them again from the moved mesh. prt_stats.build_seconds
+ * then reports the update's time. Like building, it must not run concurrently with
+ * queries on a. */
 prt_status prt_accel_update(prt_accel *a, const float *vertices);
 
 /* Free an accel (built or loaded). NULL is ignored. */

@@ -58,6 +58,24 @@ void prt_accel_free(prt_accel *a) {
     else if (map) prt__unmap(map, size);
 }
 
+prt_status prt__check_update_vertices(const float *vertices, size_t count) {
+    /* Blocks of 1024 coordinates checked without a branch (the loop vectorizes), then the
+     * first bad one of a failing block found for the message. */
+    size_t i = count;
+    for (size_t b = 0; b < count && i == count; b += 1024) {
+        const size_t e = PRT_MIN(count, b + 1024);
+        int bad = 0;
+        for (size_t j = b; j < e; j++) bad |= !(fabsf(vertices[j]) <= PRT_MAX_COORDINATE);
+        if (bad)
+            for (i = b; fabsf(vertices[i]) <= PRT_MAX_COORDINATE;) i++;
+    }
+    if (i < count)
+        return prt__fail(isfinite(vertices[i]) ? PRT_ERROR_LIMIT : PRT_ERROR_MESH,
+                         "prt_accel_update: vertex %zu has coordinate %g (finite, within +-%g expected)", i / 3,
+                         (double)vertices[i], (double)PRT_MAX_COORDINATE);
+    return PRT_OK;
+}
+
 prt_status prt_accel_update(prt_accel *a, const float *vertices) {
     if (!a || !vertices) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_update: NULL argument");
     if (!a->ops->update)

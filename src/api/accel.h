@@ -54,6 +54,11 @@ struct prt_accel {
     bool file_mapping_is_copy; /* prt__free it rather than munmap */
 };
 
+/* prt_accel_update's check of new positions, for the representations' update ops: count
+ * floats, each finite (else PRT_ERROR_MESH) and within +-PRT_MAX_COORDINATE (else
+ * PRT_ERROR_LIMIT), the first bad one named. */
+prt_status prt__check_update_vertices(const float *vertices, size_t count);
+
 /* A registered representation family and the names it answers to. */
 typedef struct prt_repr_family {
     const prt_accel_ops *ops;

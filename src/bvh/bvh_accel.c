@@ -1,7 +1,9 @@
 /* The BVH family behind prt_accel_ops: parses "layout:codec[,split=..,leaf=..]", builds
  * the generic tree, encodes it with the chosen layout and codec, and dispatches queries to
  * the layout's kernels for that codec. Saved as sections META and BLOB, SHRD for a codec's
- * tree-wide data and IDS for the mesh ids of a seq_ids codec's triangles. */
+ * tree-wide data and IDS for the mesh ids of a seq_ids codec's triangles. With
+ * update=refit the build keeps its tree and triangles, and prt_accel_update refits the
+ * boxes for new vertex positions and encodes the tree again. */
 #include "api/accel.h"
 #include "bvh/bvh.h"
 #include "bvh/codecs/strip.h"
@@ -12,6 +14,14 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
+
+/* update=refit: the build's tree and the triangles it encodes, kept so prt_accel_update can
+ * refit the boxes and encode the tree again. */
+typedef struct bvh_refit {
+    bvh_tree tree;
+    prt_mesh mesh;    /* own copies: the latest vertices, and the triangles tree->prims name */
+    uint32_t *remap;  /* shared_remap codecs rewrite indices: each update remaps a copy, here */
+} bvh_refit;
 
 typedef struct bvh_accel {
     prt_accel base;
@@ -24,6 +34,7 @@ typedef struct bvh_accel {
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
+    bvh_refit *refit; /* update=refit and built (not loaded); else NULL */
 } bvh_accel;
 
 /* On-disk META section (little endian, 64 bytes). */
@@ -96,6 +107,11 @@ static void bvh_stats(const prt_accel *a, prt_stats *s) {
     /* Triangle ids are geometry, as they are inside float3's leaves. */
     s->bytes_geometry = b->blob.bytes_geometry + b->shared.size + (b->shared.mesh_ids ? 4 * b->shared.triangles : 0);
     s->bytes_other = sizeof(bvh_accel);
+    if (b->refit) {
+        const bvh_refit *r = b->refit;
+        s->bytes_other += sizeof *r + r->tree.node_count * sizeof(bvh_node) + 4 * r->tree.prim_count +
+                          12 * r->mesh.vertex_count + (r->remap ? 24 : 12) * r->mesh.triangle_count;
+    }
     const bvh_codec *c = &bvh_codecs[b->codec];
     s->vertex_error = c->vertex_error ? c->vertex_error(&b->shared) : c->leaf_error ? b->leaf_error : 0.0;
     s->nodes = b->blob.nodes;
@@ -110,8 +126,18 @@ static void bvh_stats(const prt_accel *a, prt_stats *s) {
     }
 }
 
+static void refit_free(bvh_refit *r) {
+    if (!r) return;
+    bvh_tree_free(&r->tree);
+    prt__free(r->mesh.vertices);
+    prt__free(r->mesh.triangles);
+    prt__free(r->remap);
+    prt__free(r);
+}
+
 static void bvh_destroy(prt_accel *a) {
     bvh_accel *b = (bvh_accel *)a;
+    refit_free(b->refit);
     if (b->owns_blob) {
         prt__free(b->blob.data);
         prt__free((void *)b->shared.data);
@@ -238,6 +264,41 @@ static prt_status encode_strips(bvh_accel *b, bvh_tree *tree, prt_mesh *lm, uint
     return s;
 }
 
+/* After the builder: the codec's shared data, the encoded blob and the measured vertex
+ * error, from a tree whose leaves name em's triangles (a shared_remap codec rewrites em's
+ * indices). What a build does, and what update=refit does again every frame. */
+static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32_t *ids, float strip_error) {
+    const bvh_codec *c = &bvh_codecs[b->codec];
+    prt_status s = PRT_OK;
+    if (c->shared_build || c->shared_remap) {
+        uint8_t *data = NULL;
+        s = c->shared_remap ? c->shared_remap(em, &data, &b->shared.size) : c->shared_build(em, &data, &b->shared.size);
+        b->shared.data = data;
+    }
+    if (!s && c->strips) s = encode_strips(b, tree, em, ids, strip_error);
+    else if (!s) s = b->layout->encode(tree, c, em, &b->blob);
+    if (!s && c->leaf_error) s = measure_leaf_error(b, c, em);
+    return s;
+}
+
+/* update=refit's copies of the tree's triangles (before any remap) and vertices. */
+static prt_status refit_keep(bvh_accel *b, const prt_mesh *em) {
+    bvh_refit *r = prt__calloc(1, sizeof *r);
+    if (!r) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    b->refit = r;
+    const size_t nt = em->triangle_count, nv = em->vertex_count;
+    r->mesh = (prt_mesh){.vertices = prt__alloc(prt__mul_size(nv ? nv : 1, 12)),
+                         .triangles = prt__alloc(prt__mul_size(nt ? nt : 1, 12)),
+                         .vertex_count = nv,
+                         .triangle_count = nt};
+    if (bvh_codecs[b->codec].shared_remap) r->remap = prt__alloc(prt__mul_size(nt ? nt : 1, 12));
+    if (!r->mesh.vertices || !r->mesh.triangles || (bvh_codecs[b->codec].shared_remap && !r->remap))
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for the refit copy of %zu triangles", nt);
+    memcpy(r->mesh.vertices, em->vertices, 12 * nv);
+    memcpy(r->mesh.triangles, em->triangles, 12 * nt);
+    return PRT_OK;
+}
+
 static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_build_options *o, prt_accel **out) {
     int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
     const bvh_codec *c = &bvh_codecs[codec];
@@ -255,9 +316,14 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if ((s = prt__spec_enum(spec, "split", bvh_split_names, BVH_SPLIT_COUNT, BVH_SPLIT_SAH, &split)) ||
         (s = prt__spec_int(spec, "leaf", default_leaf, 1, BVH_MAX_LEAF, &leaf)))
         return s;
-    static const char *const id_modes[] = {"mesh", "none"};
-    int order, ids;
-    if ((s = parse_order(spec, layout, &order)) || (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids))) return s;
+    static const char *const id_modes[] = {"mesh", "none"}, *const update_modes[] = {"rebuild", "refit"};
+    int order, ids, refit;
+    if ((s = parse_order(spec, layout, &order)) || (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids)) ||
+        (s = prt__spec_enum(spec, "update", update_modes, 2, 0, &refit)))
+        return s;
+    if (refit && c->strips)
+        return prt__fail(PRT_ERROR_ARGUMENT, "update=refit: the strip codecs (%s) build their strips from the tree's leaves; "
+                         "rebuild them instead", c->name);
     if (ids && !c->seq_ids)
         return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs a codec that stores one id per leaf; %s stores one per triangle",
                          c->name);
@@ -271,6 +337,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     prt__spec_set(spec, "split", bvh_split_names[split]);
     prt__spec_set(spec, "leaf", num);
     if (order) prt__spec_set(spec, "order", bvh_order_names[order]);
+    if (refit) prt__spec_set(spec, "update", update_modes[refit]);
 
     prt_mesh cleared;
     float strip_error = 0;
@@ -281,7 +348,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     bvh_prim *prims;
     size_t n;
     bvh_tree tree = {0};
-    if (!(s = bvh_triangle_prims(m, NULL, 0, &prims, &n))) {
+    if (!(s = refit ? bvh_triangle_prims_movable(m, &prims, &n) : bvh_triangle_prims(m, NULL, 0, &prims, &n))) {
         s = bvh_build(prims, n, &p, &tree);
         prt__free(prims);
     }
@@ -297,20 +364,14 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if (c->seq_ids) s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order), em = &leaf_order;
     if (!s && c->shared_remap && !c->seq_ids)
         s = prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s remaps indices without seq_ids", c->name);
-    if (!s && (c->shared_build || c->shared_remap)) {
-        uint8_t *data = NULL;
-        /* shared_remap rewrites the leaf-order copy's indices (seq_ids codecs only). */
-        s = c->shared_remap ? c->shared_remap(&leaf_order, &data, &b->shared.size)
-                            : c->shared_build(em, &data, &b->shared.size);
-        b->shared.data = data;
-    }
-    if (!s && c->strips) s = encode_strips(b, &tree, &leaf_order, ids ? o->triangle_order : b->mesh_ids, strip_error);
-    else if (!s) s = b->layout->encode(&tree, c, em, &b->blob);
-    if (!s && c->leaf_error) s = measure_leaf_error(b, c, em);
+    if (!s && refit) s = refit_keep(b, em);
+    /* shared_remap rewrites the leaf-order copy's indices (seq_ids codecs only). */
+    if (!s) s = encode_tree(b, &tree, c->strips ? &leaf_order : em, ids ? o->triangle_order : b->mesh_ids, strip_error);
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
     if (em != m) prt__free(leaf_order.triangles);
     if (m == &cleared) prt__free(cleared.vertices);
-    bvh_tree_free(&tree);
+    if (!s && refit) b->refit->tree = tree;
+    else bvh_tree_free(&tree);
     if (s) {
         bvh_destroy(&b->base);
         return s;
@@ -401,6 +462,33 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     return PRT_OK;
 }
 
+static prt_status bvh_update(prt_accel *a, const float *vertices) {
+    bvh_accel *b = (bvh_accel *)a;
+    bvh_refit *r = b->refit;
+    if (!r)
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "prt_accel_update: '%s' %s; build it again from the moved mesh", a->spec,
+                         b->owns_blob ? "was built without update=refit" : "was loaded, without the tree update=refit keeps");
+    prt_status s = prt__check_update_vertices(vertices, 3 * r->mesh.vertex_count);
+    if (s) return s;
+    memcpy(r->mesh.vertices, vertices, 12 * r->mesh.vertex_count);
+    bvh_tree_refit(&r->tree, &r->mesh);
+    prt_mesh em = r->mesh;
+    if (r->remap) memcpy(r->remap, r->mesh.triangles, 12 * r->mesh.triangle_count), em.triangles = r->remap;
+    /* Encode beside the old blob, so a failure leaves the accel as it was. */
+    bvh_accel t = *b;
+    t.shared.data = NULL, t.shared.size = 0, t.blob = (bvh_blob){0};
+    if ((s = encode_tree(&t, &r->tree, &em, NULL, 0.0f))) {
+        prt__free(t.blob.data);
+        prt__free((void *)t.shared.data);
+        return s;
+    }
+    prt__free(b->blob.data);
+    prt__free((void *)b->shared.data);
+    b->blob = t.blob, b->shared = t.shared, b->leaf_error = t.leaf_error;
+    memcpy(b->base.bounds, r->tree.nodes[0].box.lo, 6 * sizeof(float));
+    return PRT_OK;
+}
+
 const prt_accel_ops prt__bvh_ops = {
     .name = "bvh",
     .build = bvh_build_accel,
@@ -409,7 +497,8 @@ const prt_accel_ops prt__bvh_ops = {
     .stats = bvh_stats,
     .save = bvh_save,
     .load = bvh_load,
-    .destroy = bvh_destroy, /* no update yet: rebuild */
+    .destroy = bvh_destroy,
+    .update = bvh_update,
 };
 
 const prt_repr_family prt__bvh_family = {&prt__bvh_ops, bvh_accepts, bvh_name_at};

@@ -66,6 +66,15 @@ void bvh_prim_set(bvh_prim *p, const prt_aabb *box, uint32_t id);
  * the prims written. */
 prt_status bvh_triangle_prims(const prt_mesh *m, const uint32_t *ids, size_t count, bvh_prim **out, size_t *n);
 
+/* As bvh_triangle_prims over all of m, but keeping the flat triangles (only those naming a
+ * vertex twice are left out): a refitted tree (update=refit) keeps its triangles for every
+ * frame, and a flat one may open up when its vertices move. */
+prt_status bvh_triangle_prims_movable(const prt_mesh *m, bvh_prim **out, size_t *n);
+
+/* Recompute every node's box from the triangles of m (whose indices tree->prims are)
+ * bottom-up, keeping the topology: children always follow their parent in nodes[]. */
+void bvh_tree_refit(bvh_tree *tree, const prt_mesh *m);
+
 /* Build over n prims (permuted in place). On success *out owns its arrays. */
 prt_status bvh_build(bvh_prim *prims, size_t n, const bvh_build_params *p, bvh_tree *out);
 void bvh_tree_free(bvh_tree *t);

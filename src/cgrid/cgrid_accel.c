@@ -105,22 +105,8 @@ static prt_status cg_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
 
 static prt_status cg_update(prt_accel *a, const float *vertices) {
     cg_accel *c = (cg_accel *)a;
-    /* Blocks of 1024 coordinates checked without a branch (the loop vectorizes), then the
-     * first bad one of a failing block found for the message. */
-    const size_t nc = 3 * c->nverts;
-    size_t i = nc;
-    for (size_t b = 0; b < nc && i == nc; b += 1024) {
-        const size_t e = PRT_MIN(nc, b + 1024);
-        int bad = 0;
-        for (size_t j = b; j < e; j++) bad |= !(fabsf(vertices[j]) <= PRT_MAX_COORDINATE);
-        if (bad)
-            for (i = b; fabsf(vertices[i]) <= PRT_MAX_COORDINATE;) i++;
-    }
-    if (i < nc)
-        return prt__fail(isfinite(vertices[i]) ? PRT_ERROR_LIMIT : PRT_ERROR_MESH,
-                         "prt_accel_update: vertex %zu has coordinate %g (finite, within +-%g expected)", i / 3,
-                         (double)vertices[i], (double)PRT_MAX_COORDINATE);
-    return cg_rebuild(c, vertices, c->threads);
+    prt_status s = prt__check_update_vertices(vertices, 3 * c->nverts);
+    return s ? s : cg_rebuild(c, vertices, c->threads);
 }
 
 static void cg_stats(const prt_accel *a, prt_stats *s) {
