@@ -379,6 +379,11 @@ bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit 
 void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hits, uint32_t n, float error);
 /* Any-hit with levels of detail: a voxel blocks the ray as a triangle does. */
 bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error);
+/* prt_occluded_lod for n rays (occluded[i] 1 when ray i is blocked, else 0), traced as 4x4
+ * shadow packets where the representation has them ("ooc", §6.1: 16 consecutive rays with
+ * the same direction signs, e.g. from one light to a pixel block's hit points); the same
+ * answers as one call per ray. */
+void prt_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error);
 
 typedef struct prt_cache_info {
     uint64_t cache_bytes;     /* the cache's size */

@@ -201,8 +201,10 @@ TEST(test_lod_queries_stop_at_voxels_that_contain_the_surface) {
 
 /* Packets of 4x4 give each ray the answer it gets alone, at every error bound: coherent
  * camera rays (a 64x64 image in 4x4 blocks) and incoherent random ones, some with a zero
- * direction component (traced alone inside the packet). The SIMD packets and the scalar
- * reference packets agree bit for bit (every field of every answer, and the rays' tfar). */
+ * direction component (traced alone inside the packet), and shadow rays from a light to
+ * the camera rays' hit points (stopping short of them). The SIMD packets and the scalar
+ * reference packets agree bit for bit (every field of every answer, and the rays' tfar);
+ * shadow packets (prt_occluded_lod_packet) answer as prt_occluded_lod ray by ray. */
 TEST(test_lod_packets_answer_as_single_rays) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("mandelbulb", 60000, 3, &m));
@@ -222,10 +224,21 @@ TEST(test_lod_packets_answer_as_single_rays) {
     prt_camera_default(lo, hi, &cam);
     prt_ray *rnd = rays_random(m, N, 5);
     const float errors[] = {0.0f, 1e-3f, 1e-2f, 1e9f};
-    size_t differ = 0, voxels = 0, differ_ref = 0, triangles = 0;
-    for (int set = 0; set < 2; set++) {
+    size_t differ = 0, voxels = 0, differ_ref = 0, triangles = 0, occ_differ = 0, occ_count[2] = {0, 0};
+    prt_ray *cam_rays = malloc(N * sizeof *cam_rays);
+    uint8_t *occ = malloc(N);
+    const float light[3] = {hi[0] + (hi[0] - lo[0]), hi[1] + (hi[1] - lo[1]), lo[2] - 0.5f * (hi[2] - lo[2])};
+    for (int set = 0; set < 3; set++) {
         for (int i = 0; i < N; i++) {
-            if (set == 0) { /* camera rays, 4x4 blocks of a 64x64 image in order */
+            if (set == 2) { /* from the light toward camera ray i's exact hit, stopping short of it */
+                prt_ray q = cam_rays[i];
+                prt_hit h;
+                prt_intersect1(a, &q, &h);
+                float t = h.prim != PRT_INVALID ? h.t : 4.0f, p[3], d[3], l = 0;
+                for (int k = 0; k < 3; k++) p[k] = q.org[k] + t * q.dir[k], d[k] = p[k] - light[k], l += d[k] * d[k];
+                l = sqrtf(l);
+                rays[i] = (prt_ray){{light[0], light[1], light[2]}, 0.0f, {d[0] / l, d[1] / l, d[2] / l}, 0.999f * l};
+            } else if (set == 0) { /* camera rays, 4x4 blocks of a 64x64 image in order */
                 int blk = i / 16, x = (blk % 16) * 4 + i % 4, y = (blk / 16) * 4 + (i % 16) / 4;
                 float d[3], u[3] = {0, 1, 0}, f[3], rt[3];
                 for (int k = 0; k < 3; k++) f[k] = cam.target[k] - cam.eye[k];
@@ -238,6 +251,7 @@ TEST(test_lod_packets_answer_as_single_rays) {
                 rays[i] = rnd[i];
                 if (i % 5 == 0) rays[i].dir[i % 3] = 0.0f;
             }
+            if (set == 0) cam_rays[i] = rays[i];
         }
         for (size_t e = 0; e < COUNT_OF(errors); e++) {
             /* Warm the cache with exact queries, so LOD answers depend on the error only. */
@@ -253,6 +267,14 @@ TEST(test_lod_packets_answer_as_single_rays) {
             for (int i = 0; i < N; i++) {
                 triangles += hp[i].hit.prim < PRT_VOXEL_HIT;
                 if (memcmp(&hp[i], &href[i], sizeof hp[i]) || memcmp(&r1[i], &r2[i], sizeof r1[i])) differ_ref++;
+            }
+            prt_occluded_lod_packet(a, rays, occ, N, errors[e]);
+            for (int i = 0; i < N; i++) {
+                const bool want = prt_occluded_lod(a, &rays[i], errors[e]);
+                occ_count[want]++;
+                if (occ[i] != want && occ_differ++ < 3)
+                    fprintf(stderr, "  set %d error %g ray %d: occluded alone %d, in a packet %d\n", set, (double)errors[e], i,
+                            want, occ[i]);
             }
             for (int i = 0; i < N; i++) {
                 prt_ray q = rays[i];
@@ -272,7 +294,10 @@ TEST(test_lod_packets_answer_as_single_rays) {
     CHECK_MSG(voxels > 1000, "only %zu voxel answers: the LOD bound was not exercised", voxels);
     CHECK_MSG(differ_ref == 0, "%zu SIMD packet answers differ from the scalar packets'", differ_ref);
     CHECK_MSG(triangles > 1000, "only %zu triangle answers: the leaf test was not exercised", triangles);
-    free(rays), free(r1), free(r2), free(hp), free(href), free(rnd);
+    CHECK_MSG(occ_differ == 0, "%zu shadow packet answers differ from single rays", occ_differ);
+    CHECK_MSG(occ_count[0] > 1000 && occ_count[1] > 1000, "occluded %zu, open %zu: both answers must be exercised",
+              occ_count[1], occ_count[0]);
+    free(rays), free(r1), free(r2), free(hp), free(href), free(rnd), free(cam_rays), free(occ);
     prt_accel_free(a);
     prt_mesh_free(m);
 }

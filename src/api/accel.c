@@ -202,6 +202,16 @@ bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
     return a->ops->occluded1(a, r);
 }
 
+void prt_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error) {
+    bool valid = true;
+    for (uint32_t i = 0; i < n && valid; i++) valid = prt__ray_valid(&rays[i]);
+    if (valid && a->ops->lod_occluded_packet) {
+        a->ops->lod_occluded_packet(a, rays, occluded, n, error);
+        return;
+    }
+    for (uint32_t i = 0; i < n; i++) occluded[i] = prt_occluded_lod(a, &rays[i], error);
+}
+
 void prt_accel_frame(prt_accel *a, prt_cache_info *info) {
     if (info) memset(info, 0, sizeof *info);
     if (a && a->ops->frame) a->ops->frame(a, info);

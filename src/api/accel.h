@@ -35,6 +35,8 @@ typedef struct prt_accel_ops {
     bool (*lod_query)(const prt_accel *a, prt_ray *r, float error, bool any, prt_lod_hit *h);
     /* prt_intersect_lod_packet (rays already checked); NULL: one lod_query per ray. */
     void (*lod_packet)(const prt_accel *a, prt_ray *rays, prt_lod_hit *h, uint32_t n, float error);
+    /* prt_occluded_lod_packet (rays already checked); NULL: one any-hit lod_query per ray. */
+    void (*lod_occluded_packet)(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error);
     /* The cache update between frames (prt_accel_frame); NULL: nothing to do. */
     void (*frame)(prt_accel *a, prt_cache_info *info);
     /* Failures met by queries so far (prt_accel_check); NULL: none possible. */

@@ -297,6 +297,7 @@ const prt_accel_ops prt__ooc_ops = {
     .destroy = ooc_destroy,
     .lod_query = lod_query,
     .lod_packet = ooc_intersect_lod_packet,
+    .lod_occluded_packet = ooc_occluded_lod_packet,
     .frame = ooc_frame,
     .check = ooc_check,
 };

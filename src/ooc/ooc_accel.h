@@ -25,6 +25,9 @@ void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *ou
 /* The same with the lanes of each packet walked one by one: the reference the SIMD packets
  * (traverse.c) are tested against. */
 void ooc_intersect_lod_packet_scalar(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
+/* Shadow packets (§6.1): any-hit LOD queries of n rays, 16 at a time; occluded[i] is
+ * ooc_intersect_lod(any)'s answer for ray i. */
+void ooc_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float C);
 
 /* Open a block file image (memory) or file (fd >= 0); checks header and table.
  * verify_crc=false skips every checksum, so fuzzing reaches the structural checks. */

@@ -657,7 +657,8 @@ typedef struct packet16 {
     vf16 org[3], inv[3];
     float hit_t[PK] __attribute__((aligned(64))); /* ps->hit[i].t of the rays of tri */
     uint32_t tri;  /* rays with a triangle hit */
-    uint32_t done; /* rays stopped at a voxel */
+    uint32_t done; /* rays stopped at a voxel, and for any-hit walks rays with any hit */
+    bool any;      /* any-hit (shadow packets): a ray's first hit ends its walk */
     int front[3];  /* the child a ray meets first on each axis (all rays share their signs) */
 } packet16;
 
@@ -786,6 +787,8 @@ static void packet_walk16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             if (!(w0 & OOC_INNER)) {
                 if (!packet_leaf16(w, ps, pk, mask, w0, w1))
                     mask &= ~voxel_hits16(ps, pk, mask, tmin, axis_in, nvox, vox, vox_radius);
+                else if (pk->any) /* any hit ends a shadow ray's walk */
+                    pk->done |= pk->tri, mask &= ~pk->tri;
                 else /* rays with a hit before their segment's end are done */
                     mask &= ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), tmax)));
                 pop = true;
@@ -877,8 +880,11 @@ static void packet_walk16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
     }
 }
 
-/* Packets of 16 rays, walked by packet_walk16 (simd) or packet_walk (the reference). */
-static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C, bool simd) {
+/* Packets of 16 rays, walked by packet_walk16 (simd) or packet_walk (the reference). With
+ * occluded (any-hit, SIMD only): occluded[i] is set for a ray blocked by a triangle or
+ * stopped at a voxel, and out is not written. */
+static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C, bool simd,
+                        uint8_t *occluded) {
     const ooc_accel *a = (const ooc_accel *)acc;
     for (uint32_t base = 0; base < n; base += PK) {
         uint32_t cnt = PRT_MIN(n - base, (uint32_t)PK);
@@ -911,7 +917,7 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
         }
         if (mask && simd) {
             walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
-            packet16 pk = {.tri = 0, .done = 0};
+            packet16 pk = {.tri = 0, .done = 0, .any = occluded != NULL};
             int32_t ax[PK];
             for (int k = 0; k < 3; k++) {
                 float o[PK] = {0}, v[PK] = {0};
@@ -928,7 +934,16 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
             walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
             packet_walk(&w, &ps, mask, tmin, tmax, axis_in);
         }
-        for (uint32_t i = 0; i < cnt; i++) {
+        for (uint32_t i = 0; occluded && i < cnt; i++) {
+            if (single >> i & 1) {
+                prt_ray r = rays[base + i];
+                prt_lod_hit o;
+                occluded[base + i] = ooc_intersect_lod(acc, &r, C, true, &o);
+            } else {
+                occluded[base + i] = ps.hit[i].prim != PRT_INVALID;
+            }
+        }
+        for (uint32_t i = 0; !occluded && i < cnt; i++) {
             prt_ray *r = &rays[base + i];
             prt_lod_hit *o = &out[base + i];
             if (single >> i & 1) {
@@ -956,9 +971,14 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
 }
 
 void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C) {
-    lod_packets(a, rays, out, n, C, true);
+    lod_packets(a, rays, out, n, C, true, NULL);
 }
 
 void ooc_intersect_lod_packet_scalar(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C) {
-    lod_packets(a, rays, out, n, C, false);
+    lod_packets(a, rays, out, n, C, false, NULL);
+}
+
+void ooc_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float C) {
+    /* The walk reads rays but writes only its own state (tfar shrinks in out, not written). */
+    lod_packets(a, (prt_ray *)(uintptr_t)rays, NULL, n, C, true, occluded);
 }

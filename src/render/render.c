@@ -18,25 +18,33 @@ typedef struct tile_job {
     uint64_t seed;
 } tile_job;
 
-/* `shadows` mode without LOD for a tile's n camera hits: the shadow rays of every pixel
- * that needs one traced as one packet (prt_occluded_packet: representations with shadow
- * packets, cgrid's frustums (Wald 2006 §4.6), trace them together; the answers are
- * prt_occluded1's, so the image is the same as pixel by pixel). */
-static void shade_shadows_packet(const render_scene *s, const prt_ray *rays, const prt_hit *hits, uint32_t n,
-                                 render_sample *smp, render_surface *surf, bool *hit, uint64_t *cast) {
+/* `shadows` mode for a tile's n camera hits: the shadow rays of every pixel that needs one
+ * traced together (prt_occluded_packet: cgrid's frustums, Wald 2006 §4.6; with levels of
+ * detail prt_occluded_lod_packet: ooc's 4x4 shadow packets from the light, Afra §6.1),
+ * pixels taken in the order given (4x4 blocks for LOD); the answers are those of one query
+ * per ray, so the image is the same as pixel by pixel. lods: the LOD hits, or NULL. */
+static void shade_shadows_packet(const render_scene *s, const prt_ray *rays, const prt_hit *hits,
+                                 const prt_lod_hit *lods, const uint32_t *order, uint32_t n, render_sample *smp,
+                                 render_surface *surf, bool *hit, uint64_t *cast) {
     prt_ray shadow[TILE * TILE];
     float cosine[TILE * TILE];
     uint32_t pixel[TILE * TILE], m = 0;
-    for (uint32_t i = 0; i < n; i++) {
+    for (uint32_t q = 0; q < n; q++) {
+        const uint32_t i = order ? order[q] : q;
         cosine[i] = 0.0f;
-        hit[i] = render_surface_at(s, &rays[i], &hits[i], &surf[i], cast);
+        hit[i] = lods ? render_surface_lod(s, &rays[i], &lods[i], &surf[i], cast)
+                      : render_surface_at(s, &rays[i], &hits[i], &surf[i], cast);
         if (hit[i] && render_shadow_ray(s, &surf[i], &shadow[m], &cosine[i])) pixel[m++] = i;
     }
     uint8_t blocked[TILE * TILE];
-    for (uint32_t at = 0; at < m; at += PRT_PACKET_MAX) {
-        const uint32_t k = PRT_MIN(m - at, (uint32_t)PRT_PACKET_MAX);
-        const prt_packet p = {shadow + at, NULL, k, k};
-        prt_occluded_packet(s->accel, &p, blocked + at);
+    if (lods) {
+        prt_occluded_lod_packet(s->accel, shadow, blocked, m, s->lod_primary);
+    } else {
+        for (uint32_t at = 0; at < m; at += PRT_PACKET_MAX) {
+            const uint32_t k = PRT_MIN(m - at, (uint32_t)PRT_PACKET_MAX);
+            const prt_packet p = {shadow + at, NULL, k, k};
+            prt_occluded_packet(s->accel, &p, blocked + at);
+        }
     }
     *cast += m;
     for (uint32_t q = 0; q < m; q++)
@@ -66,11 +74,12 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             if (j->spp > 1) jx = prt_rng_float(&rng[i]), jy = prt_rng_float(&rng[i]);
             render_camera_ray(cam, (float)(x0 + i % w) + jx, (float)(y0 + i / w) + jy, &rays[i]);
         }
+        /* With LOD, 4x4 packets (Afra §6.1): the tile's rays regrouped by 4x4 pixel blocks. */
+        uint32_t order[TILE * TILE];
         if (j->scene->lod) {
-            /* 4x4 packets (Afra §6.1): the tile's rays regrouped by 4x4 pixel blocks. */
             prt_ray q[TILE * TILE];
             prt_lod_hit qh[TILE * TILE];
-            uint32_t order[TILE * TILE], m = 0;
+            uint32_t m = 0;
             for (uint32_t by = 0; by < h; by += 4)
                 for (uint32_t bx = 0; bx < w; bx += 4)
                     for (uint32_t y = by; y < by + 4 && y < h; y++)
@@ -86,8 +95,10 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
         render_sample smps[TILE * TILE];
         render_surface surfs[TILE * TILE];
         bool hit_of[TILE * TILE];
-        if (j->scene->shade == PRT_SHADE_SHADOWS && !j->scene->lod) {
-            shade_shadows_packet(j->scene, rays, hits, n, smps, surfs, hit_of, &cast);
+        if (j->scene->shade == PRT_SHADE_SHADOWS) {
+            const bool lod = j->scene->lod;
+            shade_shadows_packet(j->scene, rays, hits, lod ? lods : NULL, lod ? order : NULL, n, smps, surfs, hit_of,
+                                 &cast);
         } else {
             for (uint32_t i = 0; i < n; i++)
                 hit_of[i] = render_shade(j->scene, &rays[i], &hits[i], j->scene->lod ? &lods[i] : NULL, &rng[i],

@@ -118,11 +118,13 @@ typedef struct render_sample {
 bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh,
                   prt_rng *g, render_sample *out, render_surface *surf, uint64_t *rays);
 
-/* `shadows` mode without levels of detail in two steps, so that a tile's shadow rays go to
- * prt_occluded_packet together (render.c) and each pixel gets what render_shade would give
- * it: the ray from surface f to the point light and the cosine it brings (false, *c = 0:
- * no ray, the face is turned from the light), then the sample for that cosine (0 when
- * the ray was blocked; f NULL: a miss, the backdrop). */
+/* `shadows` mode in two steps, so that a tile's shadow rays go to prt_occluded_packet (or
+ * with levels of detail prt_occluded_lod_packet with the camera's error) together
+ * (render.c) and each pixel gets what render_shade would give it: the shadow ray of
+ * surface f (to the point light; with LOD from the light toward f) and the cosine it
+ * brings (false: no ray to cast, *c the answer: 0 when the face is turned from the light),
+ * then the sample for that cosine (0 when the ray was blocked; f NULL: a miss, the
+ * backdrop). */
 bool render_shadow_ray(const render_scene *s, const render_surface *f, prt_ray *ray, float *c);
 void render_shade_shadowed(const render_scene *s, const prt_ray *r, const render_surface *f, float c,
                            render_sample *out);

@@ -68,31 +68,6 @@ static bool occluded(const render_scene *s, const prt_ray *r, bool camera_like) 
     return prt_occluded_lod(s->accel, r, camera_like ? s->lod_primary : s->lod_secondary);
 }
 
-/* cos(normal, light) when the point light sees the surface, else 0 (one any-hit ray). */
-static float light_visible_cos(const render_scene *s, const render_surface *f, uint64_t *rays) {
-    prt_vec3 o = lift(s, f);
-    prt_vec3 l = prt_v3_sub(s->light, o);
-    float dist = prt_v3_len(l);
-    if (!(dist > 0.0f)) return 0.0f;
-    l = prt_v3_scale(l, 1.0f / dist);
-    float c = prt_v3_dot(f->n, l);
-    if (c <= 0.0f) return 0.0f;
-    prt_ray sr = ray_from(o, l, dist);
-    (*rays)++;
-    if (s->lod) {
-        /* Shadows are projections from the light (§6.2): cast from the light, so the LOD
-         * bound measures voxels by their distance from it, as the camera's does from the
-         * eye (cast from the surface, every ray would want full detail near its start).
-         * The ray stops short of the surface by two voxels of the size accepted there:
-         * the voxel that holds the point itself must not shadow it. */
-        float stop = dist * (1.0f - 2.0f * s->lod_primary);
-        if (!(stop > 0.0f)) return c;
-        prt_ray lr = ray_from(s->light, prt_v3_scale(l, -1.0f), stop);
-        return occluded(s, &lr, true) ? 0.0f : c;
-    }
-    return occluded(s, &sr, true) ? 0.0f : c;
-}
-
 bool render_shadow_ray(const render_scene *s, const render_surface *f, prt_ray *ray, float *c) {
     prt_vec3 o = lift(s, f);
     prt_vec3 l = prt_v3_sub(s->light, o);
@@ -102,8 +77,28 @@ bool render_shadow_ray(const render_scene *s, const render_surface *f, prt_ray *
     l = prt_v3_scale(l, 1.0f / dist);
     *c = prt_v3_dot(f->n, l);
     if (*c <= 0.0f) return *c = 0.0f, false;
+    if (s->lod) {
+        /* Shadows are projections from the light (§6.2): cast from the light, so the LOD
+         * bound measures voxels by their distance from it, as the camera's does from the
+         * eye (cast from the surface, every ray would want full detail near its start).
+         * The ray stops short of the surface by two voxels of the size accepted there:
+         * the voxel that holds the point itself must not shadow it. */
+        float stop = dist * (1.0f - 2.0f * s->lod_primary);
+        if (!(stop > 0.0f)) return false; /* lit: *c stays */
+        *ray = ray_from(s->light, prt_v3_scale(l, -1.0f), stop);
+        return true;
+    }
     *ray = ray_from(o, l, dist);
     return true;
+}
+
+/* cos(normal, light) when the point light sees the surface, else 0 (one any-hit ray). */
+static float light_visible_cos(const render_scene *s, const render_surface *f, uint64_t *rays) {
+    prt_ray sr;
+    float c;
+    if (!render_shadow_ray(s, f, &sr, &c)) return c;
+    (*rays)++;
+    return occluded(s, &sr, true) ? 0.0f : c;
 }
 
 void render_shade_shadowed(const render_scene *s, const prt_ray *r, const render_surface *f, float c,
