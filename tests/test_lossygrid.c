@@ -503,6 +503,70 @@ TEST(test_lossygrid_packets_equal_single_rays) {
     free(order);
 }
 
+/* lg_trace1 walks the tree with its own loop (nodes tested in place, records out of line):
+ * it answers as the wide8 kernel template instantiated for lossygrid's records, bit for bit,
+ * on rays leaving the surface as diffuse bounces do, random rays, rays with zero direction
+ * components, cut-short tfar and a tnear past the origin, over every encoding and leaf size. */
+TEST(test_lossygrid_single_ray_walk_equals_the_template) {
+    const char *kinds[] = {"terrain", "torus", "canyon"};
+    prt_mesh *meshes[4];
+    for (size_t k = 0; k < 3; k++) CHECK_OK(prt_mesh_generate(kinds[k], 20000, 5, &meshes[k]));
+    meshes[3] = mesh_random_soup(3000, 7);
+    const int encs[] = {LG_ENC_FIX, LG_ENC_OCT, LG_ENC_EXP}, leaves[] = {1, 1, 4};
+    size_t differ = 0, hits = 0, total = 0;
+    uint64_t seed = 12345;
+    for (size_t mi = 0; mi < 4; mi++) {
+        if (!meshes[mi]) continue;
+        const prt_mesh *m = meshes[mi];
+        for (size_t e = 0; e < COUNT_OF(encs); e++) {
+            lg_build_params p = {encs[e], leaves[e], 1};
+            bvh_blob blob;
+            uint32_t *order = NULL;
+            lg_build_report rep;
+            CHECK_OK(lg_build_blob(m, &p, &blob, &order, &rep));
+            bvh_shared sh = {0};
+            sh.data = blob.data, sh.size = blob.size, sh.triangles = rep.triangles;
+            float lo[3], hi[3];
+            prt_mesh_bounds(m, lo, hi);
+            for (uint32_t i = 0; i < 4000; i++) {
+                float r[8];
+                for (int k = 0; k < 8; k++) {
+                    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                    r[k] = (float)(seed >> 40) / 16777216.0f;
+                }
+                prt_ray ray;
+                /* From a point on a mesh triangle, nudged off it, in a random direction. */
+                const uint32_t t = (uint32_t)(r[0] * (float)m->triangle_count) % (uint32_t)m->triangle_count;
+                const float b1 = r[1] * 0.5f, b2 = r[2] * 0.5f;
+                for (int k = 0; k < 3; k++) {
+                    const float *v0 = &m->vertices[3 * m->triangles[3 * t]], *v1 = &m->vertices[3 * m->triangles[3 * t + 1]],
+                                *v2 = &m->vertices[3 * m->triangles[3 * t + 2]];
+                    ray.org[k] = v0[k] + b1 * (v1[k] - v0[k]) + b2 * (v2[k] - v0[k]);
+                    ray.dir[k] = 2.0f * r[3 + k] - 1.0f;
+                }
+                if (i % 4 == 1) /* random rays from outside through the box */
+                    for (int k = 0; k < 3; k++) ray.org[k] = lo[k] - 0.5f + 2.0f * r[3 + k] * (hi[k] - lo[k]);
+                if (i % 4 == 2) ray.org[1] += 1e-4f;
+                ray.tnear = i % 16 == 3 ? 0.05f : 0.0f;
+                ray.tfar = i % 16 == 5 ? 0.1f + r[6] : INFINITY;
+                if (i % 16 == 7) ray.dir[(int)(r[7] * 3) % 3] = 0.0f;
+                if (i % 64 == 9) ray.dir[0] = ray.dir[2] = 0.0f;
+                if (!prt__ray_valid(&ray)) continue;
+                prt_ray a = ray, b = ray;
+                prt_hit ha, hb;
+                lg_trace1(blob.data, &sh, &a, &ha);
+                lg_trace1_template(blob.data, &sh, &b, &hb);
+                differ += memcmp(&ha, &hb, sizeof ha) != 0 || memcmp(&a, &b, sizeof a) != 0;
+                hits += ha.prim != PRT_INVALID, total++;
+            }
+            prt__free(blob.data), prt__free(order);
+        }
+    }
+    CHECK_MSG(differ == 0, "%zu of %zu rays answered differently from the template's walk", differ, total);
+    CHECK_MSG(hits > total / 8, "only %zu of %zu rays hit: the test sees too little", hits, total);
+    for (size_t mi = 0; mi < 4; mi++) prt_mesh_free(meshes[mi]);
+}
+
 int main(void) {
     RUN(test_lossygrid_puts_a_regular_mesh_into_sub_grids);
     RUN(test_lossygrid_error_bound_holds_for_every_decoded_vertex);
@@ -515,5 +579,6 @@ int main(void) {
     RUN(test_lossygrid_rejects_crafted_records);
     RUN(test_lossygrid_bunny_within_the_bound);
     RUN(test_lossygrid_packets_equal_single_rays);
+    RUN(test_lossygrid_single_ray_walk_equals_the_template);
     TEST_END();
 }

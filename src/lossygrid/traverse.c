@@ -9,7 +9,101 @@
 #include "bvh/layouts/wide8_kernels.inc"
 #undef CODEC
 
-void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h) { wide8_intersect1_lgrec(blob, sh, r, h); }
+static inline vi8 lg_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
+
+void lg_trace1_template(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h) {
+    wide8_intersect1_lgrec(blob, sh, r, h);
+}
+
+/* --- single rays, closest hit ---------------------------------------------------------- */
+
+/* A leaf's records tested out of line, so that the node loop of lg_trace1 keeps its ray
+ * constants in registers (inlined, the record code's 30-odd vectors made the compiler
+ * spill them around every node). */
+PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h) {
+    lgrec_intersect(leaf, n, r, c, h);
+}
+
+/* The walk of wide8_kernels.inc's intersect1 for lossygrid's records, the node test written
+ * out so that it decodes only the ray's near and far planes, with the same operations in the
+ * same order as wide8_box_hit (so the same boxes are entered): each plane is
+ * fma(q, 2^(e - 127), p), the scale made from the exponent byte in a scalar register and
+ * broadcast, rather than through wide8_scales' vector permutes and the stack. */
+void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
+    prt__rayx r;
+    prt__rayx_init(&r, ray);
+    wide8_ray w;
+    wide8_ray_init(&w, &r, blob);
+    lgrec_ray cr;
+    lgrec_ray_init(&cr, &r, sh);
+    prt__hitx h = {ray->tfar, 0, 0, PRT_INVALID};
+    size_t qn[3], qf[3]; /* byte offsets of the ray's near and far plane rows in a node */
+    for (int k = 0; k < 3; k++)
+        qn[k] = offsetof(wide8_node, q) + 8 * (size_t)w.near[k], qf[k] = offsetof(wide8_node, q) + 8 * (size_t)w.far[k];
+    const vf8 tnear = vf8_set1(w.tnear), grow = vf8_set1(0x1p-21f);
+    const vi8 abs_mask = lg_vi8_set1(0x7FFFFFFF);
+    struct {
+        uint64_t ref;
+        float t;
+    } stack[WIDE8_STACK];
+    int top = 0;
+    uint64_t ref = WIDE8_HEADER_BYTES; /* the root */
+    for (;;) {
+        if (!(ref & WIDE8_LEAF)) {
+            const wide8_node *n = (const wide8_node *)(blob + ref);
+            const uint8_t *nb = (const uint8_t *)n;
+            vf8 tmin = tnear, tmax = vf8_set1(h.t);
+            for (int k = 0; k < 3; k++) {
+                const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
+                const vf8 np = vf8_fmadd(vf8_from_u8(nb + qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + qf[k]), s, p);
+                tmin = vf8_max((np - w.org[k]) * w.inv[k], tmin); /* NaN in the first operand: tmin */
+                tmax = vf8_min((fp - w.org[k]) * w.inv[k], tmax);
+            }
+            tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), grow, tmax);
+            unsigned mask = (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
+            if (mask) {
+                const int i0 = __builtin_ctz(mask);
+                mask &= mask - 1;
+                if (!mask) { /* the common case: one child hit */
+                    ref = wide8_child_ref_lgrec(n, i0, &w);
+                    continue;
+                }
+                /* Two or more: placed on the stack far to near by their rank (ties by
+                 * slot), the nearest visited next, every one prefetched now. */
+                mask |= 1u << i0;
+                const int c = __builtin_popcount(mask);
+                float tt[8];
+                memcpy(tt, &tmin, sizeof tt);
+                for (unsigned m = mask; m; m &= m - 1) {
+                    const int i = __builtin_ctz(m);
+                    const vf8 ti = vf8_set1(tt[i]);
+                    const unsigned before = (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
+                    const int slot = top + c - 1 - __builtin_popcount(before & mask);
+                    const uint64_t cref = wide8_child_ref_lgrec(n, i, &w);
+                    const uint8_t *cp = blob + (cref & WIDE8_OFFSET_MASK);
+                    __builtin_prefetch(cp), __builtin_prefetch(cp + 64);
+                    stack[slot].ref = cref;
+                    stack[slot].t = tt[i];
+                }
+                top += c - 1;
+                ref = stack[top].ref;
+                continue;
+            }
+        } else {
+            lg_leaf1(blob + (ref & WIDE8_OFFSET_MASK), (uint32_t)(ref >> 56 & 0x7F), &r, &cr, &h);
+        }
+        for (;;) {
+            if (top == 0) goto done;
+            --top;
+            if (stack[top].t <= h.t) {
+                ref = stack[top].ref;
+                break;
+            }
+        }
+    }
+done:
+    bvh_finish_hit(ray, hit, &h);
+}
 
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) { return wide8_occluded1_lgrec(blob, sh, r); }
 
@@ -36,7 +130,6 @@ typedef struct lg_packet {
 } lg_packet;
 
 static inline float lg_hmax8(vf8 a) { return -vf8_hmin(-a); }
-static inline vi8 lg_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
 static inline vf8 lg_vf8_abs(vf8 a) { return (vf8)((vi8)a & lg_vi8_set1(0x7FFFFFFF)); }
 
 /* Lanes of the 16-bit mask as two vector masks. */
