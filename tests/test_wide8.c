@@ -3,7 +3,8 @@
  * conservative, whatever the coordinates' magnitude), every triangle is stored once, and
  * meshes far from the origin or at tiny scale give exactly the brute-force hits. */
 #include "bvh/bvh.h"
-#include "bvh/layouts/wide8.h"
+#include "bvh/layouts/wide8_box.h"
+#include "core/rng.h"
 #include "support/meshes.h"
 #include "support/prims.h"
 #include "support/reference.h"
@@ -154,9 +155,104 @@ TEST(test_wide8_largest_leaves_fit_the_meta_bits) {
     prt_mesh_free(soup);
 }
 
+/* The exact slab test, in double, on slot i's box decoded as the encoder checked it
+ * (fmaf(q, s, p)): whether the ray's [tnear, tfar] meets it, and where it enters. An axis
+ * with a zero direction component bounds nothing when the origin lies in the slab and
+ * misses otherwise. */
+static bool exact_slab(const wide8_node *n, int i, const prt_ray *r, double *entry) {
+    double tmin = r->tnear, tmax = r->tfar;
+    for (int k = 0; k < 3; k++) {
+        const float s = wide8_scale(n->e[k]);
+        const double lo = fmaf((float)n->q[2 * k][i], s, n->p[k]), hi = fmaf((float)n->q[2 * k + 1][i], s, n->p[k]);
+        if (r->dir[k] == 0.0f) {
+            if (r->org[k] < lo || r->org[k] > hi) return false;
+            continue;
+        }
+        double a = (lo - r->org[k]) / r->dir[k], b = (hi - r->org[k]) / r->dir[k];
+        if (a > b) {
+            const double x = a;
+            a = b, b = x;
+        }
+        tmin = a > tmin ? a : tmin, tmax = b < tmax ? b : tmax;
+    }
+    *entry = tmin;
+    return tmin <= tmax;
+}
+
+/* A coordinate near slot plane values of node n on axis k: on a plane, a few ulps off it,
+ * or anywhere around the node. */
+static float near_plane(prt_rng *g, const wide8_node *n, int k) {
+    const float s = wide8_scale(n->e[k]);
+    const float plane = fmaf((float)(prt_rng_u32(g) & 0xFF), s, n->p[k]);
+    switch (prt_rng_u32(g) % 4) {
+    case 0: return plane;
+    case 1: return nextafterf(plane, prt_rng_u32(g) & 1 ? INFINITY : -INFINITY);
+    case 2: return plane + (prt_rng_float(g) - 0.5f) * 8.0f * s;
+    default: return n->p[k] + (prt_rng_float(g) * 3.0f - 1.0f) * 255.0f * s;
+    }
+}
+
+/* The folded box test of the traversal (wide8_fold_hit) hits every child box the exact
+ * slab test hits, and never reports an entry past the exact one, on meshes near the
+ * origin, far from it and tiny, for rays from inside, on and around each node's planes,
+ * with zero, tiny and ordinary direction components. */
+TEST(test_wide8_folded_box_test_is_conservative) {
+    prt_mesh *soup = mesh_random_soup(3000, 7);
+    prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 0.0f), mesh_transformed(soup, 1.0f, 1e6f),
+                          mesh_transformed(soup, 1e-4f, 0.0f), mesh_transformed(soup, 1e-3f, -3e4f)};
+    prt_rng g = prt_rng_seed(17, 3);
+    for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
+        bvh_prim *p = mesh_prims(meshes[mi]);
+        bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 4, .block = 1, .threads = 1};
+        bvh_tree tree;
+        CHECK_OK(bvh_build(p, meshes[mi]->triangle_count, &bp, &tree));
+        bvh_blob blob;
+        CHECK_OK(bvh_layout_wide8.encode(&tree, &bvh_codecs[BVH_CODEC_float3], meshes[mi], &blob));
+        wide8_header hd;
+        memcpy(&hd, blob.data, sizeof hd);
+        size_t missed = 0, late = 0, hits = 0;
+        for (uint32_t q = 0; q < hd.nodes; q++) {
+            const wide8_node *n = (const wide8_node *)(blob.data + WIDE8_HEADER_BYTES + (size_t)q * WIDE8_NODE_BYTES);
+            for (int ray = 0; ray < 64; ray++) {
+                prt_ray r;
+                for (int k = 0; k < 3; k++) {
+                    r.org[k] = near_plane(&g, n, k);
+                    const uint32_t kind = prt_rng_u32(&g) % 8;
+                    r.dir[k] = kind == 0 ? 0.0f : kind == 1 ? (prt_rng_float(&g) - 0.5f) * 1e-6f : prt_rng_float(&g) - 0.5f;
+                }
+                if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[0] = 1.0f;
+                r.tnear = prt_rng_u32(&g) & 1 ? 0.0f : -INFINITY;
+                r.tfar = INFINITY;
+                prt__rayx x;
+                prt__rayx_init(&x, &r);
+                wide8_fold f;
+                wide8_fold_init(&f, &x, blob.data);
+                vf8 tentry;
+                const unsigned mask = wide8_fold_hit(n, &f, r.tfar, &tentry);
+                const unsigned occupied = wide8_occupied(n);
+                for (int i = 0; i < 8; i++) {
+                    double entry;
+                    if (!(occupied >> i & 1) || !exact_slab(n, i, &r, &entry)) continue;
+                    hits++;
+                    if (!(mask >> i & 1)) missed++;
+                    else if (tentry[i] > entry) late++;
+                }
+            }
+        }
+        CHECK_MSG(missed == 0 && late == 0 && hits > 1000, "mesh %zu: %zu of %zu exact hits missed, %zu entered late",
+                  mi, missed, hits, late);
+        prt__free(blob.data);
+        bvh_tree_free(&tree);
+        free(p);
+        prt_mesh_free(meshes[mi]);
+    }
+    prt_mesh_free(soup);
+}
+
 int main(void) {
     RUN(test_wide8_child_boxes_contain_their_triangles);
     RUN(test_wide8_far_and_tiny_meshes_hit_as_brute_force);
     RUN(test_wide8_largest_leaves_fit_the_meta_bits);
+    RUN(test_wide8_folded_box_test_is_conservative);
     TEST_END();
 }

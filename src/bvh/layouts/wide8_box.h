@@ -8,6 +8,9 @@
 #include "core/simd.h"
 #include "geom/ray.h"
 
+#include <math.h>
+#include <stddef.h>
+
 /* Per-ray constants of the 8-lane box test, and the blob's header fields. */
 typedef struct wide8_ray {
     vf8 org[3], inv[3];
@@ -89,6 +92,85 @@ static inline unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, fl
     wide8_scales(n, s);
     for (int k = 0; k < 3; k++) near[k] = wide8_plane(n, s, w->near[k]), far[k] = wide8_plane(n, s, w->far[k]);
     return wide8_slab(near, far, wide8_occupied(n), w, tfar, tentry);
+}
+
+/* The header fields child_ref reads, without the rest of a wide8_ray. */
+static inline void wide8_ray_header(wide8_ray *w, const uint8_t *blob) {
+    wide8_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    w->geometry = hd.geometry;
+    w->grain = hd.grain;
+}
+
+/* Per-ray constants of the folded box test (wide8_fold_hit), broadcast. */
+typedef struct wide8_fold {
+    vf8 inv[3];
+    vf8 cnear[3], cfar[3]; /* -org * inv, lowered / raised by the error bound E */
+    vf8 tnear;
+    uint32_t near[3], far[3]; /* byte offset in a node of the q row holding each axis's near / far planes */
+} wide8_fold;
+
+/* The ray's constants for blob (from its root node). E per axis, 2^-19 (M + |org|) |inv|
+ * + 2^-126 with M = |p| + 256 s of the root, bounds the folded test's error at every
+ * node: wide8_fold_hit says why. */
+static inline void wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
+    wide8_node root;
+    memcpy(&root, blob + WIDE8_HEADER_BYTES, sizeof root);
+    for (int k = 0; k < 3; k++) {
+        const float m = fabsf(root.p[k]) + 256.0f * wide8_scale(root.e[k]);
+        /* An infinite inv makes every distance on that axis NaN or infinite on the
+         * right side (wide8_fold_hit), with no error to bound. */
+        const float e = isinf(r->inv[k]) ? 0.0f : (m + fabsf(r->org[k])) * fabsf(r->inv[k]) * 0x1p-19f + 0x1p-126f;
+        const float c = -(r->org[k] * r->inv[k]);
+        w->inv[k] = vf8_set1(r->inv[k]);
+        w->cnear[k] = vf8_set1(c - e);
+        w->cfar[k] = vf8_set1(c + e);
+        w->near[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + r->neg[k]);
+        w->far[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + 1 - r->neg[k]);
+    }
+    w->tnear = vf8_set1(r->tnear);
+}
+
+/* Lanes: the float 2^(e - 127) of the byte e that is the top byte of the 4 bytes at p
+ * (a node's exponent byte k with p = n->e + k - 3, inside the node). */
+PRT_INLINE vf8 wide8_scale8(const uint8_t *p) {
+    int32_t x;
+    memcpy(&x, p, 4);
+    typedef uint32_t vu8 __attribute__((vector_size(32)));
+    const vu8 v = (vu8)(vi8){x, x, x, x, x, x, x, x};
+    return (vf8)((v >> 1) & 0x7F800000u);
+}
+
+/* The slab test on the node's eight child boxes for one ray, with the quantization folded
+ * into the ray (after Ylitie et al. 2017, §3.3): a plane's distance is one fma from its
+ * byte q, q * (s inv) + (p inv - org inv), where decoding the plane first (wide8_box_hit)
+ * costs an fma, a subtraction and a multiplication in a chain.
+ *
+ * Conservative: the folded form rounds differently from the box the encoder checked
+ * (fmaf(q, s, p), which may differ from p + q s by u |P|, u = 2^-24), and its terms can be
+ * far larger than the distance. With M = |p| + 256 s of the root and |P|, |p| <= M, q s <=
+ * 2.1 M at every node (the root box holds every node box; a node's s is at most 4/255 of
+ * its extent or 2^-125, and each plane within one step of its subtree), the errors of inv, of org *
+ * inv, of the near / far constants, of p * inv + c and of the final fma add up to less than
+ * u (11 M + 5 |org|) |inv| + 3u E; near distances are lowered and far ones raised by E =
+ * 2^-19 (M + |org|) |inv| + 2^-126 (underflow), which covers it. So every child box the
+ * exact slab test on the decoded box hits is hit, and each entry distance is at most the
+ * exact one (the stack's cull at h.t stays conservative). On an axis where inv is
+ * infinite (a zero direction component, E = 0) a distance is NaN, or infinite only where
+ * the origin lies outside the slab; the min/max operand order ignores NaN. */
+PRT_INLINE unsigned wide8_fold_hit(const wide8_node *n, const wide8_fold *w, float tfar, vf8 *tentry) {
+    const uint8_t *b = (const uint8_t *)n;
+    vf8 tmin = w->tnear, tmax = vf8_set1(tfar);
+    for (int k = 0; k < 3; k++) {
+        const vf8 si = wide8_scale8(b + offsetof(wide8_node, e) + k - 3) * w->inv[k];
+        const vf8 p = vf8_set1(n->p[k]);
+        const vf8 on = vf8_fmadd(p, w->inv[k], w->cnear[k]), of = vf8_fmadd(p, w->inv[k], w->cfar[k]);
+        /* NaN in the first operand: the second, so an undefined distance culls nothing. */
+        tmin = vf8_max(vf8_fmadd(vf8_from_u8(b + w->near[k]), si, on), tmin);
+        tmax = vf8_min(vf8_fmadd(vf8_from_u8(b + w->far[k]), si, of), tmax);
+    }
+    *tentry = tmin;
+    return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
 }
 
 #endif
