@@ -29,9 +29,32 @@ PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__ra
  * same order as wide8_box_hit (so the same boxes are entered): each plane is
  * fma(q, 2^(e - 127), p), the scale made from the exponent byte in a scalar register and
  * broadcast, rather than through wide8_scales' vector permutes and the stack. */
+/* prt__rayx_init's values, bit for bit, with the dominant axis and the winding swap chosen
+ * by arithmetic rather than branches: a diffuse ray's direction is random, so those
+ * branches were mispredicted about once a ray. */
+static inline void lg_rayx_init(prt__rayx *x, const prt_ray *r) {
+    for (int k = 0; k < 3; k++) {
+        x->org[k] = r->org[k];
+        x->dir[k] = r->dir[k];
+        x->inv[k] = 1.0f / r->dir[k];
+        x->neg[k] = x->inv[k] < 0.0f;
+    }
+    x->tnear = r->tnear;
+    const float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
+    const int a = ax > ay, b = ax > az, c = ay > az;
+    const int kz = 2 - ((a & b) << 1 | ((a ^ 1) & c)); /* ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2) */
+    const int kx0 = kz == 2 ? 0 : kz + 1, ky0 = kx0 == 2 ? 0 : kx0 + 1;
+    const int flip = -(int)(r->dir[kz] < 0.0f); /* swap kx and ky to keep the winding */
+    const int kx = kx0 ^ ((kx0 ^ ky0) & flip), ky = ky0 ^ ((kx0 ^ ky0) & flip);
+    x->kx = kx, x->ky = ky, x->kz = kz;
+    x->sx = r->dir[kx] / r->dir[kz];
+    x->sy = r->dir[ky] / r->dir[kz];
+    x->sz = 1.0f / r->dir[kz];
+}
+
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
     prt__rayx r;
-    prt__rayx_init(&r, ray);
+    lg_rayx_init(&r, ray);
     wide8_ray w;
     wide8_ray_init(&w, &r, blob);
     lgrec_ray cr;
@@ -68,12 +91,24 @@ void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit 
                     ref = wide8_child_ref_lgrec(n, i0, &w);
                     continue;
                 }
-                /* Two or more: placed on the stack far to near by their rank (ties by
-                 * slot), the nearest visited next, every one prefetched now. */
-                mask |= 1u << i0;
-                const int c = __builtin_popcount(mask);
                 float tt[8];
                 memcpy(tt, &tmin, sizeof tt);
+                const int i1 = __builtin_ctz(mask);
+                if (!(mask & (mask - 1))) { /* two: the farther pushed (ties: the higher slot) */
+                    const bool swap = tt[i1] < tt[i0];
+                    const int nearer = swap ? i1 : i0, farther = swap ? i0 : i1;
+                    const uint64_t fref = wide8_child_ref_lgrec(n, farther, &w);
+                    const uint8_t *fp = blob + (fref & WIDE8_OFFSET_MASK);
+                    __builtin_prefetch(fp), __builtin_prefetch(fp + 64);
+                    stack[top].ref = fref;
+                    stack[top++].t = tt[farther];
+                    ref = wide8_child_ref_lgrec(n, nearer, &w);
+                    continue;
+                }
+                /* More: placed on the stack far to near by their rank (ties by slot), the
+                 * nearest visited next, every one prefetched now. */
+                mask |= 1u << i0;
+                const int c = __builtin_popcount(mask);
                 for (unsigned m = mask; m; m &= m - 1) {
                     const int i = __builtin_ctz(m);
                     const vf8 ti = vf8_set1(tt[i]);
