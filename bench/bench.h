@@ -259,20 +259,46 @@ typedef struct bench_check {
     size_t prim_differ; /* both hit, different triangles (often a shared edge: fine when t agrees) */
     size_t t_differ;    /* both hit, |t - t_ref| > BENCH_CHECK_T_REL x scene diagonal */
     double max_dt_rel;  /* max |t - t_ref| / scene diagonal over rays both hit */
+    bool lossy;          /* checked against a lossy representation's stated bound too */
+    size_t beyond_bound; /* lossy: rays whose answer no surface within the bound explains */
 } bench_check;
+
+/* What a lossy representation's answers are checked with: the mesh the reference traced,
+ * the rays as cast (indexing the answers), the representation's stated vertex error and a
+ * tolerance for float rounding (BENCH_CHECK_T_REL of the diagonal). */
+typedef struct bench_lossy {
+    const prt_mesh *mesh;
+    const prt_ray *rays;
+    double vertex_error, tol;
+} bench_lossy;
+
+/* Whether `got` is a right answer of a lossy representation for ray r, given the exact
+ * answer `want`, when every decoded triangle lies within err of its mesh triangle (plus
+ * tol for float rounding): a reported hit lies within err + tol of the triangle it names,
+ * and it is no farther than the decoded copy of want's triangle can be, unless the ray
+ * passes so close to want's edges (within 2 (err + tol) / cos) that the copy may be
+ * missed. A bound, not bit equality: what the tests and the benchmark check lossy
+ * representations with. */
+bool bench_lossy_acceptable(const prt_mesh *m, const prt_ray *r, const prt_hit *got, const prt_hit *want, double err,
+                            double tol);
 
 /* Relative t tolerance of a "t_differ" ray: RayCastTest's mismatch threshold (1e-5 of the
  * model size). */
 #define BENCH_CHECK_T_REL 1e-5
 
 /* True when a check shows a wrong backend rather than edge cases: more than 1 ray in 10^4
- * disagreeing on hit/miss or on t. Embree itself (float, not watertight) differs from an exact
- * answer on a few rays per million that graze edges or slivers. */
+ * disagreeing on hit/miss or on t (for a lossy representation: beyond its stated bound).
+ * Embree itself (float, not watertight) differs from an exact answer on a few rays per
+ * million that graze edges or slivers. */
 bool bench_check_bad(const bench_check *c);
 
-void bench_check_hits(const prt_hit *hits, const prt_hit *ref, size_t n, double diagonal,
+/* lossy: NULL for a lossless representation (t within BENCH_CHECK_T_REL decides). */
+void bench_check_hits(const prt_hit *hits, const prt_hit *ref, size_t n, double diagonal, const bench_lossy *lossy,
                       bench_check *c);
-void bench_check_occluded(const uint8_t *occ, const uint8_t *ref, size_t n, bench_check *c);
+/* lossy: as for bench_check_hits; a disagreement then counts beyond the bound unless the
+ * exact surface comes within the error of the ray's segment (blocked) or crosses it only
+ * near an edge or an end (open). */
+void bench_check_occluded(const uint8_t *occ, const uint8_t *ref, size_t n, const bench_lossy *lossy, bench_check *c);
 
 /* ---------------------------------------------------------------------------------
  * One row per representation and the report (bench/report.c)

@@ -51,7 +51,10 @@ static void measure(matrix_run *run, const bench_backend *b, matrix_row *row) {
         b->single(b->self, bb, 0, run->rays.count);
         b->results(b->self, bb, hits, NULL);
         b->unload(b->self, bb);
-        if (run->reference) bench_check_hits(hits, run->reference, run->rays.count, run->diagonal, &row->check);
+        const bench_lossy lossy = {run->m, run->rays.rays, s.vertex_error, BENCH_CHECK_T_REL * run->diagonal};
+        if (run->reference)
+            bench_check_hits(hits, run->reference, run->rays.count, run->diagonal, s.vertex_error > 0 ? &lossy : NULL,
+                             &row->check);
         else if (!run->reference && !strcmp(row->name, "embree")) run->reference = hits, hits = NULL;
     }
     free(hits);
@@ -78,7 +81,9 @@ static void measure_spec(matrix_run *run, const char *spec, matrix_row *row) {
 static const char *check_text(const matrix_row *r, char *buf, size_t size) {
     if (!r->check.done) return "-";
     if (!r->check.hit_miss && !r->check.t_differ) return "same";
-    snprintf(buf, size, "%zu hit/miss, %zu t (max %.1e)", r->check.hit_miss, r->check.t_differ, r->check.max_dt_rel);
+    int k = snprintf(buf, size, "%zu hit/miss, %zu t (max %.1e)", r->check.hit_miss, r->check.t_differ, r->check.max_dt_rel);
+    if (r->check.lossy && k > 0 && (size_t)k < size)
+        snprintf(buf + k, size - (size_t)k, ", %zu beyond the vertex error", r->check.beyond_bound);
     return buf;
 }
 

@@ -146,7 +146,8 @@ void bench_report_text(FILE *f, const bench_report *r) {
         return;
     }
     fprintf(f, "\ncheck against %s: W hit/miss disagreements/rays, t differs > %g of the diagonal, "
-               "different triangle, max |t - t_ref| / diagonal\n", r->reference, BENCH_CHECK_T_REL);
+               "different triangle, max |t - t_ref| / diagonal; lossy representations: (rays whose answer no "
+               "surface within the stated vertex error explains; these decide)\n", r->reference, BENCH_CHECK_T_REL);
     size_t compared = 0;
     for (size_t i = 0; i < r->row_count; i++) {
         const bench_row *row = &r->rows[i];
@@ -159,6 +160,7 @@ void bench_report_text(FILE *f, const bench_report *r) {
             if (!r->workload_on[w] || !c->done) continue;
             fprintf(f, "  %s %zu/%zu", bench_workload_name((bench_workload)w), c->hit_miss, c->rays);
             if (w != BENCH_SHADOW) fprintf(f, " %zu %zu %.1e", c->t_differ, c->prim_differ, c->max_dt_rel);
+            if (c->lossy) fprintf(f, " (%zu beyond the bound)", c->beyond_bound);
             bad |= bench_check_bad(c);
         }
         fprintf(f, "%s\n", bad ? "  <-- DISAGREES" : "");
@@ -250,6 +252,8 @@ void bench_report_json(FILE *f, const bench_report *r) {
                 snprintf(key, sizeof key, "%s_check_max_dt_rel", bench_workload_name((bench_workload)w));
                 json_number(f, key, c->max_dt_rel, true);
             }
+            if (c->lossy)
+                fprintf(f, ", \"%s_check_beyond_bound\": %zu", bench_workload_name((bench_workload)w), c->beyond_bound);
         }
         fprintf(f, "}");
     }

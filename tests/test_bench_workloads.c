@@ -84,9 +84,53 @@ TEST(test_shadow_rays_end_at_the_light) {
     prt_mesh_free(m);
 }
 
+/* The benchmark's check of a lossy representation: answers within the stated vertex error
+ * pass, answers beyond it count, for closest hits and for occlusion (a flat square in
+ * y = 0, rays straight down inside one of its triangles, far from its edges; err 0.01). */
+TEST(test_lossy_check_counts_only_answers_beyond_the_bound) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(4, 2, &m));
+    if (!m) return;
+    const float v[12] = {-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1};
+    const uint32_t t[6] = {0, 2, 1, 0, 3, 2};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    enum { N = 4 };
+    prt_ray rays[N];
+    prt_hit ref[N], got[N];
+    for (int i = 0; i < N; i++) {
+        rays[i] = (prt_ray){{0.35f + 0.1f * (float)i, 1.0f, -0.3f}, 0.0f, {0.0f, -1.0f, 0.0f}, INFINITY};
+        ref[i] = (prt_hit){1.0f, 0.3f, 0.3f, 0, 0};
+        got[i] = ref[i];
+    }
+    got[1].t = 1.005f; /* half the error away: within */
+    got[2].t = 1.1f;   /* ten times the error: beyond */
+    got[3].prim = PRT_INVALID, got[3].t = INFINITY; /* a miss in the middle of a face: beyond */
+    const bench_lossy lossy = {m, rays, 0.01, 1e-6};
+    bench_check c;
+    bench_check_hits(got, ref, N, 2.8, &lossy, &c);
+    CHECK_MSG(c.lossy && c.beyond_bound == 2, "%zu rays beyond the bound, want 2", c.beyond_bound);
+    CHECK(bench_check_bad(&c));
+    bench_check_hits(got, ref, 2, 2.8, &lossy, &c);
+    CHECK(c.beyond_bound == 0 && !bench_check_bad(&c));
+    /* Occlusion: segments ending 0.005 above the square (within) or 0.5 above (beyond) may
+     * not be blocked; one crossing the middle of a face may not be open. */
+    prt_ray sr[3] = {{{0.5f, 1, -0.3f}, 0, {0, -1, 0}, 0.995f},
+                     {{0.5f, 1, -0.3f}, 0, {0, -1, 0}, 0.5f},
+                     {{0.5f, 1, -0.3f}, 0, {0, -1, 0}, 2.0f}};
+    const uint8_t occ[3] = {1, 1, 0}, exact[3] = {0, 0, 1};
+    const bench_lossy sl = {m, sr, 0.01, 1e-6};
+    bench_check_occluded(occ, exact, 3, &sl, &c);
+    CHECK_MSG(c.hit_miss == 3 && c.beyond_bound == 2, "%zu disagreements, %zu beyond the bound, want 3 and 2", c.hit_miss,
+              c.beyond_bound);
+    bench_check_occluded(occ, exact, 1, &sl, &c);
+    CHECK(c.hit_miss == 1 && c.beyond_bound == 0 && !bench_check_bad(&c));
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_random_rays_are_deterministic_and_prefix_stable);
     RUN(test_primary_tiles_cover_every_pixel_once);
     RUN(test_shadow_rays_end_at_the_light);
+    RUN(test_lossy_check_counts_only_answers_beyond_the_bound);
     TEST_END();
 }

@@ -183,7 +183,7 @@ typedef struct bench_ref {
  * compared with ref. */
 static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *wl,
                         const bool on[BENCH_WORKLOAD_COUNT], double diagonal, bench_ref *ref,
-                        size_t triangles, bench_row *row) {
+                        const prt_mesh *mesh, size_t triangles, bench_row *row) {
     bench_options o = {c->reps, c->threads, c->flush_bytes, c->cold};
     prt_stats s;
     b->stats(b->self, &s);
@@ -206,8 +206,11 @@ static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *
             ref->hits[w] = hits, ref->occ[w] = occ;
             continue;
         }
-        if (hits && ref->hits[w]) bench_check_hits(hits, ref->hits[w], n, diagonal, &row->check[w]);
-        if (occ && ref->occ[w]) bench_check_occluded(occ, ref->occ[w], n, &row->check[w]);
+        /* A lossy representation is checked against its stated bound (strict t otherwise). */
+        const bench_lossy lossy = {mesh, wl[w].rays, s.vertex_error, BENCH_CHECK_T_REL * diagonal};
+        const bench_lossy *ly = mesh && s.vertex_error > 0 ? &lossy : NULL;
+        if (hits && ref->hits[w]) bench_check_hits(hits, ref->hits[w], n, diagonal, ly, &row->check[w]);
+        if (occ && ref->occ[w]) bench_check_occluded(occ, ref->occ[w], n, ly, &row->check[w]);
         free(hits), free(occ);
     }
     if (is_ref) ref->name = row->name;
@@ -398,7 +401,7 @@ int cmd_bench(int argc, char **argv) {
     if (vs_embree) {
         bench_backend b = bench_backend_embree(em, "embree");
         embree_row.ok = true;
-        measure_row(&b, &c, wl, on, diagonal, &ref, triangles, &embree_row);
+        measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, &embree_row);
         bench_embree_free(em); /* its results are kept in ref; free its memory for the others */
         em = NULL;
     }
@@ -417,14 +420,14 @@ int cmd_bench(int argc, char **argv) {
             double build_s = prt__now() - t0;
             row->ok = true;
             bench_backend b = bench_backend_packrt(&a, row->name);
-            measure_row(&b, &c, wl, on, diagonal, &ref, triangles, row);
+            measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, row);
             row->build_s = build_s; /* wall clock around prt_build, as for Embree */
             bench_accel_free(&a);
         } else {
             row->ok = true;
             bench_accel a = {file_accel, NULL};
             bench_backend b = bench_backend_packrt(&a, row->name);
-            measure_row(&b, &c, wl, on, diagonal, &ref, triangles, row);
+            measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, row);
         }
     }
     if (embree_row.name[0]) rows[nrows++] = embree_row;

@@ -1,6 +1,7 @@
 /* Brute-force double-precision reference (Möller-Trumbore in double): the oracle every
  * representation is checked against. Slow by design and independent of packrt's kernels. */
 #include "support/reference.h"
+#include "bench.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -91,65 +92,7 @@ double ref_diagonal(const prt_mesh *m) {
     return sqrt(s);
 }
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
-/* Distance from p to segment ab. */
-static double segment_distance(const double p[3], const double a[3], const double b[3]) {
-    double ab[3], ap[3];
-    for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], ap[k] = p[k] - a[k];
-    double l = dot3(ab, ab), s = l > 0 ? fmin(fmax(dot3(ap, ab) / l, 0), 1) : 0, d = 0;
-    for (int k = 0; k < 3; k++) d += (ap[k] - s * ab[k]) * (ap[k] - s * ab[k]);
-    return sqrt(d);
-}
-
-/* Distance from p to triangle abc: to its plane when p projects inside, else to an edge. */
-static double triangle_distance(const double p[3], const double v[3][3], double *edge) {
-    double e1[3], e2[3], n[3], ap[3];
-    for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], ap[k] = p[k] - v[0][k];
-    n[0] = e1[1] * e2[2] - e1[2] * e2[1], n[1] = e1[2] * e2[0] - e1[0] * e2[2], n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-    double nn = dot3(n, n);
-    *edge = fmin(fmin(segment_distance(p, v[0], v[1]), segment_distance(p, v[1], v[2])), segment_distance(p, v[2], v[0]));
-    if (nn == 0) return *edge;
-    double h = dot3(ap, n) / nn, q[3]; /* q: p projected onto the plane */
-    for (int k = 0; k < 3; k++) q[k] = p[k] - h * n[k];
-    bool inside = true;
-    for (int i = 0; i < 3; i++) {
-        const double *a = v[i], *b = v[(i + 1) % 3];
-        double ab[3], aq[3], c[3];
-        for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], aq[k] = q[k] - a[k];
-        c[0] = ab[1] * aq[2] - ab[2] * aq[1], c[1] = ab[2] * aq[0] - ab[0] * aq[2], c[2] = ab[0] * aq[1] - ab[1] * aq[0];
-        inside &= dot3(c, n) >= 0;
-    }
-    return inside ? fabs(h) * sqrt(nn) : *edge;
-}
-
-static void triangle_of(const prt_mesh *m, uint32_t prim, double v[3][3]) {
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++) v[i][k] = m->vertices[3 * (size_t)m->triangles[3 * (size_t)prim + i] + k];
-}
-
 bool ref_lossy_acceptable(const prt_mesh *m, const prt_ray *r, const prt_hit *got, const prt_hit *want, double err,
                           double tol) {
-    double o[3] = {r->org[0], r->org[1], r->org[2]}, d[3] = {r->dir[0], r->dir[1], r->dir[2]}, v[3][3], p[3], edge;
-    double slack = err + tol, dl = sqrt(dot3(d, d));
-    if (got->prim != PRT_INVALID) {
-        if (got->prim >= m->triangle_count || !(got->t >= r->tnear && got->t <= r->tfar)) return false;
-        triangle_of(m, got->prim, v);
-        for (int k = 0; k < 3; k++) p[k] = o[k] + (double)got->t * d[k];
-        if (triangle_distance(p, v, &edge) > slack) return false;
-    }
-    if (want->prim == PRT_INVALID) return true;
-    /* The decoded copy of want's triangle lies within err of it, so the ray must hit
-     * something no farther than that copy, unless it passes near want's edges, where the
-     * copy may be missed, or grazes it (reach grows as 1/cos). */
-    triangle_of(m, want->prim, v);
-    double e1[3], e2[3], n[3];
-    for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], p[k] = o[k] + (double)want->t * d[k];
-    n[0] = e1[1] * e2[2] - e1[2] * e2[1], n[1] = e1[2] * e2[0] - e1[0] * e2[2], n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-    double cosine = fabs(dot3(d, n)) / (dl * sqrt(dot3(n, n)));
-    double reach = 2 * slack / fmax(cosine, 1e-3);
-    triangle_distance(p, v, &edge);
-    if (edge <= reach) return true;
-    if (got->prim == PRT_INVALID) return false;
-    return ((double)got->t - want->t) * dl <= reach;
+    return bench_lossy_acceptable(m, r, got, want, err, tol);
 }

@@ -22,12 +22,8 @@ bool ref_hits_triangle(const prt_mesh *m, const prt_ray *r, uint32_t prim, doubl
 /* Path of a file in ../shared/data, or NULL (and a message) when the folder is absent. */
 const char *ref_shared_path(const char *name);
 
-/* Whether `got` is a right answer of a lossy representation for ray r, given the exact
- * answer `want`, when every decoded triangle lies within err of its mesh triangle (plus
- * tol for float rounding): a reported hit lies within err + tol of the triangle it names,
- * and it is no farther than the decoded copy of want's triangle can be, unless the ray
- * passes so close to want's edges (within 2 (err + tol) / cos) that the copy may be
- * missed. A bound, not bit equality: what tests of lossy representations check. */
+/* bench_lossy_acceptable (bench/check.c): the one definition of a lossy representation's
+ * right answer, shared by the tests and `packrt bench`. */
 bool ref_lossy_acceptable(const prt_mesh *m, const prt_ray *r, const prt_hit *got, const prt_hit *want, double err,
                           double tol);
 
