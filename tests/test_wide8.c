@@ -194,7 +194,7 @@ static float near_plane(prt_rng *g, const wide8_node *n, int k) {
 
 /* The folded box test of the traversal (wide8_fold_hit) hits every child box the exact
  * slab test hits, and never reports an entry past the exact one, on meshes near the
- * origin, far from it and tiny, for rays from inside, on and around each node's planes,
+ * origin, far from it (where the kernels use the decoded planes instead) and tiny, for rays from inside, on and around each node's planes,
  * with zero, tiny and ordinary direction components. */
 TEST(test_wide8_folded_box_test_is_conservative) {
     prt_mesh *soup = mesh_random_soup(3000, 7);
@@ -210,7 +210,7 @@ TEST(test_wide8_folded_box_test_is_conservative) {
         CHECK_OK(bvh_layout_wide8.encode(&tree, &bvh_codecs[BVH_CODEC_float3], meshes[mi], &blob));
         wide8_header hd;
         memcpy(&hd, blob.data, sizeof hd);
-        size_t missed = 0, late = 0, hits = 0;
+        size_t missed = 0, late = 0, hits = 0, wrong_choice = 0;
         for (uint32_t q = 0; q < hd.nodes; q++) {
             const wide8_node *n = (const wide8_node *)(blob.data + WIDE8_HEADER_BYTES + (size_t)q * WIDE8_NODE_BYTES);
             for (int ray = 0; ray < 64; ray++) {
@@ -226,7 +226,9 @@ TEST(test_wide8_folded_box_test_is_conservative) {
                 prt__rayx x;
                 prt__rayx_init(&x, &r);
                 wide8_fold f;
-                wide8_fold_init(&f, &x, blob.data);
+                /* The kernels fold only for meshes near the origin (the soups at 0). */
+                const bool near_origin = mi == 0 || mi == 2;
+                if (wide8_fold_init(&f, &x, blob.data) != near_origin) wrong_choice++;
                 vf8 tentry;
                 const unsigned mask = wide8_fold_hit(n, &f, r.tfar, &tentry);
                 const unsigned occupied = wide8_occupied(n);
@@ -239,8 +241,9 @@ TEST(test_wide8_folded_box_test_is_conservative) {
                 }
             }
         }
-        CHECK_MSG(missed == 0 && late == 0 && hits > 1000, "mesh %zu: %zu of %zu exact hits missed, %zu entered late",
-                  mi, missed, hits, late);
+        CHECK_MSG(missed == 0 && late == 0 && hits > 1000 && wrong_choice == 0,
+                  "mesh %zu: %zu of %zu exact hits missed, %zu entered late, %zu rays chose the wrong test", mi, missed,
+                  hits, late, wrong_choice);
         prt__free(blob.data);
         bvh_tree_free(&tree);
         free(p);
