@@ -94,6 +94,14 @@ PRT_INLINE unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, float
     return wide8_slab(near, far, wide8_occupied(n), w, tfar, tentry);
 }
 
+/* The header fields child_ref reads, without the rest of a wide8_ray. */
+static inline void wide8_ray_header(wide8_ray *w, const uint8_t *blob) {
+    wide8_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    w->geometry = hd.geometry;
+    w->grain = hd.grain;
+}
+
 /* Per-ray constants of the folded box test (wide8_fold_hit), broadcast. */
 typedef struct wide8_fold {
     vf8 inv[3];
@@ -102,19 +110,26 @@ typedef struct wide8_fold {
     uint32_t near[3], far[3]; /* byte offset in a node of the q row holding each axis's near / far planes */
 } wide8_fold;
 
-/* The ray's constants for blob (from its root node). E per axis, 2^-19 (M + |org|) |inv|
- * + 2^-126 with M = |p| + 256 s of the root, bounds the folded test's error at every
- * node: wide8_fold_hit says why. E grows with the mesh's distance from the coordinate
- * origin, not with its size, so the fold pays only for a mesh near the origin: returns
- * false (use wide8_box_hit) unless on every axis |p| <= 768 s at the root, i.e. the root
- * box lies within about three times its extent of the origin. */
-static inline bool wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
+/* Whether the folded test suits blob: E (wide8_fold_init) grows with the mesh's distance
+ * from the coordinate origin, not with its size, so the fold pays only for a mesh near the
+ * origin: true when on every axis |p| <= 768 s at the root, i.e. the root box lies within
+ * about three times its extent of the origin; otherwise use wide8_box_hit. */
+static inline bool wide8_fold_suits(const uint8_t *blob) {
     wide8_node root;
     memcpy(&root, blob + WIDE8_HEADER_BYTES, sizeof root);
     bool near_origin = true;
+    for (int k = 0; k < 3; k++) near_origin &= fabsf(root.p[k]) <= 768.0f * wide8_scale(root.e[k]);
+    return near_origin;
+}
+
+/* The ray's constants for blob (from its root node). E per axis, 2^-19 (M + |org|) |inv|
+ * + 2^-126 with M = |p| + 256 s of the root, bounds the folded test's error at every
+ * node: wide8_fold_hit says why. */
+static inline void wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
+    wide8_node root;
+    memcpy(&root, blob + WIDE8_HEADER_BYTES, sizeof root);
     for (int k = 0; k < 3; k++) {
-        const float s = wide8_scale(root.e[k]), m = fabsf(root.p[k]) + 256.0f * s;
-        near_origin &= fabsf(root.p[k]) <= 768.0f * s;
+        const float m = fabsf(root.p[k]) + 256.0f * wide8_scale(root.e[k]);
         /* An infinite inv makes every distance on that axis NaN or infinite on the
          * right side (wide8_fold_hit), with no error to bound. */
         const float e = isinf(r->inv[k]) ? 0.0f : (m + fabsf(r->org[k])) * fabsf(r->inv[k]) * 0x1p-19f + 0x1p-126f;
@@ -126,7 +141,6 @@ static inline bool wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint
         w->far[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + 1 - r->neg[k]);
     }
     w->tnear = vf8_set1(r->tnear);
-    return near_origin;
 }
 
 /* Lanes: the float 2^(e - 127) of the byte e that is the top byte of the 4 bytes at p
