@@ -152,6 +152,19 @@ static bool lossy_occlusion_acceptable(const prt_mesh *m, const prt_ray *r, bool
     const double len = dl * ((double)r->tfar - r->tnear);
     for (size_t t = 0; t < m->triangle_count; t++) {
         triangle_of(m, (uint32_t)t, v);
+        /* Cheap rejection: the segment misses the triangle's box grown by slack. */
+        double t0 = 0, t1 = 1;
+        for (int k = 0; k < 3 && t0 <= t1; k++) {
+            double lo = fmin(fmin(v[0][k], v[1][k]), v[2][k]) - slack, hi = fmax(fmax(v[0][k], v[1][k]), v[2][k]) + slack;
+            double dk = q[k] - p[k];
+            if (dk == 0) {
+                if (p[k] < lo || p[k] > hi) t1 = -1;
+                continue;
+            }
+            double a = (lo - p[k]) / dk, b = (hi - p[k]) / dk;
+            t0 = fmax(t0, fmin(a, b)), t1 = fmin(t1, fmax(a, b));
+        }
+        if (t0 > t1) continue;
         if (occluded) { /* any triangle within slack of the segment explains a block */
             double edge, dist = segment_crossing(p, q, v) >= 0 ? 0 : fmin(triangle_distance(p, v, &edge), triangle_distance(q, v, &edge));
             for (int e = 0; e < 3 && dist > slack; e++) dist = fmin(dist, segment_segment_distance(p, q, v[e], v[(e + 1) % 3]));
