@@ -261,10 +261,11 @@ prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_option
 /* Animated meshes: rebuild a in place for new positions of the same vertices (the
  * triangles stay those of the mesh a was built from; only their corners move). vertices
  * holds 3 * vertex_count floats of that mesh, each finite and within
- * +-PRT_MAX_COORDINATE (else PRT_ERROR_MESH or PRT_ERROR_LIMIT, a unchanged). Memory is
- * reused from call to call. "cgrid" rebuilds its grid (built and loaded accels alike); a
- * BVH built with the spec option update=refit keeps its tree and refits it (its splits stay
- * those of the first frame; a loaded one keeps no tree). The others answer
+ * +-PRT_MAX_COORDINATE (else PRT_ERROR_MESH or PRT_ERROR_LIMIT, a unchanged). "cgrid"
+ * rebuilds its grid in pooled memory reused from call to call (built and loaded accels
+ * alike); a BVH built with the spec option update=refit keeps its tree, refits it and
+ * encodes it again into a new blob (its splits stay those of the first frame; a loaded one
+ * keeps no tree). The others answer
  * PRT_ERROR_UNSUPPORTED: build them again from the moved mesh. prt_stats.build_seconds
  * then reports the update's time. Like building, it must not run concurrently with
  * queries on a. */

@@ -31,14 +31,14 @@ static inline void prt__rayx_init(prt__rayx *x, const prt_ray *r) {
         x->neg[k] = x->inv[k] < 0.0f;
     }
     x->tnear = r->tnear;
-    float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
-    int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
-    if (r->dir[kz] < 0.0f) {
-        int t = kx;
-        kx = ky;
-        ky = t;
-    }
+    /* The dominant axis kz and the winding swap by arithmetic, not branches: incoherent
+     * rays (diffuse bounces) mispredicted those branches about once a ray. */
+    const float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
+    const int a = ax > ay, b = ax > az, c = ay > az;
+    const int kz = 2 - ((a & b) << 1 | ((a ^ 1) & c)); /* ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2) */
+    const int kx0 = kz == 2 ? 0 : kz + 1, ky0 = kx0 == 2 ? 0 : kx0 + 1;
+    const int flip = -(int)(r->dir[kz] < 0.0f); /* swap kx and ky to keep the winding */
+    const int kx = kx0 ^ ((kx0 ^ ky0) & flip), ky = ky0 ^ ((kx0 ^ ky0) & flip);
     x->kx = kx, x->ky = ky, x->kz = kz;
     x->sx = r->dir[kx] / r->dir[kz];
     x->sy = r->dir[ky] / r->dir[kz];

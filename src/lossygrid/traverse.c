@@ -26,29 +26,6 @@ PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__ra
     lgrec_intersect(leaf, n, r, c, h);
 }
 
-/* prt__rayx_init's values, bit for bit, with the dominant axis and the winding swap chosen
- * by arithmetic rather than branches: a diffuse ray's direction is random, so those
- * branches were mispredicted about once a ray. */
-static inline void lg_rayx_init(prt__rayx *x, const prt_ray *r) {
-    for (int k = 0; k < 3; k++) {
-        x->org[k] = r->org[k];
-        x->dir[k] = r->dir[k];
-        x->inv[k] = 1.0f / r->dir[k];
-        x->neg[k] = x->inv[k] < 0.0f;
-    }
-    x->tnear = r->tnear;
-    const float ax = fabsf(r->dir[0]), ay = fabsf(r->dir[1]), az = fabsf(r->dir[2]);
-    const int a = ax > ay, b = ax > az, c = ay > az;
-    const int kz = 2 - ((a & b) << 1 | ((a ^ 1) & c)); /* ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2) */
-    const int kx0 = kz == 2 ? 0 : kz + 1, ky0 = kx0 == 2 ? 0 : kx0 + 1;
-    const int flip = -(int)(r->dir[kz] < 0.0f); /* swap kx and ky to keep the winding */
-    const int kx = kx0 ^ ((kx0 ^ ky0) & flip), ky = ky0 ^ ((kx0 ^ ky0) & flip);
-    x->kx = kx, x->ky = ky, x->kz = kz;
-    x->sx = r->dir[kx] / r->dir[kz];
-    x->sy = r->dir[ky] / r->dir[kz];
-    x->sz = 1.0f / r->dir[kz];
-}
-
 /* The walk of wide8_kernels.inc's intersect1 for lossygrid's records, the node test written
  * out so that it decodes only the ray's near and far planes, with the same operations in the
  * same order as wide8_box_hit: each plane is fma(q, 2^(e - 127), p), the scale made from the
@@ -57,7 +34,7 @@ static inline void lg_rayx_init(prt__rayx *x, const prt_ray *r) {
  * here that measured 3-5% slower. Both tests are conservative: the same hits.) */
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
     prt__rayx r;
-    lg_rayx_init(&r, ray);
+    prt__rayx_init(&r, ray);
     wide8_ray w;
     wide8_ray_init(&w, &r, blob);
     lgrec_ray cr;
