@@ -2,7 +2,7 @@
  * and poorly connected meshes; the structure itself (every triangle in exactly one strip,
  * strip triangles are the mesh's, s-kd planes bound their halves, strips on a connected
  * mesh are long); rays through strip vertices and edges all hit; .prt files whose
- * records or nodes are damaged behind the checksums are errors, never crashes. */
+ * top level or records are damaged behind the checksums are errors, never crashes. */
 #include "api/accel.h"
 #include "mesh/mesh.h"
 #include "strips/strips.h"
@@ -26,6 +26,7 @@ static const char *const g_specs[] = {
     "raystrips,strip=rt",
     "raystrips,strip=rt,leaf=4,split=q16,chunk=1024",
     "raystrips,chunk=4,leaf=2,split=q16",
+    "raystrips,chunk=16384,leaf=1,split=f32,mat=u16", /* strips cut to fit a leaf */
 };
 
 /* Closest hits (prim and t) and any hits against the reference on rays away from edges. */
@@ -100,71 +101,76 @@ static bool same_vertex(const rs_accel *a, uint32_t i, const prt_mesh *m, uint32
     return p[0] == q[0] && p[1] == q[1] && p[2] == q[2];
 }
 
-/* Walks the records: every hittable mesh triangle appears once, each strip triangle has
- * the mesh triangle's vertices, and each s-kd node's planes bound its halves' vertices.
- * Returns the number of strips. */
+/* Walks the records in the top level's leaves: every hittable mesh triangle appears once,
+ * each strip triangle has the mesh triangle's vertices, and each s-kd node's planes bound
+ * its halves' vertices (q16: decoded on the grid of the node holding the record). Returns
+ * the number of strips. */
 static size_t check_structure(const prt_mesh *m, const char *spec) {
     prt_accel *acc;
     if (!repr_build(m, spec, &acc)) return 0;
     const rs_accel *a = (const rs_accel *)acc;
     uint8_t *seen = calloc(m->triangle_count, 1);
-    size_t bad_tri = 0, bad_plane = 0, twice = 0, live = 0;
-    for (size_t w = 0, s = 0; s < a->strip_count; s++) {
-        const rs_strip st = rs_strip_at(a->strips + w, &a->fmt);
-        for (uint32_t k = 0; k < st.n; k++) {
-            if (rs_dead(&st, k)) continue;
-            const uint32_t id = rs_id(&st, k), prim = id >> RS_ID_SHIFT, code = id & 7;
-            const uint32_t *t = m->triangles + 3 * (size_t)prim, *p = st.index + k;
-            live++;
-            twice += seen[prim]++ > 0;
-            /* Vertex 1 and 2 of the mesh triangle sit where the code says; vertex 0 in the rest. */
-            const int p1 = rs_perm[code][0], p2 = rs_perm[code][1];
-            bad_tri += code >= 6 || !same_vertex(a, p[p1], m, t[1]) || !same_vertex(a, p[p2], m, t[2]) ||
-                       !same_vertex(a, p[3 - p1 - p2], m, t[0]);
-        }
-        /* Planes: recompute the halves' boxes the way the layout defines them. */
-        typedef struct visit {
-            uint32_t node, first, count;
-        } visit;
-        visit todo[64];
-        int top = 0;
-        todo[top++] = (visit){0, 0, st.n};
-        while (top) {
-            const visit v = todo[--top];
-            if (v.count <= a->fmt.leaf) continue;
-            const uint32_t groups = rs_groups(v.count, a->fmt.leaf), lg = (groups + 1) / 2, nl = lg * a->fmt.leaf;
-            const uint32_t fl = st.flags[v.node], k = fl & 3;
-            const bool rev = fl & RS_FLAG_REVERSE;
-            float lo = INFINITY, hi = -INFINITY, box_lo = INFINITY, box_hi = -INFINITY;
-            for (uint32_t j = 0; j < st.n + 2; j++) {
-                const float x = a->vertices[3 * st.index[j] + k];
-                box_lo = fminf(box_lo, x), box_hi = fmaxf(box_hi, x);
+    size_t bad_tri = 0, bad_plane = 0, twice = 0, live = 0, strips = 0, max_n = 0;
+    for (size_t q = 0; q < a->node_count; q++) {
+        const wide8_node *node = &a->nodes[q];
+        const rs_grid g = rs_grid_of(node);
+        for (int slot = __builtin_popcount(node->imask); slot < 8 && node->meta[slot]; slot++) {
+            size_t w, end;
+            rs_leaf_range(node, slot, &w, &end);
+            for (; w < end; w += rs_entry_size(a->geometry + w, &a->fmt), strips++) {
+                const rs_strip st = rs_strip_at(a->geometry + w + a->fmt.no_ids, &a->fmt);
+                if (st.n > max_n) max_n = st.n;
+                for (uint32_t k = 0; k < st.n; k++) {
+                    if (rs_dead(&st, k)) continue;
+                    const uint32_t id = rs_id(&st, k), prim = id >> RS_ID_SHIFT, code = id & 7;
+                    const uint32_t *t = m->triangles + 3 * (size_t)prim, *p = st.index + k;
+                    live++;
+                    twice += seen[prim]++ > 0;
+                    /* Vertex 1 and 2 of the mesh triangle sit where the code says; vertex 0 in the rest. */
+                    const int p1 = rs_perm[code][0], p2 = rs_perm[code][1];
+                    bad_tri += code >= 6 || !same_vertex(a, p[p1], m, t[1]) || !same_vertex(a, p[p2], m, t[2]) ||
+                               !same_vertex(a, p[3 - p1 - p2], m, t[0]);
+                }
+                /* Planes: recompute the halves' boxes the way the layout defines them. */
+                typedef struct visit {
+                    uint32_t node, first, count;
+                } visit;
+                visit todo[64];
+                int top = 0;
+                todo[top++] = (visit){0, 0, st.n};
+                while (top) {
+                    const visit v = todo[--top];
+                    if (v.count <= a->fmt.leaf) continue;
+                    const uint32_t groups = rs_groups(v.count, a->fmt.leaf), lg = (groups + 1) / 2, nl = lg * a->fmt.leaf;
+                    const uint32_t fl = st.flags[v.node], k = fl & 3;
+                    const bool rev = fl & RS_FLAG_REVERSE;
+                    float lo = INFINITY, hi = -INFINITY;
+                    /* lower half: its maximum is at most the first plane; upper: its minimum at least the second. */
+                    const uint32_t lf = rev ? v.first + nl : v.first, lc = rev ? v.count - nl : nl;
+                    const uint32_t uf = rev ? v.first : v.first + nl, uc = rev ? nl : v.count - nl;
+                    for (uint32_t j = lf; j < lf + lc + 2; j++) hi = fmaxf(hi, a->vertices[3 * st.index[j] + k]);
+                    for (uint32_t j = uf; j < uf + uc + 2; j++) lo = fminf(lo, a->vertices[3 * st.index[j] + k]);
+                    float p1, p2;
+                    if (a->fmt.q16) {
+                        const uint16_t *qq = (const uint16_t *)st.splits + 2 * v.node;
+                        p1 = rs_q16_plane(qq[0], &g, (int)k), p2 = rs_q16_plane(qq[1], &g, (int)k);
+                    } else {
+                        p1 = ((const float *)st.splits)[2 * v.node], p2 = ((const float *)st.splits)[2 * v.node + 1];
+                    }
+                    bad_plane += !(hi <= p1 && lo >= p2);
+                    todo[top++] = (visit){v.node + 1, v.first, nl};
+                    todo[top++] = (visit){v.node + lg, v.first + nl, v.count - nl};
+                }
             }
-            /* lower half: its maximum is at most the first plane; upper: its minimum at least the second. */
-            const uint32_t lf = rev ? v.first + nl : v.first, lc = rev ? v.count - nl : nl;
-            const uint32_t uf = rev ? v.first : v.first + nl, uc = rev ? nl : v.count - nl;
-            for (uint32_t j = lf; j < lf + lc + 2; j++) hi = fmaxf(hi, a->vertices[3 * st.index[j] + k]);
-            for (uint32_t j = uf; j < uf + uc + 2; j++) lo = fminf(lo, a->vertices[3 * st.index[j] + k]);
-            float p1, p2;
-            if (a->fmt.q16) {
-                const uint16_t *q = (const uint16_t *)st.splits + 2 * v.node;
-                const float step = rs_q16_step(box_lo, box_hi);
-                p1 = rs_q16_plane(q[0], box_lo, box_hi, step), p2 = rs_q16_plane(q[1], box_lo, box_hi, step);
-            } else {
-                p1 = ((const float *)st.splits)[2 * v.node], p2 = ((const float *)st.splits)[2 * v.node + 1];
-            }
-            bad_plane += !(hi <= p1 && lo >= p2);
-            todo[top++] = (visit){v.node + 1, v.first, nl};
-            todo[top++] = (visit){v.node + lg, v.first + nl, v.count - nl};
         }
-        w += rs_record_words(st.n, st.live, &a->fmt);
     }
     size_t missing = 0;
     for (size_t t = 0; t < m->triangle_count; t++) missing += !seen[t] && !prt__mesh_triangle_degenerate(m, t);
-    CHECK_MSG(!bad_tri && !bad_plane && !twice && !missing && live == acc->triangles_built,
-              "%s: %zu wrong strip triangles, %zu planes that cut their half, %zu twice, %zu missing", spec, bad_tri,
-              bad_plane, twice, missing);
-    size_t strips = a->strip_count;
+    CHECK_MSG(!bad_tri && !bad_plane && !twice && !missing && live == acc->triangles_built && strips == a->strip_count,
+              "%s: %zu wrong strip triangles, %zu planes that cut their half, %zu twice, %zu missing, %zu of %zu strips", spec,
+              bad_tri, bad_plane, twice, missing, strips, a->strip_count);
+    /* An entry fits a leaf (255 units): longer strips are cut. */
+    CHECK_MSG(max_n <= 255 * RS_UNIT / 4, "%s: a strip of %zu triangles", spec, max_n);
     free(seen);
     prt_accel_free(acc);
     return strips;
@@ -262,11 +268,10 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
         prt_accel *a = NULL;
         CHECK_OK(prt__accel_open(img, size, true, &a));
         prt_accel_free(a);
-        size_t strp_len = 0, node_len = 0;
+        size_t blob_len = 0;
         /* Every word of the nodes and records set to values that break one rule each. */
         const uint32_t values[] = {0xFFFFFFFFu, 0x80000000u, 0x7FFFFFFFu, 0x10000u, 0, 1, 3, 0x07070707u, 12345678u};
-        const uint32_t tags[] = {PRT_FOURCC('S', 'T', 'R', 'P'), PRT_FOURCC('N', 'O', 'D', 'E'),
-                                 PRT_FOURCC('M', 'E', 'T', 'A')};
+        const uint32_t tags[] = {PRT_FOURCC('R', 'S', 'W', '8'), PRT_FOURCC('M', 'E', 'T', 'A')};
         size_t rejected = 0, tried = 0;
         for (size_t t = 0; t < COUNT_OF(tags); t++) {
             size_t len = 0;
@@ -276,8 +281,7 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
             size_t off = 0;
             for (uint32_t i = 0; i < r.count; i++)
                 if (r.sections[i].tag == tags[t]) off = r.sections[i].offset, len = r.sections[i].size;
-            if (tags[t] == PRT_FOURCC('S', 'T', 'R', 'P')) strp_len = len;
-            else if (tags[t] == PRT_FOURCC('N', 'O', 'D', 'E')) node_len = len;
+            if (tags[t] == PRT_FOURCC('R', 'S', 'W', '8')) blob_len = len;
             for (size_t w = 0; w + 4 <= len; w += 4)
                 for (size_t v = 0; v < COUNT_OF(values); v++) {
                     uint8_t *bad = aligned_alloc(64, (size + 63) / 64 * 64);
@@ -305,7 +309,7 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
                     free(bad);
                 }
         }
-        CHECK_MSG(strp_len > 0 && node_len > 0 && rejected > tried / 3, "%s: %zu of %zu damaged images rejected",
+        CHECK_MSG(blob_len > 0 && rejected > tried / 3, "%s: %zu of %zu damaged images rejected",
                   specs[sp], rejected, tried);
         free(img);
     }
@@ -500,10 +504,8 @@ TEST(test_build_is_the_same_on_one_and_two_threads) {
         CHECK_OK(prt_build(m, specs[i], &two, &b));
         if (a && b) {
             const rs_accel *x = (const rs_accel *)a, *y = (const rs_accel *)b;
-            CHECK_MSG(x->strip_words == y->strip_words && x->node_count == y->node_count &&
-                          x->vertex_count == y->vertex_count &&
-                          !memcmp(x->strips, y->strips, 4 * x->strip_words) &&
-                          !memcmp(x->nodes, y->nodes, sizeof(rs_node) * x->node_count) &&
+            CHECK_MSG(x->blob_bytes == y->blob_bytes && x->node_count == y->node_count &&
+                          x->vertex_count == y->vertex_count && !memcmp(x->blob, y->blob, x->blob_bytes) &&
                           !memcmp(x->vertices, y->vertices, 12 * x->vertex_count),
                       "%s: one and two threads build different structures", specs[i]);
         }

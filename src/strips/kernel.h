@@ -28,21 +28,6 @@
 /* Far distances grow by Ize's 2 gamma(3), as in geom/box.h, so clipping stays conservative. */
 static inline float rs_far(float t) { return t * (t >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG); }
 
-/* Four boxes (geom/box.h's SOA order): the mask of those hit within [tnear, tfar], with
- * their entry and (grown) exit distances. */
-static inline int rs_box4(const prt__rayx4 *r, const float *b, float tfar, vf4 *tn, vf4 *tf) {
-    vf4 tmin = r->tnear, tmax = vf4_set1(tfar);
-    for (int k = 0; k < 3; k++) {
-        vf4 n = vf4_load(b + 8 * k + 4 * r->neg[k]);
-        vf4 f = vf4_load(b + 8 * k + 4 * (1 - r->neg[k]));
-        tmin = vf4_max((n - r->org[k]) * r->inv[k], tmin);
-        tmax = vf4_min((f - r->org[k]) * r->inv[k], tmax);
-    }
-    tmax = vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
-    *tn = tmin, *tf = tmax;
-    return vi4_mask(tmin <= tmax);
-}
-
 /* A hit inside a strip: the record, the strip triangle, the weights of its three strip
  * vertices. */
 typedef struct rs_best {
@@ -82,14 +67,14 @@ typedef struct rs_visit {
     float dmin, dmax;
 } rs_visit;
 
-/* The two planes of s-kd node `node` on axis k of strip s (box lo/hi, read for q16 only). */
-static inline void rs_planes(const rs_accel *a, const rs_strip *s, uint32_t node, int k, const float *lo,
-                             const float *hi, float *p1, float *p2) {
+/* The two planes of s-kd node `node` on axis k of strip s (g: the grid of the top-level
+ * node holding the strip, read for q16 only). */
+static inline void rs_planes(const rs_accel *a, const rs_strip *s, uint32_t node, int k, const rs_grid *g, float *p1,
+                             float *p2) {
     if (a->fmt.q16) {
         uint16_t q[2];
         memcpy(q, (const uint16_t *)s->splits + 2 * node, sizeof q);
-        const float step = rs_q16_step(lo[k], hi[k]);
-        *p1 = rs_q16_plane(q[0], lo[k], hi[k], step), *p2 = rs_q16_plane(q[1], lo[k], hi[k], step);
+        *p1 = rs_q16_plane(q[0], g, k), *p2 = rs_q16_plane(q[1], g, k);
     } else {
         float f[2];
         memcpy(f, (const float *)s->splits + 2 * node, sizeof f);
@@ -97,10 +82,10 @@ static inline void rs_planes(const rs_accel *a, const rs_strip *s, uint32_t node
     }
 }
 
-/* The strip of top-level slot `slot` (node * 4 + child). */
-static inline rs_strip rs_strip_of(const rs_accel *a, const uint32_t *rec, uint32_t slot) {
-    rs_strip s = rs_strip_at(rec, &a->fmt);
-    if (a->fmt.no_ids) s.base = a->nodes[slot >> 2].pad[slot & 3];
+/* The strip of the leaf entry at e. */
+static inline rs_strip rs_strip_of(const rs_accel *a, const uint32_t *e) {
+    rs_strip s = rs_strip_at(e + a->fmt.no_ids, &a->fmt);
+    if (a->fmt.no_ids) s.base = e[0];
     return s;
 }
 
@@ -122,14 +107,15 @@ static inline void rs_finish(const rs_accel *a, const rs_best *b, prt_ray *ray, 
     ray->tfar = b->t;
 }
 
-/* The strip at rec (of top-level slot `slot`) whose box is lo/hi (read for q16 only),
- * entered over [dmin, dmax]. any: true at the first hit. Otherwise best->t shrinks with
+/* The strip of the leaf entry at e, on grid g (read for q16 only), entered over
+ * [dmin, dmax]. any: true at the first hit. Otherwise best->t shrinks with
  * every nearer hit; returns whether one was found. Algorithm 1 with the reverse flag;
  * lg = log2(leaf). */
-static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const uint32_t *rec, uint32_t slot,
-                                  const float *lo, const float *hi, float dmin, float dmax, bool any, rs_best *best) {
+static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const uint32_t *e, const rs_grid *g,
+                                  float dmin, float dmax, bool any, rs_best *best) {
     const uint32_t leaf = a->fmt.leaf, lg = (uint32_t)__builtin_ctz(leaf);
-    const rs_strip s = rs_strip_of(a, rec, slot);
+    const rs_strip s = rs_strip_of(a, e);
+    const uint32_t *rec = e + a->fmt.no_ids;
     rs_visit stack[24];
     int top = 0;
     bool found = false;
@@ -141,7 +127,7 @@ static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const u
             const uint32_t fl = s.flags[node];
             const int k = (int)(fl & 3u);
             float p1, p2;
-            rs_planes(a, &s, node, k, lo, hi, &p1, &p2);
+            rs_planes(a, &s, node, k, g, &p1, &p2);
             /* lower half: x <= p1, upper half: x >= p2; the near one is the lower when the ray
              * runs up the axis. NaN distances (origin on a plane the ray runs along) clip
              * nothing. */

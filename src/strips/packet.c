@@ -1,21 +1,32 @@
 /* Ray packets over Ray-Strips (Lauterbach et al. 2007, §5.3): 2x2 or 4x4 rays traverse the
- * top-level BVH and a strip's s-kd tree together (one SIMD lane per ray, a subtree is
+ * top-level BVH (wide8 nodes, one child box at a time for all the rays) and a strip's s-kd tree together (one SIMD lane per ray, a subtree is
  * entered when any ray's interval reaches it); when fewer than a threshold of rays are
  * active at a strip they leave the packet and trace it one by one with the single-ray
  * kernels. Triangles are always tested ray by ray with the single-ray group test (SIMD
  * over the strip's edges), so every ray gets exactly the hit prt_intersect1 gives it: the
  * nearest (t, smallest id) does not depend on the visiting order. */
+#include "bvh/layouts/wide8_box.h"
 #include "strips/kernel.h"
 
 static inline vf4 far4(vf4 t) {
     return vf4_select(t >= vf4_set1(0.0f), t * vf4_set1(PRT_BOX_FAR_SCALE), t * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
 }
 
+/* Node `node` itself (slot < 0) or the leaf in its slot `slot`, for the rays in mask. */
 typedef struct pk_entry {
-    uint32_t ref, slot;
+    uint32_t node;
+    int32_t slot;
     int mask;
     float key;
 } pk_entry;
+
+/* The box of child slot i of a wide8 node, decoded as the single-ray test does. */
+static inline void pk_slot_box(const wide8_node *n, int i, float lo[3], float hi[3]) {
+    for (int k = 0; k < 3; k++) {
+        const float s = wide8_scale(n->e[k]);
+        lo[k] = fmaf((float)n->q[2 * k][i], s, n->p[k]), hi[k] = fmaf((float)n->q[2 * k + 1][i], s, n->p[k]);
+    }
+}
 
 /* 2x2: below 2 active rays a strip is traced ray by ray. */
 #define PK_W 4

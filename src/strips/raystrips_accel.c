@@ -1,9 +1,8 @@
 /* The Ray-Strips family behind prt_accel_ops (Lauterbach, Yoon, Manocha 2007): parses
  * "raystrips[,chunk=N,leaf=1|2|4|8,split=f32|q16,strip=meshopt|rt,packet=2x2|4x4|none,
  * ids=mesh|none,mat=none|u16]", builds
- * chunks, strips, the records and the top-level BVH, and saves them as sections META, NODE,
- * STRP and VERT. */
-#include "bvh/layouts/quad_plan.h"
+ * chunks, strips, the top-level BVH (wide8 nodes) with the records in its leaves, and saves
+ * them as sections META, RSW8 and VERT. */
 #include "strips/strips.h"
 
 #include <math.h>
@@ -12,11 +11,15 @@
 
 /* On-disk META section (little endian, 64 bytes). */
 typedef struct rs_meta {
-    uint64_t node_count, strip_words, strip_count, vertex_count, strip_triangles, mesh_triangles, bytes_strip_tree;
-    uint8_t leaf, q16, no_ids, mat; /* no_ids and mat were reserved zeros before ids=none and mat=u16 */
+    uint64_t node_count, blob_bytes, strip_count, vertex_count, strip_triangles, mesh_triangles, bytes_strip_tree;
+    uint8_t leaf, q16, no_ids, mat;
     uint32_t depth;
 } rs_meta;
 _Static_assert(sizeof(rs_meta) == 64, "META section is 64 bytes");
+
+/* The blob section (wide8 nodes and the strip entries in their leaves). Files of the
+ * 4-wide top level before it had NODE and STRP sections instead, and no longer load. */
+#define RS_TAG_BLOB PRT_FOURCC('R', 'S', 'W', '8')
 
 static const char *const g_split_names[] = {"f32", "q16"};
 static const char *const g_strip_names[] = {"meshopt", "rt"};
@@ -46,8 +49,9 @@ static void rs_destroy(prt_accel *acc) {
 
 static void rs_stats(const prt_accel *acc, prt_stats *s) {
     const rs_accel *a = (const rs_accel *)acc;
-    s->bytes_tree = a->node_count * sizeof(rs_node) + a->bytes_strip_tree;
-    s->bytes_geometry = 4 * a->strip_words - a->bytes_strip_tree + 12 * a->vertex_count;
+    const size_t top = a->blob_bytes - 4 * a->geometry_words; /* header and nodes */
+    s->bytes_tree = top + a->bytes_strip_tree;
+    s->bytes_geometry = 4 * a->geometry_words - a->bytes_strip_tree + 12 * a->vertex_count;
     s->bytes_other = sizeof(rs_accel);
     if (a->fmt.mat)
         snprintf(s->detail, sizeof s->detail, "materials (mat=u16): %zu bytes of the geometry, %.2f B/tri", a->bytes_materials,
@@ -86,96 +90,149 @@ static prt_status stripify_all(const prt_mesh *m, rs_stripifier which, const uin
     return status;
 }
 
-static uint32_t plan_depth(const quad_plan *p, const bvh_tree *t, uint32_t q) {
-    uint32_t d = 0;
-    for (int i = 0; i < p[q].count; i++)
-        if (!t->nodes[p[q].bin[i]].count) {
-            uint32_t c = plan_depth(p, t, p[q].quad[i]);
-            if (c > d) d = c;
+/* Cut every strip whose entry would pass RS_MAX_UNITS (a leaf's 8-bit end) into even
+ * pieces that fit (a cut repeats two indices); the other strips are copied. */
+static prt_status cut_long_strips(rs_strip_list *l, const rs_format *f) {
+    uint32_t max = 1;
+    while (max < RS_MAX_STRIP && rs_entry_words(max + 1, max + 1, f) <= RS_MAX_UNITS * RS_UNIT_WORDS) max++;
+    bool any = false;
+    for (size_t i = 0; i < l->strip_count && !any; i++) any = l->first[i + 1] - l->first[i] - 2 > max;
+    if (!any) return PRT_OK;
+    rs_strip_list out = {0};
+    for (size_t i = 0; i < l->strip_count; i++) {
+        const uint32_t f0 = l->first[i], n = l->first[i + 1] - f0 - 2, pieces = (n + max - 1) / max;
+        const uint32_t *index = l->index + f0, *id = l->id + f0 - 2 * i;
+        for (uint32_t k = 0; k < pieces; k++) {
+            const uint32_t a = (uint32_t)((uint64_t)n * k / pieces), b = (uint32_t)((uint64_t)n * (k + 1) / pieces);
+            if (!rs_strip_list_push(&out, index + a, id + a, (size_t)(b - a) + 2)) {
+                rs_strip_list_free(&out);
+                return prt__fail(PRT_ERROR_NOMEM, "out of memory");
+            }
         }
-    return d + 1;
+    }
+    rs_strip_list_free(l);
+    *l = out;
+    return PRT_OK;
 }
 
-/* The top-level BVH over the strips and the records in its leaf order. ids=none: order[k]
- * receives the mesh triangle at position k (live triangles in record order), and each
- * leaf slot's pad word the position of its strip's first live triangle. */
+/* wide8_pack's leaves: each strip is RS_UNIT-byte units long and appears in the tree's
+ * primitive list once per unit, so a leaf's primitive count is its size. */
+typedef struct packer {
+    const prt_mesh *m;
+    const rs_strip_list *l;
+    const rs_format *f;
+    const uint8_t *units; /* per strip */
+    uint32_t *order;      /* ids=none: position -> mesh triangle */
+    uint32_t position;
+    size_t tree_bytes, mat_bytes;
+} packer;
+
+static size_t entry_bytes(const void *ctx, uint32_t count) {
+    (void)ctx;
+    return (size_t)count * RS_UNIT;
+}
+
+static void entry_encode(const void *ctx, uint8_t *dst, const uint32_t *prims, uint32_t count) {
+    packer *pk = (packer *)(uintptr_t)ctx;
+    const rs_strip_list *l = pk->l;
+    const rs_format *f = pk->f;
+    for (uint32_t i = 0; i < count;) {
+        const uint32_t st = prims[i], first = l->first[st], nt = l->first[st + 1] - first - 2;
+        const uint32_t *ids = l->id + first - 2 * (size_t)st;
+        uint32_t *e = (uint32_t *)(void *)dst;
+        const uint32_t live = rs_live(ids, nt);
+        if (f->no_ids) {
+            e[0] = pk->position;
+            for (uint32_t k = 0; k < nt; k++)
+                if (ids[k] != RS_DEAD) pk->order[pk->position++] = ids[k] >> RS_ID_SHIFT;
+        }
+        rs_encode_strip(pk->m, l->index + first, ids, nt, f, e + f->no_ids);
+        /* The base word and the padding count with the hierarchy, as the record's head. */
+        pk->tree_bytes += 4 * (rs_tree_words(nt, f) + rs_entry_words(nt, live, f) - rs_record_words(nt, live, f));
+        pk->mat_bytes += 4 * rs_mat_words(live, f);
+        dst += (size_t)pk->units[st] * RS_UNIT;
+        i += pk->units[st];
+    }
+}
+
+/* The top-level BVH over the strips, packed into wide8 nodes with the records in their
+ * leaves, whose s-kd planes (q16) are then rounded on their node's grid. ids=none:
+ * order[k] receives the mesh triangle at position k (live triangles in record order). */
 static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l, int threads, uint32_t *order) {
     const size_t ns = l->strip_count;
     bvh_prim *prims = prt__alloc(prt__mul_size(ns, sizeof *prims));
-    uint32_t *rec = NULL;
-    quad_plan *plan = NULL;
+    uint8_t *units = prt__alloc(ns ? ns : 1);
+    size_t *start = NULL;
+    uint32_t *expanded = NULL;
     bvh_tree tree = {0};
+    bvh_blob blob = {0};
     prt_status s = PRT_OK;
-    if (!prims) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu strip boxes", ns);
-    size_t words = 0;
+    if (!prims || !units) {
+        prt__free(prims), prt__free(units);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu strip boxes", ns);
+    }
+    size_t total = 0;
     for (size_t i = 0; i < ns; i++) {
         prt_aabb b = prt_aabb_empty();
         for (uint32_t j = l->first[i]; j < l->first[i + 1]; j++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)l->index[j]);
-        memcpy(prims[i].lo, b.lo, sizeof b.lo);
-        memcpy(prims[i].hi, b.hi, sizeof b.hi);
-        prims[i].id = (uint32_t)i, prims[i].pad = 0;
+        bvh_prim_set(&prims[i], &b, (uint32_t)i);
         const uint32_t n = l->first[i + 1] - l->first[i] - 2;
-        words += rs_record_words(n, rs_live(l->id + l->first[i] - 2 * i, n), &a->fmt);
+        units[i] = (uint8_t)(rs_entry_words(n, rs_live(l->id + l->first[i] - 2 * i, n), &a->fmt) / RS_UNIT_WORDS);
+        total += units[i];
         a->strip_triangles += n;
     }
-    if (words >= RS_LEAF) {
-        prt__free(prims);
-        return prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu words of strips exceed the 31-bit offsets", words);
-    }
+    if (total > UINT32_MAX / RS_UNIT) s = prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu units of strips exceed 32 bits", total);
     bvh_build_params p = {.split = BVH_SPLIT_SAH, .max_leaf = 1, .block = 1, .threads = threads};
-    s = bvh_build(prims, ns, &p, &tree);
+    if (!s) s = bvh_build(prims, ns, &p, &tree);
     prt__free(prims);
-    if (s) return s;
-    plan = prt__alloc(prt__mul_size(tree.node_count, sizeof *plan));
-    rec = prt__alloc(prt__mul_size(words ? words : 1, sizeof *rec));
-    if (!plan || !rec) {
-        s = prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu words of strips", words);
-        goto done;
+    /* Each strip once per unit of its entry. */
+    if (!s) {
+        start = prt__alloc(prt__mul_size(tree.prim_count + 1, sizeof *start));
+        expanded = prt__alloc(prt__mul_size(total ? total : 1, sizeof *expanded));
+        if (!start || !expanded) s = prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu strip units", total);
     }
-    const uint32_t count = bvh_quad_plan(&tree, plan);
-    rs_node *nodes = prt__calloc(count, sizeof *nodes);
-    if (!nodes) {
-        s = prt__fail(PRT_ERROR_NOMEM, "out of memory for %u nodes", count);
-        goto done;
+    if (!s) {
+        start[0] = 0;
+        for (size_t i = 0; i < tree.prim_count; i++) {
+            const uint32_t st = tree.prims[i];
+            start[i + 1] = start[i] + units[st];
+            for (size_t u = start[i]; u < start[i + 1]; u++) expanded[u] = st;
+        }
+        for (size_t i = 0; i < tree.node_count; i++) {
+            bvh_node *n = &tree.nodes[i];
+            if (!n->count) continue;
+            const size_t lo = start[n->index], hi = start[n->index + n->count];
+            n->index = (uint32_t)lo, n->count = (uint32_t)(hi - lo);
+        }
+        prt__free(tree.prims);
+        tree.prims = expanded, tree.prim_count = total, expanded = NULL;
+        packer pk = {m, l, &a->fmt, units, order, 0, 0, 0};
+        wide8_leaves lv = {"raystrips", 1, RS_UNIT, RS_MAX_UNITS, entry_bytes, entry_encode, NULL, &pk};
+        s = wide8_pack(&tree, &lv, &blob);
+        a->bytes_strip_tree = pk.tree_bytes, a->bytes_materials = pk.mat_bytes;
     }
-    a->owned[0] = nodes, a->owned[1] = rec;
-    size_t w = 0;
-    uint32_t position = 0;
-    for (uint32_t q = 0; q < count; q++) {
-        rs_node *n = &nodes[q];
-        for (int i = 0; i < 4; i++) {
-            for (int k = 0; k < 3; k++) n->box[8 * k + i] = INFINITY, n->box[8 * k + 4 + i] = -INFINITY;
-            n->child[i] = RS_EMPTY;
-            if (i >= plan[q].count) continue;
-            const bvh_node *b = &tree.nodes[plan[q].bin[i]];
-            if (!b->count) {
-                for (int k = 0; k < 3; k++) n->box[8 * k + i] = b->box.lo[k], n->box[8 * k + 4 + i] = b->box.hi[k];
-                n->child[i] = plan[q].quad[i];
-                continue;
+    if (!s) {
+        a->owned[0] = blob.data;
+        a->blob = blob.data, a->blob_bytes = blob.size;
+        a->nodes = (const wide8_node *)(const void *)(blob.data + WIDE8_HEADER_BYTES);
+        a->geometry = (const uint32_t *)(const void *)(blob.data + blob.bytes_tree);
+        a->geometry_words = blob.bytes_geometry / 4;
+        a->node_count = blob.nodes, a->strip_count = ns, a->depth = blob.depth;
+        for (int k = 0; k < 3; k++) a->base.bounds[k] = tree.nodes[0].box.lo[k], a->base.bounds[3 + k] = tree.nodes[0].box.hi[k];
+        /* The s-kd trees, q16 planes on the grid of the node that holds each record. */
+        uint32_t *geo = (uint32_t *)(void *)(blob.data + blob.bytes_tree);
+        for (size_t q = 0; q < a->node_count; q++) {
+            const wide8_node *n = &a->nodes[q];
+            const rs_grid g = rs_grid_of(n);
+            for (int i = __builtin_popcount(n->imask); i < 8 && n->meta[i]; i++) {
+                size_t w, end;
+                rs_leaf_range(n, i, &w, &end);
+                for (; w < end; w += rs_entry_size(geo + w, &a->fmt))
+                    rs_encode_tree(m->vertices, geo + w + a->fmt.no_ids, &a->fmt, &g);
             }
-            const uint32_t st = tree.prims[b->index], f = l->first[st], nt = l->first[st + 1] - f - 2;
-            const uint32_t *ids = l->id + f - 2 * (size_t)st;
-            const prt_aabb box = rs_encode_strip(m, l->index + f, ids, nt, &a->fmt, rec + w);
-            for (int k = 0; k < 3; k++) n->box[8 * k + i] = box.lo[k], n->box[8 * k + 4 + i] = box.hi[k];
-            n->child[i] = RS_LEAF | (uint32_t)w;
-            const uint32_t live = rs_live(ids, nt);
-            if (order) {
-                n->pad[i] = position;
-                for (uint32_t k = 0; k < nt; k++)
-                    if (ids[k] != RS_DEAD) order[position++] = ids[k] >> RS_ID_SHIFT;
-            }
-            a->bytes_strip_tree += 4 * rs_tree_words(nt, &a->fmt);
-            a->bytes_materials += 4 * rs_mat_words(live, &a->fmt);
-            w += rs_record_words(nt, live, &a->fmt);
         }
     }
-    a->nodes = nodes, a->node_count = count;
-    a->strips = rec, a->strip_words = words, a->strip_count = ns;
-    a->depth = plan_depth(plan, &tree, 0);
-    rec = NULL;
-done:
-    if (rec) prt__free(rec);
-    prt__free(plan);
+    prt__free(start), prt__free(expanded), prt__free(units);
     bvh_tree_free(&tree);
     return s;
 }
@@ -191,10 +248,10 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
         return prt__fail(PRT_ERROR_NOMEM, "out of memory for vertices");
     }
     memset(map, 0xFF, m->vertex_count * sizeof *map);
-    uint32_t *rec = a->owned[1];
+    uint32_t *geo = (uint32_t *)(uintptr_t)a->geometry;
     size_t count = 0;
-    for (size_t w = 0; w < a->strip_words;) {
-        const rs_strip st = rs_strip_at(rec + w, &a->fmt);
+    for (size_t w = 0; w < a->geometry_words;) {
+        const rs_strip st = rs_strip_at(geo + w + a->fmt.no_ids, &a->fmt);
         uint32_t *index = (uint32_t *)st.index;
         for (uint32_t j = 0; j < st.n + 2; j++) {
             if (map[index[j]] == UINT32_MAX) {
@@ -203,12 +260,12 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
             }
             index[j] = map[index[j]];
         }
-        w += rs_record_words(st.n, st.live, &a->fmt);
+        w += rs_entry_words(st.n, st.live, &a->fmt);
     }
     prt__free(map);
     float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
     if (shrunk) v = shrunk;
-    a->owned[2] = v, a->vertices = v, a->vertex_count = count;
+    a->owned[1] = v, a->vertices = v, a->vertex_count = count;
     return PRT_OK;
 }
 
@@ -256,6 +313,9 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     if (!s && !a) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
     if (!s) {
         a->fmt = (rs_format){(uint32_t)leaf, split == 1, ids == 1, mat == 1};
+        s = cut_long_strips(&strips, &a->fmt);
+    }
+    if (!s) {
         s = encode(a, m, &strips, threads, ids ? o->triangle_order : NULL);
     }
     rs_strip_list_free(&strips);
@@ -263,13 +323,6 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     if (s) {
         if (a) rs_destroy(&a->base);
         return s;
-    }
-    for (int k = 0; k < 3; k++) {
-        a->base.bounds[k] = INFINITY, a->base.bounds[3 + k] = -INFINITY;
-        for (int i = 0; i < 4; i++) {
-            a->base.bounds[k] = fminf(a->base.bounds[k], a->nodes[0].box[8 * k + i]);
-            a->base.bounds[3 + k] = fmaxf(a->base.bounds[3 + k], a->nodes[0].box[8 * k + 4 + i]);
-        }
     }
     a->packet = g_packet_rays[packet];
     a->base.ops = a->packet ? &prt__raystrips_ops : &prt__raystrips_ops_single;
@@ -280,23 +333,21 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
 
 static prt_status rs_save(const prt_accel *acc, prt_writer *w) {
     const rs_accel *a = (const rs_accel *)acc;
-    rs_meta meta = {a->node_count, a->strip_words, a->strip_count, a->vertex_count, a->strip_triangles,
+    rs_meta meta = {a->node_count, a->blob_bytes, a->strip_count, a->vertex_count, a->strip_triangles,
                     a->base.triangles, a->bytes_strip_tree, (uint8_t)a->fmt.leaf, a->fmt.q16, a->fmt.no_ids,
                     a->fmt.mat, a->depth};
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
-    if (!s) s = prt__writer_section(w, PRT_FOURCC('N', 'O', 'D', 'E'), a->nodes, a->node_count * sizeof(rs_node));
-    if (!s) s = prt__writer_section(w, PRT_FOURCC('S', 'T', 'R', 'P'), a->strips, a->strip_words * 4);
+    if (!s) s = prt__writer_section(w, RS_TAG_BLOB, a->blob, a->blob_bytes);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('V', 'E', 'R', 'T'), a->vertices, a->vertex_count * 12);
     return s;
 }
 
 static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
-    const void *mp, *nodes, *strips, *verts;
-    size_t msize, nsize, ssize, vsize;
+    const void *mp, *blob, *verts;
+    size_t msize, bsize, vsize;
     prt_status s;
     if ((s = prt__reader_section(r, PRT_FOURCC('M', 'E', 'T', 'A'), sizeof(rs_meta), &mp, &msize)) ||
-        (s = prt__reader_section(r, PRT_FOURCC('N', 'O', 'D', 'E'), sizeof(rs_node), &nodes, &nsize)) ||
-        (s = prt__reader_section(r, PRT_FOURCC('S', 'T', 'R', 'P'), 0, &strips, &ssize)) ||
+        (s = prt__reader_section(r, RS_TAG_BLOB, WIDE8_HEADER_BYTES, &blob, &bsize)) ||
         (s = prt__reader_section(r, PRT_FOURCC('V', 'E', 'R', 'T'), 0, &verts, &vsize)))
         return s;
     rs_meta meta;
@@ -309,16 +360,15 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet) || prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids) ||
         prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
-    if (meta.leaf != leaf || meta.q16 != split || meta.no_ids != ids || meta.mat != mat ||
-        nsize != meta.node_count * sizeof(rs_node) || meta.node_count == 0 || meta.node_count >= RS_LEAF ||
-        ssize != meta.strip_words * 4 || meta.strip_words >= RS_LEAF || meta.vertex_count > UINT32_MAX ||
-        vsize != meta.vertex_count * 12 || meta.mesh_triangles >= RS_MAX_TRIANGLES ||
-        meta.bytes_strip_tree > ssize || meta.depth == 0 || meta.depth > RS_MAX_DEPTH)
+    if (meta.leaf != leaf || meta.q16 != split || meta.no_ids != ids || meta.mat != mat || meta.blob_bytes != bsize ||
+        meta.node_count == 0 || meta.node_count > UINT32_MAX || meta.vertex_count > UINT32_MAX ||
+        vsize != meta.vertex_count * 12 || meta.mesh_triangles >= RS_MAX_TRIANGLES || meta.bytes_strip_tree > bsize ||
+        meta.strip_count > bsize || meta.depth == 0 || meta.depth > RS_MAX_DEPTH)
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: META section disagrees with the spec or the sections");
     rs_accel *a = prt__calloc(1, sizeof *a);
     if (!a) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
-    a->nodes = nodes, a->strips = strips, a->vertices = verts;
-    a->node_count = meta.node_count, a->strip_words = meta.strip_words, a->strip_count = meta.strip_count;
+    a->blob = blob, a->blob_bytes = bsize, a->vertices = verts;
+    a->node_count = meta.node_count, a->strip_count = meta.strip_count;
     a->vertex_count = meta.vertex_count, a->strip_triangles = meta.strip_triangles;
     a->bytes_strip_tree = meta.bytes_strip_tree;
     a->fmt = (rs_format){meta.leaf, meta.q16, meta.no_ids, meta.mat};

@@ -5,7 +5,8 @@
  * i + (groups on the left). Each node keeps the axis of least overlap between its halves,
  * the lower half's maximum and the upper half's minimum along it, and a reverse flag when
  * the lower half is the strip's second one. Planes are the halves' own vertex bounds, so
- * the tree is exact (float32) or rounded outward (q16). */
+ * the tree is exact (float32) or rounded outward (q16, on the grid of the top-level node
+ * whose leaf holds the record). */
 #include "strips/strips.h"
 
 #include <math.h>
@@ -18,7 +19,7 @@ typedef struct encoder {
     uint8_t *flags;
     float *f32;
     uint16_t *q;
-    prt_aabb box; /* the strip's */
+    const rs_grid *g; /* q16: the top-level node's grid */
 } encoder;
 
 static prt_aabb range_box(const encoder *e, uint32_t first, uint32_t count) {
@@ -27,24 +28,23 @@ static prt_aabb range_box(const encoder *e, uint32_t first, uint32_t count) {
     return b;
 }
 
-/* Smallest q whose plane is at or above x (a maximum), largest at or below x (a minimum). */
-static uint16_t q_up(float x, float lo, float hi) {
-    const float step = rs_q16_step(lo, hi);
-    long q = step > 0 ? (long)floorf((x - lo) / step) : 0;
-    if (q < 0) q = 0;
-    if (q > (long)RS_Q16_MAX) q = RS_Q16_MAX;
-    while (q > 0 && rs_q16_plane((uint16_t)(q - 1), lo, hi, step) >= x) q--;
-    while (q < (long)RS_Q16_MAX && rs_q16_plane((uint16_t)q, lo, hi, step) < x) q++;
+/* Smallest q whose plane on axis k is at or above x (a maximum), largest at or below x (a
+ * minimum); x lies in the node's box, which the grid's 65280 steps cover. */
+static uint16_t q_up(float x, const rs_grid *g, int k) {
+    long q = (long)floorf((x - g->p[k]) / g->s[k]);
+    if (!(q >= 0)) q = 0;
+    if (q > 65535) q = 65535;
+    while (q > 0 && rs_q16_plane((uint16_t)(q - 1), g, k) >= x) q--;
+    while (q < 65535 && rs_q16_plane((uint16_t)q, g, k) < x) q++;
     return (uint16_t)q;
 }
 
-static uint16_t q_down(float x, float lo, float hi) {
-    const float step = rs_q16_step(lo, hi);
-    long q = step > 0 ? (long)ceilf((x - lo) / step) : 0;
-    if (q < 0) q = 0;
-    if (q > (long)RS_Q16_MAX) q = RS_Q16_MAX;
-    while (q < (long)RS_Q16_MAX && rs_q16_plane((uint16_t)(q + 1), lo, hi, step) <= x) q++;
-    while (q > 0 && rs_q16_plane((uint16_t)q, lo, hi, step) > x) q--;
+static uint16_t q_down(float x, const rs_grid *g, int k) {
+    long q = (long)ceilf((x - g->p[k]) / g->s[k]);
+    if (!(q >= 0)) q = 0;
+    if (q > 65535) q = 65535;
+    while (q < 65535 && rs_q16_plane((uint16_t)(q + 1), g, k) <= x) q++;
+    while (q > 0 && rs_q16_plane((uint16_t)q, g, k) > x) q--;
     return (uint16_t)q;
 }
 
@@ -65,8 +65,8 @@ static void encode_node(encoder *e, uint32_t node, uint32_t first, uint32_t coun
     const prt_aabb *lower = reverse ? &r : &l, *upper = reverse ? &l : &r;
     e->flags[node] = (uint8_t)(axis | (reverse ? RS_FLAG_REVERSE : 0));
     if (e->q16) {
-        e->q[2 * node] = q_up(lower->hi[axis], e->box.lo[axis], e->box.hi[axis]);
-        e->q[2 * node + 1] = q_down(upper->lo[axis], e->box.lo[axis], e->box.hi[axis]);
+        e->q[2 * node] = q_up(lower->hi[axis], e->g, axis);
+        e->q[2 * node + 1] = q_down(upper->lo[axis], e->g, axis);
     } else {
         e->f32[2 * node] = lower->hi[axis];
         e->f32[2 * node + 1] = upper->lo[axis];
@@ -75,16 +75,18 @@ static void encode_node(encoder *e, uint32_t node, uint32_t first, uint32_t coun
     encode_node(e, node + left_groups, first + nl, nr);
 }
 
-prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, const rs_format *f,
-                         uint32_t *rec) {
+void rs_encode_tree(const float *vertices, uint32_t *rec, const rs_format *f, const rs_grid *g) {
+    rs_strip s = rs_strip_at(rec, f);
+    encoder e = {vertices, s.index, f->leaf, f->q16, (uint8_t *)s.flags, (float *)s.splits, (uint16_t *)s.splits, g};
+    encode_node(&e, 0, 0, s.n);
+}
+
+void rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, const rs_format *f,
+                     uint32_t *rec) {
     const uint32_t live = rs_live(id, n);
     memset(rec, 0, rs_record_words(n, live, f) * sizeof *rec);
     rec[0] = n | live << 16;
     rs_strip s = rs_strip_at(rec, f);
-    encoder e = {m->vertices, index, f->leaf, f->q16, (uint8_t *)s.flags, (float *)s.splits, (uint16_t *)s.splits,
-                 prt_aabb_empty()};
-    e.box = range_box(&e, 0, n + 2);
-    encode_node(&e, 0, 0, n);
     memcpy((uint32_t *)s.index, index, ((size_t)n + 2) * sizeof *index);
     for (uint32_t k = 0, j = 0; k < n; k++) {
         if (s.code) ((uint8_t *)s.code)[k >> 1] |= (uint8_t)((id[k] == RS_DEAD ? RS_CODE_TURN : id[k] & 7u) << 4 * (k & 1));
@@ -96,5 +98,4 @@ prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_
         if (s.mat) ((uint16_t *)s.mat)[j] = m->materials ? m->materials[id[k] >> RS_ID_SHIFT] : 0;
         j++;
     }
-    return e.box;
 }

@@ -1,32 +1,34 @@
 /* Ray-Strips (Lauterbach, Yoon, Manocha 2007): the shared definitions of the builder, the
- * kernels and the family glue. A SAH BVH (4-wide, quad-collapsed) over strips of connected
- * triangles; each leaf references one Ray-Strip record: a header with the triangle count,
+ * kernels and the family glue. A SAH BVH (8-wide quantized wide8 nodes) over strips of
+ * connected triangles; its leaves hold the Ray-Strip records inline: a header with the triangle count,
  * the implicit balanced s-kd tree over the strip (no child pointers), the n + 2 vertex
  * indices of the strip and one id per strip triangle. docs/raystrips.md has the format. */
 #ifndef PRT_STRIPS_STRIPS_H
 #define PRT_STRIPS_STRIPS_H
 
 #include "api/accel.h"
+#include "bvh/layouts/wide8.h"
 #include "bvh/tree.h"
 #include "core/vec.h"
 
 /* --- the top level ------------------------------------------------------------------ */
 
-/* Child reference: RS_EMPTY for an unused slot; RS_LEAF set: the strip record at word
- * offset (ref & ~RS_LEAF) of the strip blob; otherwise a node index, always greater than
- * its parent's. */
-#define RS_EMPTY 0xFFFFFFFFu
-#define RS_LEAF 0x80000000u
+/* The top level is packrt's 8-wide quantized BVH node (bvh/layouts/wide8.h: 80 bytes, child
+ * boxes as bytes on a per-node grid) over the strips, packed by wide8_pack. Its leaves hold
+ * the strips' records inline: a leaf is one or more *entries* back to back, an entry being
+ * (ids=none) the position of the strip's first live triangle, then the record, padded to
+ * RS_UNIT bytes (the blob's grain, so a node's 8-bit leaf ends address 255 units). */
+#define RS_UNIT 8u
+#define RS_UNIT_WORDS (RS_UNIT / 4)
+#define RS_MAX_UNITS 255u
 #define RS_MAX_DEPTH BVH_MAX_DEPTH
-#define RS_STACK (3 * RS_MAX_DEPTH + 4)
+#define RS_STACK (7 * RS_MAX_DEPTH + 8)
 
-typedef struct rs_node {
-    float box[24]; /* lo_x[4], hi_x[4], lo_y[4], hi_y[4], lo_z[4], hi_z[4] (geom/box.h's SOA order) */
-    uint32_t child[4];
-    uint32_t pad[4];
-} rs_node;
-
-_Static_assert(sizeof(rs_node) == 128, "a top-level node is two cache lines");
+/* The grid of a top-level node: q16 split planes of the strips in its leaves are
+ * fmaf(q, s[k], p[k]), s[k] being the node's box grid step 2^(e - 127) over 256. */
+typedef struct rs_grid {
+    float p[3], s[3];
+} rs_grid;
 
 /* --- a Ray-Strip record ------------------------------------------------------------- */
 
@@ -44,8 +46,6 @@ _Static_assert(sizeof(rs_node) == 128, "a top-level node is two cache lines");
 #define RS_DEAD 0xFFFFFFFFu
 #define RS_ID_SHIFT 3
 #define RS_MAX_TRIANGLES (1u << (32 - RS_ID_SHIFT))
-/* Planes of q16: q * step + lo, with q = 65535 meaning hi exactly. */
-#define RS_Q16_MAX 65535u
 
 /* Strip positions (0..2 from the triangle's first strip vertex) of a mesh triangle's
  * vertices 1 and 2, by perm code; vertex 0 takes the remaining one. */
@@ -76,6 +76,26 @@ static inline size_t rs_id_words(uint32_t n, uint32_t live, const rs_format *f) 
 static inline size_t rs_mat_words(uint32_t live, const rs_format *f) { return f->mat ? rs_words(2 * (size_t)live) : 0; }
 static inline size_t rs_record_words(uint32_t n, uint32_t live, const rs_format *f) {
     return rs_tree_words(n, f) + (size_t)n + 2 + rs_id_words(n, live, f) + rs_mat_words(live, f);
+}
+
+/* Words of a leaf entry: the base (ids=none) and the record, padded to RS_UNIT. */
+static inline size_t rs_entry_words(uint32_t n, uint32_t live, const rs_format *f) {
+    const size_t w = (size_t)f->no_ids + rs_record_words(n, live, f);
+    return (w + RS_UNIT_WORDS - 1) / RS_UNIT_WORDS * RS_UNIT_WORDS;
+}
+/* The record of the entry at e. */
+static inline const uint32_t *rs_entry_record(const uint32_t *e, const rs_format *f) { return e + f->no_ids; }
+/* The words of the entry at e (whose record head is trusted). */
+static inline size_t rs_entry_size(const uint32_t *e, const rs_format *f) {
+    const uint32_t head = e[f->no_ids];
+    return rs_entry_words(head & 0xFFFFu, head >> 16, f);
+}
+
+/* The words [*start, *end) from the geometry start of the leaf in slot i of node n (a
+ * leaf slot: inner slots come first, and theirs and empty ones have meta 0). */
+static inline void rs_leaf_range(const wide8_node *n, int i, size_t *start, size_t *end) {
+    *start = (size_t)n->leaf + (size_t)(i ? n->meta[i - 1] : 0) * RS_UNIT_WORDS;
+    *end = (size_t)n->leaf + (size_t)n->meta[i] * RS_UNIT_WORDS;
 }
 
 /* The parts of the record at rec (rec[0] is the head). */
@@ -139,16 +159,17 @@ typedef enum rs_stripifier { RS_STRIP_MESHOPT, RS_STRIP_RT, RS_STRIP_COUNT } rs_
 
 typedef struct rs_accel {
     prt_accel base;
-    const rs_node *nodes;
-    const uint32_t *strips; /* the strip records, back to back */
+    const uint8_t *blob;        /* wide8 blob: header, nodes, leaves of strip entries */
+    const wide8_node *nodes;    /* blob + WIDE8_HEADER_BYTES */
+    const uint32_t *geometry;   /* the leaves (blob + the header's geometry offset) */
     const float *vertices;
-    size_t node_count, strip_words, strip_count, vertex_count, strip_triangles;
-    size_t bytes_strip_tree; /* heads and s-kd nodes of the records */
+    size_t blob_bytes, geometry_words, node_count, strip_count, vertex_count, strip_triangles;
+    size_t bytes_strip_tree; /* heads and s-kd nodes of the records, entries' bases and padding */
     size_t bytes_materials;  /* mat=u16: the records' material words */
     rs_format fmt;
     uint8_t packet; /* rays per packet of prt_intersect_packet: 4 (2x2), 16 (4x4), 0 (none) */
     uint32_t depth;
-    void *owned[3]; /* built: nodes, strips, vertices (prt__free) */
+    void *owned[2]; /* built: blob, vertices (prt__free) */
 } rs_accel;
 
 /* --- build steps ---------------------------------------------------------------------- */
@@ -202,15 +223,21 @@ static inline uint32_t rs_live(const uint32_t *id, uint32_t n) {
 
 /* Encode one strip (skd_build.c): n triangles over vertex indices index[0..n+2), ids id[0..n)
  * (RS_DEAD for turns), into rec (rs_record_words words); the materials come from
- * m->materials (0 where m has none). Returns its box. */
-prt_aabb rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, const rs_format *f,
-                         uint32_t *rec);
+ * m->materials (0 where m has none). The s-kd tree waits for rs_encode_tree. */
+void rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *id, uint32_t n, const rs_format *f,
+                     uint32_t *rec);
+/* The s-kd tree (flags and planes) of the record at rec over vertices; q16 planes are
+ * rounded outward on grid g (the grid of the top-level node whose leaf holds the record). */
+void rs_encode_tree(const float *vertices, uint32_t *rec, const rs_format *f, const rs_grid *g);
 
-/* q16 planes of a strip whose box is lo..hi on the axis (the kernel's decoding). */
-static inline float rs_q16_step(float lo, float hi) { return (hi - lo) * (1.0f / (float)RS_Q16_MAX); }
-static inline float rs_q16_plane(uint16_t q, float lo, float hi, float step) {
-    return q == RS_Q16_MAX ? hi : lo + (float)q * step;
+/* The q16 grid of top-level node n, and a plane on it (the kernels' decoding, which the
+ * encoder checks when it rounds outward). */
+static inline rs_grid rs_grid_of(const wide8_node *n) {
+    rs_grid g;
+    for (int k = 0; k < 3; k++) g.p[k] = n->p[k], g.s[k] = wide8_scale(n->e[k]) * (1.0f / 256.0f);
+    return g;
 }
+static inline float rs_q16_plane(uint16_t q, const rs_grid *g, int k) { return fmaf((float)q, g->s[k], g->p[k]); }
 
 /* Kernels (traverse.c, packet.c). */
 void rs_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);

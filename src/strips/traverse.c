@@ -1,61 +1,97 @@
-/* Single-ray closest and any hit over Ray-Strips: the 4-wide top-level BVH (nearest child
- * first, the others on a stack with their entry and exit distances), then at a leaf the
- * strip's own s-kd traversal and edge tests (strips/kernel.h). */
+/* Single-ray closest and any hit over Ray-Strips: the wide8 top level (bvh/layouts/wide8.h;
+ * nearest child first, the others on a stack with their entry and exit distances), then at
+ * a leaf each strip entry's own s-kd traversal and edge tests (strips/kernel.h). */
+#include "bvh/layouts/wide8_box.h"
 #include "strips/kernel.h"
 
+/* A stack entry: node `node` itself (slot < 0) or the leaf in its slot `slot`, entered
+ * over [tn, tf]. */
 typedef struct rs_entry {
-    uint32_t ref, slot; /* slot: node * 4 + child, where the child's box is */
+    uint32_t node;
+    int32_t slot;
     float tn, tf;
 } rs_entry;
 
-static inline void child_box(const rs_accel *a, uint32_t slot, float lo[3], float hi[3]) {
-    const rs_node *n = &a->nodes[slot >> 2];
-    for (int k = 0; k < 3; k++) lo[k] = n->box[8 * k + (slot & 3)], hi[k] = n->box[8 * k + 4 + (slot & 3)];
+static inline vi8 rs_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
+
+/* Start fetching child i of node q (inner node or leaf), visited soon. */
+static inline rs_entry rs_child(const rs_accel *a, const wide8_node *n, uint32_t q, int i, float tn, float tf) {
+    if (n->imask >> i & 1) {
+        const uint32_t c = n->child + (uint32_t)i;
+        const char *p = (const char *)&a->nodes[c];
+        __builtin_prefetch(p), __builtin_prefetch(p + WIDE8_NODE_BYTES - 1);
+        return (rs_entry){c, -1, tn, tf};
+    }
+    const char *p = (const char *)(a->geometry + n->leaf + (size_t)(i ? n->meta[i - 1] : 0) * RS_UNIT_WORDS);
+    __builtin_prefetch(p), __builtin_prefetch(p + 64);
+    return (rs_entry){q, i, tn, tf};
 }
 
-/* Shared by both queries: any stops at the first hit. */
+/* Shared by both queries: any stops at the first hit. The node test decodes the ray's near
+ * and far planes of the eight child boxes (fma(q, 2^(e - 127), p), as wide8_box_hit) and
+ * keeps the exit distances too, grown by 2^-21 of their magnitude (wide8_slab), which
+ * bound the strip's s-kd interval. */
 static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_best *best) {
-    prt__rayx4 r4;
-    prt__rayx4_init(&r4, r);
+    wide8_ray w;
+    wide8_ray_init(&w, r, a->blob);
+    size_t qn[3], qf[3]; /* byte offsets of the ray's near and far plane rows in a node */
+    for (int k = 0; k < 3; k++)
+        qn[k] = offsetof(wide8_node, q) + 8 * (size_t)w.near[k], qf[k] = offsetof(wide8_node, q) + 8 * (size_t)w.far[k];
+    const vf8 tnear = vf8_set1(w.tnear), grow = vf8_set1(0x1p-21f);
+    const vi8 abs_mask = rs_vi8_set1(0x7FFFFFFF);
     rs_entry stack[RS_STACK];
     int top = 0;
-    uint32_t ref = 0, slot = 0;
-    float tn = r->tnear, tf = best->t;
+    rs_entry cur = {0, -1, r->tnear, best->t};
     for (;;) {
-        if (!(ref & RS_LEAF)) {
-            const rs_node *n = &a->nodes[ref];
-            vf4 en, ex;
-            int mask = rs_box4(&r4, n->box, best->t, &en, &ex);
+        const wide8_node *n = &a->nodes[cur.node];
+        if (cur.slot < 0) {
+            const uint8_t *nb = (const uint8_t *)n;
+            vf8 tmin = tnear, tmax = vf8_set1(best->t);
+            for (int k = 0; k < 3; k++) {
+                const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
+                const vf8 np = vf8_fmadd(vf8_from_u8(nb + qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + qf[k]), s, p);
+                tmin = vf8_max((np - w.org[k]) * w.inv[k], tmin); /* NaN in the first operand: tmin */
+                tmax = vf8_min((fp - w.org[k]) * w.inv[k], tmax);
+            }
+            tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), grow, tmax);
+            unsigned mask = (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
             if (mask) {
-                /* Order the hit children far to near; push all but the nearest. */
-                rs_entry e[4];
-                int c = 0;
-                for (; mask; mask &= mask - 1) {
-                    const int i = __builtin_ctz((unsigned)mask);
-                    const rs_entry x = {n->child[i], ref * 4 + (uint32_t)i, en[i], ex[i]};
-                    /* Memory latency dominates on large meshes: start every child's load now. */
-                    if (x.ref & RS_LEAF) __builtin_prefetch(a->strips + (x.ref & ~RS_LEAF));
-                    else __builtin_prefetch(&a->nodes[x.ref]), __builtin_prefetch((const char *)&a->nodes[x.ref] + 64);
-                    int j = c++;
-                    while (j > 0 && e[j - 1].tn < x.tn) e[j] = e[j - 1], j--;
-                    e[j] = x;
+                float tt[8], te[8];
+                memcpy(tt, &tmin, sizeof tt), memcpy(te, &tmax, sizeof te);
+                const int i0 = __builtin_ctz(mask);
+                if (!(mask & (mask - 1))) { /* the common case: one child hit */
+                    cur = rs_child(a, n, cur.node, i0, tt[i0], te[i0]);
+                    continue;
                 }
-                for (int i = 0; i < c - 1; i++) stack[top++] = e[i];
-                ref = e[c - 1].ref, slot = e[c - 1].slot, tn = e[c - 1].tn, tf = e[c - 1].tf;
+                /* More: placed on the stack far to near by their rank (ties by slot), the
+                 * nearest visited next. */
+                const int c = __builtin_popcount(mask);
+                for (unsigned m = mask; m; m &= m - 1) {
+                    const int i = __builtin_ctz(m);
+                    const vf8 ti = vf8_set1(tt[i]);
+                    const unsigned before = (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
+                    stack[top + c - 1 - __builtin_popcount(before & mask)] = rs_child(a, n, cur.node, i, tt[i], te[i]);
+                }
+                top += c - 1;
+                cur = stack[top];
                 continue;
             }
         } else {
-            float lo[3], hi[3];
-            if (a->fmt.q16) child_box(a, slot, lo, hi);
-            if (rs_strip_trace(a, r, a->strips + (ref & ~RS_LEAF), slot, lo, hi, tn, tf, any, best) && any) return true;
+            size_t e, end;
+            rs_leaf_range(n, cur.slot, &e, &end);
+            const rs_grid g = a->fmt.q16 ? rs_grid_of(n) : (rs_grid){{0, 0, 0}, {0, 0, 0}};
+            for (; e < end; e += rs_entry_size(a->geometry + e, &a->fmt)) {
+                const float tf = cur.tf < best->t ? cur.tf : best->t;
+                if (rs_strip_trace(a, r, a->geometry + e, &g, cur.tn, tf, any, best) && any) return true;
+            }
         }
         for (;;) {
             if (top == 0) return best->rec != NULL;
             --top;
             if (stack[top].tn <= best->t) break;
         }
-        ref = stack[top].ref, slot = stack[top].slot, tn = stack[top].tn, tf = stack[top].tf;
-        if (tf > best->t) tf = best->t;
+        cur = stack[top];
+        if (cur.tf > best->t) cur.tf = best->t;
     }
 }
 
