@@ -263,6 +263,10 @@ static prt_status reorder_vertices(rs_accel *a, const prt_mesh *m) {
         w += rs_entry_words(st.n, st.live, &a->fmt);
     }
     prt__free(map);
+    if (count > RS_MAX_VERTICES) {
+        prt__free(v);
+        return prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu vertices; at most %u", count, RS_MAX_VERTICES);
+    }
     float *shrunk = prt__realloc(v, (count ? count : 1) * 3 * sizeof(float));
     if (shrunk) v = shrunk;
     a->owned[1] = v, a->vertices = v, a->vertex_count = count;
@@ -361,7 +365,7 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
     if (meta.leaf != leaf || meta.q16 != split || meta.no_ids != ids || meta.mat != mat || meta.blob_bytes != bsize ||
-        meta.node_count == 0 || meta.node_count > UINT32_MAX || meta.vertex_count > UINT32_MAX ||
+        meta.node_count == 0 || meta.node_count > UINT32_MAX || meta.vertex_count > RS_MAX_VERTICES ||
         vsize != meta.vertex_count * 12 || meta.mesh_triangles >= RS_MAX_TRIANGLES || meta.bytes_strip_tree > bsize ||
         meta.strip_count > bsize || meta.depth == 0 || meta.depth > RS_MAX_DEPTH)
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: META section disagrees with the spec or the sections");

@@ -18,7 +18,7 @@
  * the strips' records inline: a leaf is one or more *entries* back to back, an entry being
  * (ids=none) the position of the strip's first live triangle, then the record, padded to
  * RS_UNIT bytes (the blob's grain, so a node's 8-bit leaf ends address 255 units). */
-#define RS_UNIT 8u
+#define RS_UNIT 4u
 #define RS_UNIT_WORDS (RS_UNIT / 4)
 #define RS_MAX_UNITS 255u
 #define RS_MAX_DEPTH BVH_MAX_DEPTH
@@ -46,6 +46,8 @@ typedef struct rs_grid {
 #define RS_DEAD 0xFFFFFFFFu
 #define RS_ID_SHIFT 3
 #define RS_MAX_TRIANGLES (1u << (32 - RS_ID_SHIFT))
+/* Vertices: the AVX2 edge test gathers them by a 32-bit offset, 3 * index. */
+#define RS_MAX_VERTICES ((uint32_t)(INT32_MAX / 3))
 
 /* Strip positions (0..2 from the triangle's first strip vertex) of a mesh triangle's
  * vertices 1 and 2, by perm code; vertex 0 takes the remaining one. */

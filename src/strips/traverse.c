@@ -27,6 +27,24 @@ static inline rs_entry rs_child(const rs_accel *a, const wide8_node *n, uint32_t
     return (rs_entry){q, i, tn, tf};
 }
 
+/* The strips of the leaf in slot `slot` of node n, entered over [tn, tf]; out of line, so
+ * that the node loop of trace keeps its ray constants in registers (inlined, the edge
+ * tests' vectors made the compiler spill them around every node, as lossygrid found). */
+PRT_NOINLINE static bool rs_leaf(const rs_accel *a, const prt__rayx *r, const wide8_node *n, int slot, float tn, float tf,
+                                 bool any, rs_best *best) {
+    size_t e, end;
+    rs_leaf_range(n, slot, &e, &end);
+    const rs_grid g = a->fmt.q16 ? rs_grid_of(n) : (rs_grid){{0, 0, 0}, {0, 0, 0}};
+    bool hit = false;
+    for (; e < end; e += rs_entry_size(a->geometry + e, &a->fmt)) {
+        if (rs_strip_trace(a, r, a->geometry + e, &g, tn, tf < best->t ? tf : best->t, any, best)) {
+            if (any) return true;
+            hit = true;
+        }
+    }
+    return hit;
+}
+
 /* Shared by both queries: any stops at the first hit. The node test decodes the ray's near
  * and far planes of the eight child boxes (fma(q, 2^(e - 127), p), as wide8_box_hit) and
  * keeps the exit distances too, grown by 2^-21 of their magnitude (wide8_slab), which
@@ -77,13 +95,7 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
                 continue;
             }
         } else {
-            size_t e, end;
-            rs_leaf_range(n, cur.slot, &e, &end);
-            const rs_grid g = a->fmt.q16 ? rs_grid_of(n) : (rs_grid){{0, 0, 0}, {0, 0, 0}};
-            for (; e < end; e += rs_entry_size(a->geometry + e, &a->fmt)) {
-                const float tf = cur.tf < best->t ? cur.tf : best->t;
-                if (rs_strip_trace(a, r, a->geometry + e, &g, cur.tn, tf, any, best) && any) return true;
-            }
+            if (rs_leaf(a, r, n, cur.slot, cur.tn, cur.tf, any, best) && any) return true;
         }
         for (;;) {
             if (top == 0) return best->rec != NULL;
@@ -94,6 +106,7 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
         if (cur.tf > best->t) cur.tf = best->t;
     }
 }
+
 
 void rs_intersect1(const prt_accel *acc, prt_ray *ray, prt_hit *hit) {
     const rs_accel *a = (const rs_accel *)acc;
