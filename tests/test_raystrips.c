@@ -187,7 +187,7 @@ TEST(test_strips_hold_every_triangle_once_under_bounding_planes) {
 
 TEST(test_connected_mesh_gives_long_strips_and_a_soup_single_triangles) {
     prt_mesh *grid = mesh_grid(40), *soup = mesh_random_soup(1500, 5);
-    const char *specs[] = {"raystrips,strip=meshopt", "raystrips,strip=rt"};
+    const char *specs[] = {"raystrips,strip=meshopt,chunk=128", "raystrips,strip=rt,chunk=128"};
     for (size_t i = 0; i < COUNT_OF(specs); i++) {
         const size_t g = check_structure(grid, specs[i]), s = check_structure(soup, specs[i]);
         /* 3200 triangles in chunks of 128: a strip per chunk would be 25 long. */
@@ -523,7 +523,7 @@ TEST(test_single_triangle_and_bad_options) {
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "raystrips", NULL, &a));
     if (a) {
-        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=128,leaf=8,split=q16,strip=rt,packet=2x2"));
+        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=16,leaf=8,split=q16,strip=rt,packet=2x2"));
         prt_ray r = {{0.25f, 0.5f, 1}, 0, {0, 0, -1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);
