@@ -1,7 +1,6 @@
 /* Single-ray closest and any hit over Ray-Strips: the wide8 top level (bvh/layouts/wide8.h;
  * nearest child first, the others on a stack with their entry and exit distances), then at
  * a leaf each strip entry's own s-kd traversal and edge tests (strips/kernel.h). */
-#include "bvh/layouts/wide8_box.h"
 #include "strips/kernel.h"
 
 /* A stack entry: node `node` itself (slot < 0) or the leaf in its slot `slot`, entered
@@ -11,8 +10,6 @@ typedef struct rs_entry {
     int32_t slot;
     float tn, tf;
 } rs_entry;
-
-static inline vi8 rs_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
 
 /* Start fetching child i of node q (inner node or leaf), visited soon. */
 static inline rs_entry rs_child(const rs_accel *a, const wide8_node *n, uint32_t q, int i, float tn, float tf) {
@@ -45,34 +42,18 @@ PRT_NOINLINE static bool rs_leaf(const rs_accel *a, const prt__rayx *r, const wi
     return hit;
 }
 
-/* Shared by both queries: any stops at the first hit. The node test decodes the ray's near
- * and far planes of the eight child boxes (fma(q, 2^(e - 127), p), as wide8_box_hit) and
- * keeps the exit distances too, grown by 2^-21 of their magnitude (wide8_slab), which
- * bound the strip's s-kd interval. */
+/* Shared by both queries: any stops at the first hit. */
 static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_best *best) {
-    wide8_ray w;
-    wide8_ray_init(&w, r, a->blob);
-    size_t qn[3], qf[3]; /* byte offsets of the ray's near and far plane rows in a node */
-    for (int k = 0; k < 3; k++)
-        qn[k] = offsetof(wide8_node, q) + 8 * (size_t)w.near[k], qf[k] = offsetof(wide8_node, q) + 8 * (size_t)w.far[k];
-    const vf8 tnear = vf8_set1(w.tnear), grow = vf8_set1(0x1p-21f);
-    const vi8 abs_mask = rs_vi8_set1(0x7FFFFFFF);
+    rs_nray c;
+    rs_nray_init(&c, r, a->blob);
     rs_entry stack[RS_STACK];
     int top = 0;
     rs_entry cur = {0, -1, r->tnear, best->t};
     for (;;) {
         const wide8_node *n = &a->nodes[cur.node];
         if (cur.slot < 0) {
-            const uint8_t *nb = (const uint8_t *)n;
-            vf8 tmin = tnear, tmax = vf8_set1(best->t);
-            for (int k = 0; k < 3; k++) {
-                const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
-                const vf8 np = vf8_fmadd(vf8_from_u8(nb + qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + qf[k]), s, p);
-                tmin = vf8_max((np - w.org[k]) * w.inv[k], tmin); /* NaN in the first operand: tmin */
-                tmax = vf8_min((fp - w.org[k]) * w.inv[k], tmax);
-            }
-            tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), grow, tmax);
-            unsigned mask = (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
+            vf8 tmin, tmax;
+            unsigned mask = rs_node_hit(n, &c, best->t, &tmin, &tmax);
             if (mask) {
                 float tt[8], te[8];
                 memcpy(tt, &tmin, sizeof tt), memcpy(te, &tmax, sizeof te);
