@@ -316,11 +316,11 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
     prt_mesh_free(m);
 }
 
-/* Specs whose packets are traced as packets: 2x2 (the default) and 4x4. */
+/* Specs whose packets are traced as packets: 4x4 (the default) and 2x2. */
 static const char *const g_packet_specs[] = {
     "raystrips",
-    "raystrips,packet=4x4",
-    "raystrips,leaf=2,split=f32,strip=meshopt",
+    "raystrips,packet=2x2",
+    "raystrips,leaf=2,split=f32,strip=meshopt,packet=2x2",
     "raystrips,leaf=2,split=f32,strip=meshopt,packet=4x4",
     "raystrips,leaf=1,packet=4x4",
     "raystrips,chunk=4,leaf=2,split=q16,packet=4x4",
@@ -523,7 +523,7 @@ TEST(test_single_triangle_and_bad_options) {
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "raystrips", NULL, &a));
     if (a) {
-        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=16,leaf=8,split=q16,strip=rt,packet=2x2"));
+        CHECK(!strcmp(prt_accel_spec(a), "raystrips,chunk=16,leaf=8,split=q16,strip=rt,packet=4x4"));
         prt_ray r = {{0.25f, 0.5f, 1}, 0, {0, 0, -1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);

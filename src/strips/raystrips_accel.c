@@ -23,7 +23,9 @@ _Static_assert(sizeof(rs_meta) == 64, "META section is 64 bytes");
 
 static const char *const g_split_names[] = {"f32", "q16"};
 static const char *const g_strip_names[] = {"meshopt", "rt"};
-/* packet=none leaves prt_intersect_packet to the API's single-ray loop (to measure both). */
+/* packet=none leaves prt_intersect_packet to the API's single-ray loop (to measure both);
+ * 4x4 is the default (docs/results/raystrips.md: the fastest on primary rays since the
+ * wide8 top level). */
 static const char *const g_packet_names[] = {"2x2", "none", "4x4"};
 static const uint8_t g_packet_rays[] = {4, 0, 16};
 static const char *const g_id_names[] = {"mesh", "none"};
@@ -282,7 +284,7 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     if ((s = prt__spec_int(spec, "chunk", 16, 4, 16384, &chunk)) || (s = prt__spec_int(spec, "leaf", 8, 1, 8, &leaf)) ||
         (s = prt__spec_enum(spec, "split", g_split_names, 2, 1, &split)) ||
         (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip)) ||
-        (s = prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet)) ||
+        (s = prt__spec_enum(spec, "packet", g_packet_names, 3, 2, &packet)) ||
         (s = prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids)) || (s = prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat)) ||
         (s = prt__spec_check_unused(spec)))
         return s;
@@ -362,7 +364,7 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (prt__spec_int(spec, "chunk", 16, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 8, 1, 8, &leaf) ||
         prt__spec_enum(spec, "split", g_split_names, 2, 1, &split) ||
         prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip) ||
-        prt__spec_enum(spec, "packet", g_packet_names, 3, 0, &packet) || prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids) ||
+        prt__spec_enum(spec, "packet", g_packet_names, 3, 2, &packet) || prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids) ||
         prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat) || prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
     if (meta.leaf != leaf || meta.q16 != split || meta.no_ids != ids || meta.mat != mat || meta.blob_bytes != bsize ||
