@@ -33,13 +33,13 @@ for n in $sizes; do
   meshes+=("$tmp/mandelbulb_$n.ply" "$tmp/cad_$n.ply")
 done
 
-# Ray-Strips: the default (our stripifier, 8-triangle leaves, 16-bit planes) with 2x2 packets,
-# 4x4 packets and single rays only (packet=none: primary rays then go one by one), without
-# ids (ids=none) and with 16-bit materials (mat=u16; generated meshes have none, so all 0,
+# Ray-Strips: the default (our stripifier, 16-triangle chunks, 8-triangle leaves, 16-bit
+# planes) with 4x4 packets, 2x2 packets and single rays only (packet=none: primary rays
+# then go one by one), without ids (ids=none) and with 16-bit materials (mat=u16; generated meshes have none, so all 0,
 # which costs the same), the same with meshoptimizer's strips, and the paper's own settings
 # (2-triangle leaves, float planes, meshoptimizer standing in for Stripe). Then the fastest
 # BVH representations and a small indexed one.
-strips=("raystrips" "raystrips,packet=4x4" "raystrips,packet=none" "raystrips,ids=none,packet=none"
+strips=("raystrips" "raystrips,packet=2x2" "raystrips,packet=none" "raystrips,ids=none,packet=none"
         "raystrips,mat=u16,packet=none" "raystrips,strip=meshopt,packet=none"
         "raystrips,leaf=2,split=f32,strip=meshopt" "raystrips,leaf=2,split=f32,strip=meshopt,packet=none")
 others=("wide8:float3-soa8" "quad:float3-soa4" "wide8:idx32-soa4")
@@ -61,7 +61,7 @@ done
 # The chunk threshold trades memory for speed (longer strips, larger strip boxes): random
 # rays only, on the first generated mesh.
 sweep=()
-for c in 16 32 64 128 256 512; do sweep+=(-r "raystrips,chunk=$c"); done
+for c in 8 12 16 24 32 64 128 256; do sweep+=(-r "raystrips,chunk=$c"); done
 if [ "${SWEEP:-1}" = 1 ]; then
   "$packrt" bench "$tmp/mandelbulb_${sizes%% *}.ply" "${sweep[@]}" -r raystrips,strip=meshopt -r wide8:float3-soa8 \
     --workload random --no-cold --reps "$reps" --json >"$tmp/sweep.json"
@@ -78,11 +78,11 @@ print("Made by `bench/raystrips.sh build` (`packrt bench MESH -r ... --workload 
       "--json`, one run per mesh with every row and Embree on the same rays; `packrt build` + `packrt info` "
       "for the strip counts). Other builds and benchmarks shared the 2 cores during the run: compare rows "
       "within one table (same run), not across tables.\n")
-print("Rows: `raystrips` is the default, `chunk=128,leaf=8,split=q16,strip=rt` (our stripifier, 8-triangle "
-      "implicit leaves, 16-bit planes); `strip=meshopt` swaps in meshoptimizer's stripifier; "
+print("Rows: `raystrips` is the default, `chunk=16,leaf=8,split=q16,strip=rt,packet=4x4` (our stripifier, "
+      "16-triangle chunks, 8-triangle implicit leaves, 16-bit planes, 4x4 packets); `strip=meshopt` swaps in meshoptimizer's stripifier; "
       "`leaf=2,split=f32,strip=meshopt` is the paper's configuration (meshoptimizer standing in for Stripe). "
-      "`packet=none` rows answer primary rays one by one (single-ray rate, 1x1); `packet=4x4` rows trace them "
-      "in 4x4 packets, the others in 2x2 packets. `ids=none` rows store no triangle ids (hits are mapped back "
+      "`packet=none` rows answer primary rays one by one (single-ray rate, 1x1); `packet=2x2` rows trace them "
+      "in 2x2 packets, the others in 4x4 packets. `ids=none` rows store no triangle ids (hits are mapped back "
       "outside the timed region); `mat=u16` rows store a 16-bit material per triangle.\n")
 print("Memory as the paper's Table 1: *minimal* = 14 B/tri (3 indices and a material) + 12 B per vertex + a "
       "BVH of 2n-1 nodes of 32 B; *optimized* = 48 B/tri + the same BVH. The reduction is Ray-Strips' total "
@@ -121,7 +121,7 @@ for base in names:
     print("|" + "---|" * 16)
     for r in rows:
         n = r["name"]
-        key = n.replace(",packet=none", "").replace(",packet=4x4", "").replace(",ids=none", "").replace(",mat=u16", "")
+        key = n.replace(",packet=none", "").replace(",packet=4x4", "").replace(",packet=2x2", "").replace(",ids=none", "").replace(",mat=u16", "")
         ns = strips.get(key)
         total = r["bytes_per_tri_total"]
         cells = [f"`{n}`", fmt(r["build_s"], 3), str(ns) if ns else "", fmt(T / ns, 1) if ns else "",
