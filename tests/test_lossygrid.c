@@ -506,15 +506,21 @@ TEST(test_lossygrid_packets_equal_single_rays) {
 /* lg_trace1 walks the tree with its own loop (nodes tested in place, records out of line):
  * it answers as the wide8 kernel template instantiated for lossygrid's records, bit for bit,
  * on rays leaving the surface as diffuse bounces do, random rays, rays with zero direction
- * components, cut-short tfar and a tnear past the origin, over every encoding and leaf size. */
+ * components, cut-short tfar and a tnear past the origin, over every encoding and leaf size.
+ * lg_trace_stream, the same rays' walks interleaved, answers as lg_trace1 bit for bit, and
+ * the invalid rays among them (skipped by the others) are misses. */
 TEST(test_lossygrid_single_ray_walk_equals_the_template) {
     const char *kinds[] = {"terrain", "torus", "canyon"};
     prt_mesh *meshes[4];
     for (size_t k = 0; k < 3; k++) CHECK_OK(prt_mesh_generate(kinds[k], 20000, 5, &meshes[k]));
     meshes[3] = mesh_random_soup(3000, 7);
     const int encs[] = {LG_ENC_FIX, LG_ENC_OCT, LG_ENC_EXP}, leaves[] = {1, 1, 4};
-    size_t differ = 0, hits = 0, total = 0;
+    size_t differ = 0, hits = 0, total = 0, sdiffer = 0, invalid = 0;
     uint64_t seed = 12345;
+    enum { N = 4000 };
+    prt_ray *srays = malloc(N * sizeof *srays), *want_rays = malloc(N * sizeof *want_rays);
+    prt_hit *shits = malloc(N * sizeof *shits), *want = malloc(N * sizeof *want);
+    CHECK(srays && want_rays && shits && want);
     for (size_t mi = 0; mi < 4; mi++) {
         if (!meshes[mi]) continue;
         const prt_mesh *m = meshes[mi];
@@ -528,7 +534,7 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
             sh.data = blob.data, sh.size = blob.size, sh.triangles = rep.triangles;
             float lo[3], hi[3];
             prt_mesh_bounds(m, lo, hi);
-            for (uint32_t i = 0; i < 4000; i++) {
+            for (uint32_t i = 0; i < N; i++) {
                 float r[8];
                 for (int k = 0; k < 8; k++) {
                     seed = seed * 6364136223846793005ull + 1442695040888963407ull;
@@ -551,18 +557,32 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
                 ray.tfar = i % 16 == 5 ? 0.1f + r[6] : INFINITY;
                 if (i % 16 == 7) ray.dir[(int)(r[7] * 3) % 3] = 0.0f;
                 if (i % 64 == 9) ray.dir[0] = ray.dir[2] = 0.0f;
-                if (!prt__ray_valid(&ray)) continue;
+                if (i % 97 == 11) ray.dir[1] = NAN;
+                srays[i] = want_rays[i] = ray;
+                if (!prt__ray_valid(&ray)) {
+                    want[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
+                    invalid++;
+                    continue;
+                }
                 prt_ray a = ray, b = ray;
                 prt_hit ha, hb;
                 lg_trace1(blob.data, &sh, &a, &ha);
                 lg_trace1_template(blob.data, &sh, &b, &hb);
                 differ += memcmp(&ha, &hb, sizeof ha) != 0 || memcmp(&a, &b, sizeof a) != 0;
                 hits += ha.prim != PRT_INVALID, total++;
+                want_rays[i] = a, want[i] = ha;
             }
+            memset(shits, 0xAB, N * sizeof *shits);
+            lg_trace_stream(blob.data, &sh, srays, shits, N);
+            for (uint32_t i = 0; i < N; i++)
+                sdiffer += memcmp(&shits[i], &want[i], sizeof want[i]) != 0 || memcmp(&srays[i], &want_rays[i], sizeof srays[i]) != 0;
             prt__free(blob.data), prt__free(order);
         }
     }
     CHECK_MSG(differ == 0, "%zu of %zu rays answered differently from the template's walk", differ, total);
+    CHECK_MSG(sdiffer == 0, "%zu rays of the stream answered differently from lg_trace1", sdiffer);
+    CHECK_MSG(invalid > 0, "the stream had no invalid ray to skip");
+    free(srays), free(want_rays), free(shits), free(want);
     CHECK_MSG(hits > total / 8, "only %zu of %zu rays hit: the test sees too little", hits, total);
     for (size_t mi = 0; mi < 4; mi++) prt_mesh_free(meshes[mi]);
 }

@@ -145,16 +145,24 @@ void prt_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occlu
 /* Chunks of 256 rays: big enough to amortise scheduling, small enough to balance. */
 #define STREAM_CHUNK 256
 
+/* Rays [0, n) of a stream on this thread. */
+static void intersect_run(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
+    if (a->ops->intersect_stream) a->ops->intersect_stream(a, rays, hits, n);
+    else
+        for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
+}
+
 void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n, int threads) {
     int t = prt__threads(threads);
     if (t == 1 || n <= STREAM_CHUNK) {
-        for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
+        intersect_run(a, rays, hits, n);
         return;
     }
 #pragma omp parallel for num_threads(t) schedule(dynamic, 1)
-    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++)
-        for (size_t i = c * STREAM_CHUNK; i < n && i < (c + 1) * STREAM_CHUNK; i++)
-            prt_intersect1(a, &rays[i], &hits[i]);
+    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++) {
+        const size_t first = c * STREAM_CHUNK;
+        intersect_run(a, rays + first, hits + first, n - first < STREAM_CHUNK ? n - first : STREAM_CHUNK);
+    }
 }
 
 void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n, int threads) {

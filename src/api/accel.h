@@ -16,6 +16,10 @@ typedef struct prt_accel_ops {
     void (*intersect1)(const prt_accel *a, prt_ray *r, prt_hit *h);
     bool (*occluded1)(const prt_accel *a, const prt_ray *r);
     void (*intersect_packet)(const prt_accel *a, prt_packet *p); /* NULL: generic fallback */
+    /* prt_intersect_stream's rays on one thread (invalid ones included: a miss, as
+     * prt_intersect1 answers them), with the answers of intersect1; NULL: intersect1 per
+     * ray. For representations that trace several incoherent rays at once. */
+    void (*intersect_stream)(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n);
     /* prt_occluded_packet for p->count <= PRT_PACKET_MAX rays (not yet checked for
      * validity); NULL: prt_occluded1 per ray. */
     void (*occluded_packet)(const prt_accel *a, const prt_packet *p, uint8_t *occluded);

@@ -41,12 +41,23 @@ typedef struct lg_accel {
 
 extern const prt_accel_ops prt__lossygrid_ops;
 
-static void lg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
-    const lg_accel *g = (const lg_accel *)a;
-    lg_trace1(g->blob.data, &g->shared, r, h);
+/* A hit's accel position as the mesh triangle it names. */
+static inline void lg_name_hit(const lg_accel *g, prt_hit *h) {
     if (h->prim >= g->shared.triangles) return;
     if (g->shared.mesh_ids) h->prim = g->shared.mesh_ids[h->prim];
     else if (g->shared.map) h->prim = lg_idmap_get(&g->idmap, h->prim);
+}
+
+static void lg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
+    const lg_accel *g = (const lg_accel *)a;
+    lg_trace1(g->blob.data, &g->shared, r, h);
+    lg_name_hit(g, h);
+}
+
+static void lg_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
+    const lg_accel *g = (const lg_accel *)a;
+    lg_trace_stream(g->blob.data, &g->shared, rays, hits, n);
+    for (size_t i = 0; i < n; i++) lg_name_hit(g, &hits[i]);
 }
 
 /* Packets of up to LG_PACKET valid rays: 4 x 4 blocks of the packet's pixels where its
@@ -80,10 +91,7 @@ static void lg_intersect_packet(const prt_accel *a, prt_packet *p) {
             lg_trace_packet(g->blob.data, &g->shared, rays, hits, k);
             for (uint32_t q = 0; q < k; q++) {
                 prt_hit *h = &hits[q];
-                if (h->prim < g->shared.triangles) {
-                    if (g->shared.mesh_ids) h->prim = g->shared.mesh_ids[h->prim];
-                    else if (g->shared.map) h->prim = lg_idmap_get(&g->idmap, h->prim);
-                }
+                lg_name_hit(g, h);
                 p->hits[idx[q]] = *h;
                 p->rays[idx[q]].tfar = rays[q].tfar;
             }
@@ -273,6 +281,7 @@ const prt_accel_ops prt__lossygrid_ops = {
     .name = "lossygrid",
     .build = lg_build,
     .intersect1 = lg_intersect1,
+    .intersect_stream = lg_intersect_stream,
     .occluded1 = lg_occluded1,
     .intersect_packet = lg_intersect_packet,
     .occluded_packet = lg_occluded_packet,
