@@ -22,8 +22,12 @@ typedef struct idx8_head {
     uint32_t count, reserved[3];
 } idx8_head;
 
+/* The gather renames the axes kx, ky, kz of the watertight test to 0, 1, 2 as it loads
+ * each vertex (one permute per row), so the test's inputs stay in registers: r4 holds
+ * the origin in that order. */
 typedef struct idx8_soa4_ray {
     prt__rayx4t r4;
+    vi4 perm; /* kx, ky, kz, 3 */
     const float *vertices;
     const bvh_shared *sh;
 } idx8_soa4_ray;
@@ -69,17 +73,31 @@ static inline bool idx8_soa4_leaf_valid(const uint8_t *leaf, uint32_t n, const b
 
 static inline void idx8_soa4_ray_init(idx8_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
     prt__rayx4t_init(&c->r4, r);
+    const int k[3] = {r->kx, r->ky, r->kz};
+    for (int i = 0; i < 3; i++) c->r4.org[i] = vf4_set1(r->org[k[i]]);
+    c->perm = (vi4){r->kx, r->ky, r->kz, 3};
     c->vertices = (const float *)(sh->data + sizeof(idx8_head));
     c->sh = sh;
 }
 
-/* A block's 12 vertices in SOA form; padding lanes NaN (vertex_window.h). */
-PRT_INLINE void idx8_gather(const uint8_t *block, const float *base, float p[36]) {
+/* One vertex row x y z _ with its axes renamed by perm (idx8_soa4_ray). */
+PRT_INLINE vf4 idx8_row(const float *p, vi4 perm) {
+#if defined(__AVX__)
+    return (vf4)_mm_permutevar_ps((__m128)vf4_load(p), (__m128i)perm);
+#else
+    const vf4 v = vf4_load(p);
+    return (vf4){v[perm[0]], v[perm[1]], v[perm[2]], v[3]};
+#endif
+}
+
+/* A block's 12 vertices in SOA form, axes renamed by perm; padding lanes NaN
+ * (vertex_window.h). */
+PRT_INLINE void idx8_gather(const uint8_t *block, const float *base, vi4 perm, float p[36]) {
     const vi4 pad = vw_padding(block);
     const vf4 nan = vf4_set1(NAN);
     for (int v = 0; v < 3; v++) {
-        vf4 r0 = vf4_load(base + 3 * (size_t)block[4 * v + 0]), r1 = vf4_load(base + 3 * (size_t)block[4 * v + 1]);
-        vf4 r2 = vf4_load(base + 3 * (size_t)block[4 * v + 2]), r3 = vf4_load(base + 3 * (size_t)block[4 * v + 3]);
+        vf4 r0 = idx8_row(base + 3 * (size_t)block[4 * v + 0], perm), r1 = idx8_row(base + 3 * (size_t)block[4 * v + 1], perm);
+        vf4 r2 = idx8_row(base + 3 * (size_t)block[4 * v + 2], perm), r3 = idx8_row(base + 3 * (size_t)block[4 * v + 3], perm);
         /* Rows x y z _ of four vertices to columns: x of the four, y, z. */
         const vf4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 1, 5), t1 = __builtin_shufflevector(r2, r3, 0, 4, 1, 5);
         const vf4 t2 = __builtin_shufflevector(r0, r1, 2, 6, 3, 7), t3 = __builtin_shufflevector(r2, r3, 2, 6, 3, 7);
@@ -92,6 +110,8 @@ PRT_INLINE void idx8_gather(const uint8_t *block, const float *base, float p[36]
 
 PRT_INLINE void idx8_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const idx8_soa4_ray *c,
                                     prt__hitx *h) {
+    (void)r;
+    const prt__rayx ident = {.kx = 0, .ky = 1, .kz = 2}; /* the axes as renamed by the gather */
     uint32_t first, id0;
     memcpy(&first, leaf, 4);
     memcpy(&id0, leaf + 4, 4);
@@ -99,9 +119,9 @@ PRT_INLINE void idx8_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__
     leaf += VW_HEAD_BYTES;
     for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += VW_BLOCK_BYTES) {
         float p[36];
-        idx8_gather(leaf, base, p);
+        idx8_gather(leaf, base, c->perm, p);
         vf4 t, u, v;
-        int mask = prt__tri4_hit(r, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
+        int mask = prt__tri4_hit(&ident, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
         if (!mask) continue;
         bvh_take_block4_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
     }
@@ -109,6 +129,8 @@ PRT_INLINE void idx8_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__
 
 PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const idx8_soa4_ray *c,
                                    float tfar) {
+    (void)r;
+    const prt__rayx ident = {.kx = 0, .ky = 1, .kz = 2}; /* the axes as renamed by the gather */
     uint32_t first;
     memcpy(&first, leaf, 4);
     const float *base = c->vertices + 3 * (size_t)first;
@@ -116,9 +138,9 @@ PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__r
     const vf4 tf = vf4_set1(tfar);
     for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += VW_BLOCK_BYTES) {
         float p[36];
-        idx8_gather(leaf, base, p);
+        idx8_gather(leaf, base, c->perm, p);
         vf4 t, u, v;
-        if (prt__tri4_hit(r, &c->r4, p, tf, &t, &u, &v)) return true;
+        if (prt__tri4_hit(&ident, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
 }
