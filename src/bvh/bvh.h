@@ -18,6 +18,8 @@ typedef struct bvh_blob {
 
 typedef void (*bvh_intersect_fn)(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
 typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
+/* Closest hits of n rays, invalid ones included (a miss), as intersect1 answers each. */
+typedef void (*bvh_stream_fn)(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
 
 typedef struct bvh_layout {
     const char *name;
@@ -31,6 +33,7 @@ typedef struct bvh_layout {
     struct {
         bvh_intersect_fn intersect1;
         bvh_occluded_fn occluded1;
+        bvh_stream_fn stream; /* NULL: intersect1 per ray */
     } kernels[BVH_CODEC_COUNT];
 } bvh_layout;
 

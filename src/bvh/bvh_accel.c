@@ -34,6 +34,7 @@ typedef struct bvh_accel {
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
+    bvh_stream_fn stream; /* NULL: intersect1 per ray */
     bvh_refit *refit; /* update=refit and built (not loaded); else NULL */
 } bvh_accel;
 
@@ -85,15 +86,30 @@ static bool bvh_name_at(size_t i, const char **name, const char **desc) {
     return true;
 }
 
-static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
-    const bvh_accel *b = (const bvh_accel *)a;
-    b->intersect1(b->blob.data, &b->shared, r, h);
+/* A kernel's hit as the mesh triangle it names. */
+static inline void bvh_name_hit(const bvh_accel *b, prt_hit *h) {
     if (h->prim >= b->shared.triangles) return; /* a miss, or a codec without seq_ids */
     /* Strip triangles are rotations of the mesh's: u, v back in mesh order. */
     if (bvh_codecs[b->codec].strips)
         bvh_strip_rotate_uv(b->shared.data[sizeof(strip_shared_head) + h->prim / 4] >> (2 * (h->prim % 4)) & 3, &h->u, &h->v);
     /* seq_ids codecs answer the leaf-order id; leaves were checked to stay below triangles. */
     if (b->shared.mesh_ids) h->prim = b->shared.mesh_ids[h->prim];
+}
+
+static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    b->intersect1(b->blob.data, &b->shared, r, h);
+    bvh_name_hit(b, h);
+}
+
+static void bvh_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    if (!b->stream) {
+        for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
+        return;
+    }
+    b->stream(b->blob.data, &b->shared, rays, hits, n);
+    for (size_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
 }
 
 static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -164,6 +180,7 @@ static bvh_accel *bvh_new(int layout, int codec, int order) {
     b->codec = codec;
     b->intersect1 = b->layout->kernels[codec].intersect1;
     b->occluded1 = b->layout->kernels[codec].occluded1;
+    b->stream = b->layout->kernels[codec].stream;
     return b;
 }
 
@@ -493,6 +510,7 @@ const prt_accel_ops prt__bvh_ops = {
     .name = "bvh",
     .build = bvh_build_accel,
     .intersect1 = bvh_intersect1,
+    .intersect_stream = bvh_intersect_stream,
     .occluded1 = bvh_occluded1,
     .stats = bvh_stats,
     .save = bvh_save,
