@@ -71,7 +71,7 @@ static inline bool idx8_soa4_leaf_valid(const uint8_t *leaf, uint32_t n, const b
     return vw_leaf_valid(leaf, n, hd.count, sh);
 }
 
-static inline void idx8_soa4_ray_init(idx8_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
+PRT_INLINE void idx8_soa4_ray_init(idx8_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
     prt__rayx4t_init(&c->r4, r);
     const int k[3] = {r->kx, r->ky, r->kz};
     for (int i = 0; i < 3; i++) c->r4.org[i] = vf4_set1(r->org[k[i]]);

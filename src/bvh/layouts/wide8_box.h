@@ -125,7 +125,7 @@ static inline bool wide8_fold_suits(const uint8_t *blob) {
 /* The ray's constants for blob (from its root node). E per axis, 2^-19 (M + |org|) |inv|
  * + 2^-126 with M = |p| + 256 s of the root, bounds the folded test's error at every
  * node: wide8_fold_hit says why. */
-static inline void wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
+PRT_INLINE void wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
     wide8_node root;
     memcpy(&root, blob + WIDE8_HEADER_BYTES, sizeof root);
     for (int k = 0; k < 3; k++) {
