@@ -62,6 +62,16 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
                     cur = rs_child(a, n, cur.node, i0, tt[i0], te[i0]);
                     continue;
                 }
+                const unsigned rest = mask & (mask - 1);
+                if (!(rest & (rest - 1))) {
+                    const int i1 = __builtin_ctz(rest);
+                    /* Two: the farther pushed (ties: the higher slot), one comparison. */
+                    const bool swap = tt[i1] < tt[i0];
+                    const int nearer = swap ? i1 : i0, farther = swap ? i0 : i1;
+                    stack[top++] = rs_child(a, n, cur.node, farther, tt[farther], te[farther]);
+                    cur = rs_child(a, n, cur.node, nearer, tt[nearer], te[nearer]);
+                    continue;
+                }
                 /* More: placed on the stack far to near by their rank (ties by slot), the
                  * nearest visited next. */
                 const int c = __builtin_popcount(mask);
