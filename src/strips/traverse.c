@@ -72,6 +72,18 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
                     cur = rs_child(a, n, cur.node, nearer, tt[nearer], te[nearer]);
                     continue;
                 }
+                const unsigned more = rest & (rest - 1);
+                if (!(more & (more - 1))) {
+                    /* Three: a stable network of three compare-swaps (ties by slot). */
+                    int x = i0, y = __builtin_ctz(rest), z = __builtin_ctz(more), w;
+                    if (tt[y] < tt[x]) w = x, x = y, y = w;
+                    if (tt[z] < tt[y]) w = y, y = z, z = w;
+                    if (tt[y] < tt[x]) w = x, x = y, y = w;
+                    stack[top++] = rs_child(a, n, cur.node, z, tt[z], te[z]);
+                    stack[top++] = rs_child(a, n, cur.node, y, tt[y], te[y]);
+                    cur = rs_child(a, n, cur.node, x, tt[x], te[x]);
+                    continue;
+                }
                 /* More: placed on the stack far to near by their rank (ties by slot), the
                  * nearest visited next. */
                 const int c = __builtin_popcount(mask);
