@@ -156,7 +156,7 @@ const bvh_layout bvh_layout_aabb = {
     aabb_encode,
     aabb_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_intersect1_##id, aabb_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_intersect1_##id, .occluded1 = aabb_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

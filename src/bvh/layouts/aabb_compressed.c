@@ -213,7 +213,7 @@ const bvh_layout bvh_layout_aabb_compressed = {
     aabb_compressed_encode,
     aabb_compressed_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_compressed_intersect1_##id, aabb_compressed_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_compressed_intersect1_##id, .occluded1 = aabb_compressed_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

@@ -171,7 +171,7 @@ static const bvh_layout aabb_df_tl = {
     "aabb", "AABBTree (Rouwe 5.1) depth first, triangle blocks behind all nodes (4.3)", DEFAULT_LEAVES,
     aabb_df_tl_encode, aabb_df_tl_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_df_tl_intersect1_##id, aabb_df_tl_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_df_tl_intersect1_##id, .occluded1 = aabb_df_tl_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },
@@ -181,7 +181,7 @@ static const bvh_layout aabb_bf = {
     "aabb", "AABBTree (Rouwe 5.1) breadth first, each leaf's triangles behind it (4.3)", DEFAULT_LEAVES,
     aabb_bf_encode, aabb_bf_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_bf_intersect1_##id, aabb_bf_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_bf_intersect1_##id, .occluded1 = aabb_bf_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },
@@ -191,7 +191,7 @@ static const bvh_layout aabb_bf_tl = {
     "aabb", "AABBTree (Rouwe 5.1) breadth first, triangle blocks behind all nodes (4.3)", DEFAULT_LEAVES,
     aabb_bf_tl_encode, aabb_bf_tl_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_bf_tl_intersect1_##id, aabb_bf_tl_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_bf_tl_intersect1_##id, .occluded1 = aabb_bf_tl_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

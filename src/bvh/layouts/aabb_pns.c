@@ -25,7 +25,7 @@ const bvh_layout bvh_layout_aabb_pns = {
     aabb_pns_encode,
     aabb_pns_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_pns_intersect1_##id, aabb_pns_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_pns_intersect1_##id, .occluded1 = aabb_pns_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

@@ -23,7 +23,7 @@ const bvh_layout bvh_layout_aabb_split = {
     aabb_split_encode,
     aabb_split_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {aabb_split_intersect1_##id, aabb_split_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_split_intersect1_##id, .occluded1 = aabb_split_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

@@ -185,7 +185,7 @@ const bvh_layout bvh_layout_quad = {
     quad_encode,
     quad_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {quad_intersect1_##id, quad_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = quad_intersect1_##id, .occluded1 = quad_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

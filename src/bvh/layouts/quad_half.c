@@ -268,7 +268,7 @@ const bvh_layout bvh_layout_quad_half = {
     quad_half_encode,
     quad_half_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {quad_half_intersect1_##id, quad_half_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = quad_half_intersect1_##id, .occluded1 = quad_half_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },

@@ -253,7 +253,7 @@ const bvh_layout bvh_layout_skd = {
     skd_encode,
     skd_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {skd_intersect1_##id, skd_occluded1_##id},
+#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = skd_intersect1_##id, .occluded1 = skd_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     },
