@@ -243,6 +243,8 @@ static inline float rs_q16_plane(uint16_t q, const rs_grid *g, int k) { return f
 
 /* Kernels (traverse.c, packet.c). */
 void rs_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
+/* rs_intersect1 for n rays (invalid ones a miss), several walks interleaved. */
+void rs_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n);
 bool rs_occluded1(const prt_accel *a, const prt_ray *r);
 void rs_intersect_packet(const prt_accel *a, prt_packet *p);
 
