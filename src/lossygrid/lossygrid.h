@@ -38,8 +38,8 @@ prt_status lg_blob_check(const bvh_blob *b, const bvh_shared *sh);
 /* Closest and any hit (traverse.c); hits name accel positions. */
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
-/* lg_trace1 for n rays (invalid ones a miss), several walks interleaved; every answer is
- * lg_trace1's bit for bit. */
+/* lg_trace1 for n rays (invalid ones a miss), four walks interleaved by the wide8
+ * template's stream; every answer is lg_trace1's bit for bit. */
 void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
 /* lg_trace1 through the wide8 kernel template (bvh/layouts/wide8_kernels.inc) itself: the
  * reference the tests hold lg_trace1's own walk to, bit for bit. */

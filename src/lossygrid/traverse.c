@@ -26,103 +26,12 @@ PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__ra
     lgrec_intersect(leaf, n, r, c, h);
 }
 
-/* A ray's constants for lg_node_hit. (lg_node_hit, lg_descend and lg_pop are lg_trace1's
- * steps for lg_trace_stream's lanes; lg_trace1 keeps them written out in its loop: built
- * on these functions it measured 6% slower on the warm batch, its ray constants no longer
- * held in registers.) */
-typedef struct lg_ray1 {
-    vf8 org[3], inv[3], tnear;
-    size_t qn[3], qf[3]; /* byte offsets of the ray's near and far plane rows in a node */
-} lg_ray1;
-
-static inline void lg_ray1_init(lg_ray1 *b, const wide8_ray *w) {
-    for (int k = 0; k < 3; k++) {
-        b->org[k] = w->org[k], b->inv[k] = w->inv[k];
-        b->qn[k] = offsetof(wide8_node, q) + 8 * (size_t)w->near[k], b->qf[k] = offsetof(wide8_node, q) + 8 * (size_t)w->far[k];
-    }
-    b->tnear = vf8_set1(w->tnear);
-}
-
-/* The slab test of node n's eight child boxes for one ray (lg_trace1 says how): the mask
- * of occupied children hit before tfar, and their entry distances. */
-PRT_INLINE unsigned lg_node_hit(const wide8_node *n, const lg_ray1 *b, float tfar, vf8 *tentry) {
-    const uint8_t *nb = (const uint8_t *)n;
-    vf8 tmin = b->tnear, tmax = vf8_set1(tfar);
-    for (int k = 0; k < 3; k++) {
-        const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
-        const vf8 np = vf8_fmadd(vf8_from_u8(nb + b->qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + b->qf[k]), s, p);
-        tmin = vf8_max((np - b->org[k]) * b->inv[k], tmin); /* NaN in the first operand: tmin */
-        tmax = vf8_min((fp - b->org[k]) * b->inv[k], tmax);
-    }
-    tmax = vf8_fmadd((vf8)((vi8)tmax & lg_vi8_set1(0x7FFFFFFF)), vf8_set1(0x1p-21f), tmax);
-    *tentry = tmin;
-    return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
-}
-
 /* The walk of wide8_kernels.inc's intersect1 for lossygrid's records, the node test written
  * out so that it decodes only the ray's near and far planes, with the same operations in the
  * same order as wide8_box_hit: each plane is fma(q, 2^(e - 127), p), the scale made from the
  * exponent byte in a scalar register and broadcast, rather than through wide8_scales' vector
  * permutes and the stack. (The template folds the planes into the ray, wide8_fold_hit;
  * here that measured 3-5% slower. Both tests are conservative: the same hits.) */
-/* A walk's stack entry: a child and its entry distance. */
-typedef struct lg_entry {
-    uint64_t ref;
-    float t;
-} lg_entry;
-
-/* After a node test that hit the children of mask (non-zero) at entry distances tmin: the
- * child to visit next, the nearest (ties: the lower slot); the others pushed on stack far
- * to near, each prefetched. */
-PRT_INLINE uint64_t lg_descend(const uint8_t *blob, const wide8_node *n, unsigned mask, vf8 tmin, const wide8_ray *w,
-                               lg_entry *stack, int *top) {
-    const int i0 = __builtin_ctz(mask);
-    mask &= mask - 1;
-    if (!mask) return wide8_child_ref_lgrec(n, i0, w); /* the common case: one child hit */
-    float tt[8];
-    memcpy(tt, &tmin, sizeof tt);
-    const int i1 = __builtin_ctz(mask);
-    if (!(mask & (mask - 1))) { /* two: the farther pushed (ties: the higher slot) */
-        const bool swap = tt[i1] < tt[i0];
-        const int nearer = swap ? i1 : i0, farther = swap ? i0 : i1;
-        const uint64_t fref = wide8_child_ref_lgrec(n, farther, w);
-        const uint8_t *fp = blob + (fref & WIDE8_OFFSET_MASK);
-        __builtin_prefetch(fp), __builtin_prefetch(fp + 64);
-        stack[*top].ref = fref;
-        stack[(*top)++].t = tt[farther];
-        return wide8_child_ref_lgrec(n, nearer, w);
-    }
-    /* More: placed on the stack far to near by their rank (ties by slot), the nearest
-     * visited next, every one prefetched now. */
-    mask |= 1u << i0;
-    const int c = __builtin_popcount(mask);
-    for (unsigned m = mask; m; m &= m - 1) {
-        const int i = __builtin_ctz(m);
-        const vf8 ti = vf8_set1(tt[i]);
-        const unsigned before = (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
-        const int slot = *top + c - 1 - __builtin_popcount(before & mask);
-        const uint64_t cref = wide8_child_ref_lgrec(n, i, w);
-        const uint8_t *cp = blob + (cref & WIDE8_OFFSET_MASK);
-        __builtin_prefetch(cp), __builtin_prefetch(cp + 64);
-        stack[slot].ref = cref;
-        stack[slot].t = tt[i];
-    }
-    *top += c - 1;
-    return stack[*top].ref;
-}
-
-/* Pop the next entry not farther than the hit at t: false when the stack is empty. */
-PRT_INLINE bool lg_pop(const lg_entry *stack, int *top, float t, uint64_t *ref) {
-    while (*top > 0) {
-        --*top;
-        if (stack[*top].t <= t) {
-            *ref = stack[*top].ref;
-            return true;
-        }
-    }
-    return false;
-}
-
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
     prt__rayx r;
     prt__rayx_init(&r, ray);
@@ -211,83 +120,11 @@ done:
     bvh_finish_hit(ray, hit, &h);
 }
 
-/* --- streams of single rays, closest hit -------------------------------------------------- */
-
-/* One ray of lg_trace_stream in flight: lg_trace1's state. */
-typedef struct lg_lane {
-    lg_ray1 b;
-    prt__rayx r;
-    lgrec_ray cr;
-    prt__hitx h;
-    uint64_t ref;
-    int top;
-    unsigned mask; /* the current node's test (phase one of a round) */
-    vf8 tmin;
-    prt_ray *ray;
-    prt_hit *hit;
-    lg_entry stack[WIDE8_STACK];
-} lg_lane;
-
-/* Start lane l on the next valid ray of rays[*next .. n) (invalid ones get a miss, as
- * prt_intersect1 gives them); false when none is left. */
-static bool lg_lane_start(lg_lane *l, const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n,
-                          size_t *next) {
-    for (; *next < n; ++*next) {
-        prt_ray *ray = &rays[*next];
-        if (!prt__ray_valid(ray)) {
-            prt_hit *h = &hits[*next];
-            h->t = INFINITY, h->u = 0, h->v = 0, h->prim = PRT_INVALID, h->geom = 0;
-            continue;
-        }
-        prt__rayx_init(&l->r, ray);
-        wide8_ray w;
-        wide8_ray_init(&w, &l->r, blob);
-        lg_ray1_init(&l->b, &w);
-        lgrec_ray_init(&l->cr, &l->r, sh);
-        l->h = (prt__hitx){ray->tfar, 0, 0, PRT_INVALID};
-        l->ref = WIDE8_HEADER_BYTES, l->top = 0;
-        l->ray = ray, l->hit = &hits[(*next)++];
-        return true;
-    }
-    return false;
-}
-
-/* The walks of LG_LANES rays interleaved, a node step of each in turn: a single ray's walk
- * is a chain of dependent loads, tests and mispredicted branches (docs/lossygrid.md), so
- * the node tests of all lanes come first in a round, without branches between them, and
- * the out-of-order core overlaps their latencies; then each lane acts on its test. Each
- * ray takes lg_trace1's steps with lg_trace1's operations: the same answers, bit for bit. */
-#define LG_LANES 4
+/* Streams: the wide8 template's interleaved walk (four rays at a time), with the template's
+ * folded box test, whose hits are lg_trace1's (test_lossygrid holds the two walks to each
+ * other bit for bit). */
 void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n) {
-    lg_lane lanes[LG_LANES];
-    wide8_ray hw; /* the header fields child_ref reads */
-    wide8_ray_header(&hw, blob);
-    size_t next = 0;
-    unsigned on = 0;
-    for (int i = 0; i < LG_LANES; i++)
-        if (lg_lane_start(&lanes[i], blob, sh, rays, hits, n, &next)) on |= 1u << i;
-    while (on) {
-        for (int i = 0; i < LG_LANES; i++) {
-            lg_lane *l = &lanes[i];
-            if (on >> i & 1 && !(l->ref & WIDE8_LEAF))
-                l->mask = lg_node_hit((const wide8_node *)(blob + l->ref), &l->b, l->h.t, &l->tmin);
-        }
-        for (int i = 0; i < LG_LANES; i++) {
-            lg_lane *l = &lanes[i];
-            if (!(on >> i & 1)) continue;
-            if (!(l->ref & WIDE8_LEAF)) {
-                if (l->mask) {
-                    l->ref = lg_descend(blob, (const wide8_node *)(blob + l->ref), l->mask, l->tmin, &hw, l->stack, &l->top);
-                    continue;
-                }
-            } else {
-                lg_leaf1(blob + (l->ref & WIDE8_OFFSET_MASK), (uint32_t)(l->ref >> 56 & 0x7F), &l->r, &l->cr, &l->h);
-            }
-            if (lg_pop(l->stack, &l->top, l->h.t, &l->ref)) continue;
-            bvh_finish_hit(l->ray, l->hit, &l->h);
-            if (!lg_lane_start(l, blob, sh, rays, hits, n, &next)) on &= ~(1u << i);
-        }
-    }
+    wide8_stream_lgrec(blob, sh, rays, hits, n);
 }
 
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) { return wide8_occluded1_lgrec(blob, sh, r); }
