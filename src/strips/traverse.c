@@ -129,6 +129,7 @@ typedef struct rs_lane {
     rs_entry cur;
     int top;
     unsigned mask; /* the current node's test, from the first half of a round */
+    bool staged;   /* the current leaf's vertices are being fetched (rs_leaf_fetch) */
     vf8 tmin, tmax;
     size_t i; /* the ray's place in the stream */
     rs_entry stack[RS_STACK];
@@ -148,10 +149,24 @@ static bool rs_lane_start(const rs_accel *a, rs_lane *l, prt_ray *rays, prt_hit 
         l->best = (rs_best){ray->tfar, {0, 0, 0}, NULL, 0, 0};
         l->cur = (rs_entry){0, -1, l->r.tnear, l->best.t};
         l->top = 0;
+        l->staged = false;
         l->i = (*next)++;
         return true;
     }
     return false;
+}
+
+/* Start fetching the vertices of the strips of the leaf in slot `slot` of node n (their
+ * records were fetched when the leaf was pushed or chosen). */
+static inline void rs_leaf_fetch(const rs_accel *a, const wide8_node *n, int slot) {
+    size_t e, end;
+    rs_leaf_range(n, slot, &e, &end);
+    for (; e < end; e += rs_entry_size(a->geometry + e, &a->fmt)) {
+        const uint32_t *rec = a->geometry + e + a->fmt.no_ids;
+        const uint32_t *ix = rec + rs_tree_words(rec[0] & 0xFFFFu, &a->fmt);
+        const uint32_t nv = (rec[0] & 0xFFFFu) + 2;
+        for (uint32_t j = 0; j < nv; j++) __builtin_prefetch(a->vertices + 3 * (size_t)ix[j]);
+    }
 }
 
 /* trace (closest hit) for n rays, RS_LANES at a time in rounds: every lane's node test
@@ -181,6 +196,13 @@ void rs_intersect_stream(const prt_accel *acc, prt_ray *rays, prt_hit *hits, siz
                     continue;
                 }
             } else {
+                /* A leaf waits one round for its vertices while the other lanes work. */
+                if (!l->staged) {
+                    rs_leaf_fetch(a, nd, l->cur.slot);
+                    l->staged = true;
+                    continue;
+                }
+                l->staged = false;
                 rs_leaf(a, &l->r, nd, l->cur.slot, l->cur.tn, l->cur.tf, false, &l->best);
             }
             if (rs_pop(l->stack, &l->top, l->best.t, &l->cur)) continue;
