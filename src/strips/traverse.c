@@ -173,7 +173,7 @@ static inline void rs_leaf_fetch(const rs_accel *a, const wide8_node *n, int slo
  * first (no branch between lanes, so their dependent load and test chains overlap), then
  * each lane acts on its own, as lossygrid's and wide8's streams do. Each ray takes trace's
  * steps with trace's operations: the same answers, bit for bit. */
-#define RS_LANES 4
+#define RS_LANES 6
 void rs_intersect_stream(const prt_accel *acc, prt_ray *rays, prt_hit *hits, size_t n) {
     const rs_accel *a = (const rs_accel *)acc;
     rs_lane lanes[RS_LANES];
