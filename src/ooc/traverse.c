@@ -12,6 +12,7 @@
 #include "geom/triangle.h"
 
 #include <math.h>
+#include <stddef.h>
 
 /* Plain comparisons rather than fminf/fmaxf, which this build calls out of line; the
  * operands here are never NaN (zero direction components are handled before). */
@@ -689,7 +690,8 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
     uint32_t list, n, ntri, nvert;
     bool ok = leaf_list(p, size, w0, &list, &n, &ntri, &nvert);
     float soa[9 * 8] __attribute__((aligned(32)));
-    ooc_tri tri[8];
+    uint32_t prim[8];
+    uint16_t color[8];
     bool more = ok;
     /* Ask for the leaf's triangles before decoding any: each is a load that depends on the
      * list, and their vertices on them; asked together they arrive together. */
@@ -708,18 +710,22 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
                 more = false; /* as packet_leaf: the triangles before it count */
                 break;
             }
-            ooc_tri t;
-            memcpy(&t, p + sec[0] + (size_t)ti * sizeof(ooc_tri), sizeof t);
-            if (t.v[0] >= nvert || t.v[1] >= nvert || t.v[2] >= nvert) {
+            /* Field by field rather than a copy of the record: straight from the block
+             * into registers and the SOA (a copy went through the stack). */
+            const uint8_t *tp = p + sec[0] + (size_t)ti * sizeof(ooc_tri);
+            uint16_t v[3];
+            memcpy(v, tp, sizeof v);
+            if (v[0] >= nvert || v[1] >= nvert || v[2] >= nvert) {
                 ok = more = false;
                 break;
             }
             for (int k = 0; k < 3; k++) {
-                float v[3];
-                memcpy(v, p + sec[1] + 12u * t.v[k], 12);
-                for (int c = 0; c < 3; c++) soa[(3 * k + c) * 8 + cnt] = v[c];
+                const uint8_t *vp = p + sec[1] + 12u * v[k];
+                for (int c = 0; c < 3; c++) memcpy(&soa[(3 * k + c) * 8 + cnt], vp + 4 * c, 4);
             }
-            tri[cnt++] = t;
+            memcpy(&color[cnt], tp + offsetof(ooc_tri, color), 2);
+            memcpy(&prim[cnt], tp + offsetof(ooc_tri, prim), 4);
+            cnt++;
         }
         if (!cnt) break;
         for (uint32_t l = cnt; l < 8; l++)
@@ -736,17 +742,17 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             int best = -1;
             for (int hl = hm; hl; hl &= hl - 1) {
                 int l = __builtin_ctz(hl);
-                if (best < 0 || tt[l] < tt[best] || (tt[l] == tt[best] && tri[l].prim < tri[best].prim)) best = l;
+                if (best < 0 || tt[l] < tt[best] || (tt[l] == tt[best] && prim[l] < prim[best])) best = l;
             }
-            if (best < 0 || !(tt[best] < h->t || tri[best].prim < h->prim)) continue;
-            h->t = tt[best], h->u = uu[best], h->v = vv[best], h->prim = tri[best].prim;
+            if (best < 0 || !(tt[best] < h->t || prim[best] < h->prim)) continue;
+            h->t = tt[best], h->u = uu[best], h->v = vv[best], h->prim = prim[best];
             float e1[3], e2[3];
             for (int k = 0; k < 3; k++)
                 e1[k] = soa[(3 + k) * 8 + best] - soa[k * 8 + best], e2[k] = soa[(6 + k) * 8 + best] - soa[k * 8 + best];
             ps->tn[i][0] = e1[1] * e2[2] - e1[2] * e2[1];
             ps->tn[i][1] = e1[2] * e2[0] - e1[0] * e2[2];
             ps->tn[i][2] = e1[0] * e2[1] - e1[1] * e2[0];
-            ps->tcolor[i] = tri[best].color;
+            ps->tcolor[i] = color[best];
             pk->hit_t[i] = h->t;
             pk->tri |= 1u << i;
         }
