@@ -21,6 +21,17 @@ typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const bvh_shared *sh, const
 /* Closest hits of n rays, invalid ones included (a miss), as intersect1 answers each. */
 typedef void (*bvh_stream_fn)(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
 
+/* A layout's kernels for one codec. */
+typedef struct bvh_kernels {
+    bvh_intersect_fn intersect1;
+    bvh_occluded_fn occluded1;
+    bvh_stream_fn stream; /* NULL: intersect1 per ray */
+    /* NULL, or the kernels specialised for one blob, chosen once when it is built, loaded or
+     * refitted rather than at every query (wide8: the folded or the decoded-plane box
+     * test, wide8_fold_suits); they answer as the ones above do. */
+    struct bvh_kernels (*for_blob)(const uint8_t *blob);
+} bvh_kernels;
+
 typedef struct bvh_layout {
     const char *name;
     const char *description;
@@ -30,11 +41,7 @@ typedef struct bvh_layout {
     /* Check a loaded blob so traversal can never leave it or loop, and every leaf with the
      * codec's leaf_valid: PRT_ERROR_CORRUPT. */
     prt_status (*validate)(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh);
-    struct {
-        bvh_intersect_fn intersect1;
-        bvh_occluded_fn occluded1;
-        bvh_stream_fn stream; /* NULL: intersect1 per ray */
-    } kernels[BVH_CODEC_COUNT];
+    bvh_kernels kernels[BVH_CODEC_COUNT];
 } bvh_layout;
 
 /* X(id, name) */

@@ -184,6 +184,13 @@ static bvh_accel *bvh_new(int layout, int codec, int order) {
     return b;
 }
 
+/* The kernels for b's blob, once it is set (built, loaded or refitted). */
+static void bvh_pick_kernels(bvh_accel *b) {
+    bvh_kernels k = b->layout->kernels[b->codec];
+    if (k.for_blob) k = k.for_blob(b->blob.data);
+    b->intersect1 = k.intersect1, b->occluded1 = k.occluded1, b->stream = k.stream;
+}
+
 extern const prt_accel_ops prt__bvh_ops;
 
 /* The vertex error of a codec with leaf_error, measured by decoding every leaf of the
@@ -393,6 +400,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         bvh_destroy(&b->base);
         return s;
     }
+    bvh_pick_kernels(b);
     b->base.ops = &prt__bvh_ops;
     b->base.triangles_built = n;
     *out = &b->base;
@@ -474,6 +482,7 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         prt__free(b);
         return s;
     }
+    bvh_pick_kernels(b);
     b->base.ops = &prt__bvh_ops;
     *out = &b->base;
     return PRT_OK;
@@ -502,6 +511,7 @@ static prt_status bvh_update(prt_accel *a, const float *vertices) {
     prt__free(b->blob.data);
     prt__free((void *)b->shared.data);
     b->blob = t.blob, b->shared = t.shared, b->leaf_error = t.leaf_error;
+    bvh_pick_kernels(b); /* the moved mesh may no longer suit the same box test */
     memcpy(b->base.bounds, r->tree.nodes[0].box.lo, 6 * sizeof(float));
     return PRT_OK;
 }

@@ -57,7 +57,8 @@ const bvh_layout bvh_layout_wide8 = {
     wide8_encode,
     wide8_validate,
     {
-#define X(id, nm, desc) [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id},
+#define X(id, nm, desc)                                                                                        \
+    [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id, wide8_for_blob_##id},
         BVH_CODECS(X)
 #undef X
     },
