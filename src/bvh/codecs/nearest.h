@@ -39,8 +39,12 @@ static inline void bvh_take_nearest_seq(prt__hitx *h, const float *t, const floa
         if (t[i] == best && (lane < 0 || bvh_tie_id(sh, ids[i]) < bvh_tie_id(sh, ids[lane]))) lane = i;
     }
     if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
-    if (best < h->t || h->prim == PRT_INVALID || bvh_tie_id(sh, ids[lane]) < bvh_tie_id(sh, h->prim))
+    if (best < h->t || h->prim == PRT_INVALID || bvh_tie_id(sh, ids[lane]) < bvh_tie_id(sh, h->prim)) {
         h->t = best, h->u = u[lane], h->v = v[lane], h->prim = ids[lane];
+        /* The hit is named through the map once the walk ends (bvh_accel.c): start
+         * fetching its entry now, a cache miss on every random ray otherwise. */
+        if (sh->mesh_ids && ids[lane] < sh->triangles) __builtin_prefetch(sh->mesh_ids + ids[lane]);
+    }
 }
 
 /* A 4-lane block of a seq_ids codec whose lanes are leaf-order ids first .. first + 3: the
