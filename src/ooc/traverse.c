@@ -631,7 +631,7 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
 }
 
 /* --- The same walk with 16 lanes in SIMD registers ------------------------------------
- * packet_walk16 runs packet_walk's steps on whole vectors: a node's plane distance, the
+ * packet_walks16 runs packet_walk's steps on whole vectors: a node's plane distance, the
  * front and back masks, the segment updates and the LOD test take a few vector operations
  * for all 16 rays instead of a loop over the active ones. Lanes outside the mask compute
  * too, harmlessly: a ray's segment is live only while its lane is in the mask, and comes
@@ -679,12 +679,25 @@ static uint32_t voxel_hits16(packet_state *ps, packet16 *pk, uint32_t mask, vf16
     return stopped;
 }
 
-/* The rays of mask against a leaf's triangles, 8 at a time; false when its block is
- * missing. The same answers, and the same handling of a corrupt list, as packet_leaf. */
-static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t mask, uint32_t w0, uint32_t tb) {
-    uint32_t size;
-    const uint8_t *p = acquire(w, tb, OOC_BLOCK_TRIS, &size);
-    if (!p) return false;
+/* Ask for the triangles of the leaf w0 in triangle block p: each is a load that depends on
+ * the list, and their vertices on them; asked together they arrive together. */
+static void leaf_prefetch_tris(const uint8_t *p, uint32_t size, uint32_t w0) {
+    uint16_t sec[2];
+    memcpy(sec, p, 4);
+    uint32_t list, n, ntri, nvert;
+    if (!leaf_list(p, size, w0, &list, &n, &ntri, &nvert)) return;
+    for (uint32_t j = 0; j < n; j++) {
+        uint16_t ti;
+        memcpy(&ti, p + list + 2 * j, 2);
+        if (ti < ntri) __builtin_prefetch(p + sec[0] + (size_t)ti * sizeof(ooc_tri));
+    }
+}
+
+/* The rays of mask against a leaf's triangles in triangle block tb (at p, size bytes,
+ * acquired by the caller), 8 at a time. The same answers, and the same handling of a
+ * corrupt list, as packet_leaf; false for a corrupt list. */
+static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t mask, uint32_t w0, uint32_t tb,
+                          const uint8_t *p, uint32_t size) {
     uint16_t sec[2];
     memcpy(sec, p, 4);
     uint32_t list, n, ntri, nvert;
@@ -693,13 +706,6 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
     uint32_t prim[8];
     uint16_t color[8];
     bool more = ok;
-    /* Ask for the leaf's triangles before decoding any: each is a load that depends on the
-     * list, and their vertices on them; asked together they arrive together. */
-    for (uint32_t j = 0; ok && j < n; j++) {
-        uint16_t ti;
-        memcpy(&ti, p + list + 2 * j, 2);
-        if (ti < ntri) __builtin_prefetch(p + sec[0] + (size_t)ti * sizeof(ooc_tri));
-    }
     for (uint32_t j0 = 0; more && j0 < n; j0 += 8) {
         /* Decode up to 8 triangles: component c of vertex k of triangle l at soa[(3k+c)*8+l]. */
         uint32_t cnt = 0;
@@ -769,17 +775,77 @@ static inline void prefetch_treelet(const uint8_t *p) {
     for (int i = 0; i < OOC_TREELET_MAX; i += 64) __builtin_prefetch(p + i);
 }
 
-/* packet_walk on vectors (see above): the rays of mask, with segments [tmin, tmax] and
- * entry axes axis_in. */
-static void packet_walk16(walker *w, packet_state *ps, packet16 *pk, uint32_t mask, vf16 tmin, vf16 tmax,
-                          vi16 axis_in) {
-    static _Thread_local pentry16 stack[OOC_MAX_DEPTH + 2];
-    int sp = 0;
-    uint32_t block = w->a->h.root_block, off = w->a->h.root_offset;
-    int nvox = 0, depth = 0;
-    uint32_t vox[6] = {0};
-    float vox_radius = 0.0f;
-    const vf16 C = vf16_set1(w->C);
+/* --- Interleaved packets ----------------------------------------------------------------
+ * One packet's walk is a chain of loads, each depending on the one before (a child
+ * treelet in another block, a leaf's list, its triangles, their vertices), and on the
+ * close-up views many of them miss the caches. So the packets of a call (4 from the
+ * renderer's 8x8 tiles) are walked together, in turns: a walk goes on until it has asked
+ * for something it needs next and probably misses (a child treelet deep in the tree, a
+ * leaf's triangles), then the next packet runs while that arrives. A packet takes the same
+ * steps as it would alone, so the answers are the same bits. */
+
+/* A walk yields when it descends into a treelet at this depth or deeper. The treelets
+ * above are shared by the walks of the whole image and stay cached, so yielding there
+ * costs more than it hides: on close-up views of the 355M Mandelbulb, 24-30 measured
+ * best, 12 and 36 worse (docs/results/ooc.md). */
+#define YIELD_DEPTH 27
+
+typedef struct pwalk16 {
+    vf16 tmin, tmax;
+    vi16 axis_in;
+    walker w;
+    packet_state *ps;
+    packet16 *pk;
+    pentry16 *stack;
+    int sp;
+    uint32_t block, off, mask;
+    int nvox, depth;
+    uint32_t vox[6];
+    float vox_radius;
+    const uint8_t *leaf_p; /* the triangle block of the leaf at off once its triangles are asked for */
+    uint32_t leaf_size;
+} pwalk16;
+
+/* The walk of the rays of mask, with segments [tmin, tmax] and entry axes axis_in, from the
+ * root; stack holds OOC_MAX_DEPTH + 2 entries. */
+static void pwalk16_init(pwalk16 *s, const walker *w, packet_state *ps, packet16 *pk, pentry16 *stack, uint32_t mask,
+                         vf16 tmin, vf16 tmax, vi16 axis_in) {
+    s->w = *w, s->ps = ps, s->pk = pk, s->stack = stack, s->sp = 0;
+    s->block = w->a->h.root_block, s->off = w->a->h.root_offset, s->mask = mask;
+    s->nvox = 0, s->depth = 0, s->vox_radius = 0.0f;
+    memset(s->vox, 0, sizeof s->vox);
+    s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
+    s->leaf_p = NULL, s->leaf_size = 0;
+}
+
+/* packet_walk on vectors (see above) for the walks of live (bits of walks[]), in turns:
+ * a walk's state is loaded into locals, runs to a yield, is saved, and the next one is
+ * loaded. A walk resumes at the top of the loop, which for the state saved is the same as
+ * going on where it stopped: the block is held, the node lies inside it, the depth is
+ * within bounds, and a leaf whose triangles were asked for finds them in leaf_p. */
+static void packet_walks16(pwalk16 *walks, uint32_t live) {
+    int g = __builtin_ctz(live);
+    pwalk16 *s;
+    walker *w;
+    packet_state *ps;
+    packet16 *pk;
+    pentry16 *stack;
+    int sp;
+    uint32_t block, off, mask;
+    int nvox, depth;
+    uint32_t vox[6];
+    float vox_radius;
+    vf16 tmin, tmax;
+    vi16 axis_in;
+    const vf16 C = vf16_set1(walks[g].w.C);
+#define LOAD_WALK()                                                                                                 \
+    do {                                                                                                            \
+        s = &walks[g], w = &s->w, ps = s->ps, pk = s->pk, stack = s->stack, sp = s->sp;                            \
+        block = s->block, off = s->off, mask = s->mask, nvox = s->nvox, depth = s->depth;                          \
+        memcpy(vox, s->vox, sizeof vox);                                                                            \
+        vox_radius = s->vox_radius, tmin = s->tmin, tmax = s->tmax, axis_in = s->axis_in;                          \
+    } while (0)
+    LOAD_WALK();
     for (;;) {
         bool pop = false;
         if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
@@ -791,7 +857,22 @@ static void packet_walk16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             memcpy(&w0, w->blk + off, 4);
             memcpy(&w1, w->blk + off + 4, 4);
             if (!(w0 & OOC_INNER)) {
-                if (!packet_leaf16(w, ps, pk, mask, w0, w1))
+                /* First ask for its triangles and let the other packets run. */
+                const uint8_t *lp = s->leaf_p;
+                uint32_t lsize = s->leaf_size;
+                if (!lp) {
+                    lp = acquire(w, w1, OOC_BLOCK_TRIS, &lsize);
+                    if (!lp) {
+                        mask &= ~voxel_hits16(ps, pk, mask, tmin, axis_in, nvox, vox, vox_radius);
+                        pop = true;
+                        break;
+                    }
+                    leaf_prefetch_tris(lp, lsize, w0);
+                    s->leaf_p = lp, s->leaf_size = lsize;
+                    goto yield;
+                }
+                s->leaf_p = NULL;
+                if (!packet_leaf16(w, ps, pk, mask, w0, w1, lp, lsize))
                     mask &= ~voxel_hits16(ps, pk, mask, tmin, axis_in, nvox, vox, vox_radius);
                 else if (pk->any) /* any hit ends a shadow ray's walk */
                     pk->done |= pk->tri, mask &= ~pk->tri;
@@ -862,17 +943,22 @@ static void packet_walk16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
                     pop = true;
                     break;
                 }
-                prefetch_treelet(w->blk + off);
             } else if (off + 8 > w->size) {
                 pop = true;
                 break;
+            }
+            if (base == 0 && depth >= YIELD_DEPTH) { /* into a child treelet (nearly always in another block) */
+                prefetch_treelet(w->blk + off);
+                goto yield;
             }
         }
         /* Pop: the rays of the entry that are still looking and have no hit before it. */
         for (;;) {
             if (sp == 0) {
                 finish(w);
-                return;
+                live &= ~(1u << g);
+                if (!live) return;
+                goto next;
             }
             pentry16 *e = &stack[--sp];
             uint32_t m2 = e->mask & ~pk->done & ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), e->tmin)));
@@ -883,93 +969,125 @@ static void packet_walk16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             memcpy(vox, e->vox, sizeof vox);
             break;
         }
+        continue;
+    yield:
+        if (!(live & (live - 1))) continue; /* alone: its state is where it stopped */
+        s->sp = sp, s->block = block, s->off = off, s->mask = mask;
+        s->nvox = nvox, s->depth = depth, s->vox_radius = vox_radius;
+        memcpy(s->vox, vox, sizeof vox);
+        s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
+    next: /* the next live walk after g, round and round */
+        g = __builtin_ctz(live & ~((2u << g) - 1) ? live & ~((2u << g) - 1) : live);
+        LOAD_WALK();
     }
+#undef LOAD_WALK
 }
 
-/* Packets of 16 rays, walked by packet_walk16 (simd) or packet_walk (the reference). With
- * occluded (any-hit, SIMD only): occluded[i] is set for a ray blocked by a triangle or
- * stopped at a voxel, and out is not written. */
+/* Packets walked together by a call (the renderer passes a tile of 64 rays: 4 packets). */
+#define GROUP 4
+
+/* Packets of 16 rays, walked by packet_walks16 (simd, GROUP packets in turns) or
+ * packet_walk (the reference, one by one). With occluded (any-hit, SIMD only): occluded[i]
+ * is set for a ray blocked by a triangle or stopped at a voxel, and out is not written. */
 static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C, bool simd,
                         uint8_t *occluded) {
     const ooc_accel *a = (const ooc_accel *)acc;
-    for (uint32_t base = 0; base < n; base += PK) {
-        uint32_t cnt = PRT_MIN(n - base, (uint32_t)PK);
-        packet_state ps;
-        float tmin[PK] = {0}, tmax[PK] = {0};
-        int8_t axis_in[PK] = {0};
-        uint32_t mask = 0, single = 0;
-        int sign[3] = {0, 0, 0};
-        for (uint32_t i = 0; i < cnt; i++) {
-            const prt_ray *r = &rays[base + i];
-            prt__rayx_init(&ps.rx[i], r);
-            ps.hit[i].t = r->tfar, ps.hit[i].prim = PRT_INVALID, ps.hit[i].u = ps.hit[i].v = 0.0f;
-            ps.tcolor[i] = 0, ps.tn[i][0] = ps.tn[i][1] = ps.tn[i][2] = 0.0f, ps.radius[i] = 0.0f;
-            /* Rays the packet cannot take: zero direction components, or signs that differ
-             * from the first ray's, are traced alone. */
-            bool alone = false;
-            for (int k = 0; k < 3; k++) {
-                /* A component so small that its reciprocal overflows counts as zero. */
-                int sg = isinf(ps.rx[i].inv[k]) ? 0 : r->dir[k] > 0.0f ? 1 : r->dir[k] < 0.0f ? -1 : 0;
-                if (sg == 0 || (sign[k] && sg != sign[k])) alone = true;
-                else if (!sign[k] && !alone) sign[k] = sg;
+    static _Thread_local pentry16 stacks[GROUP][OOC_MAX_DEPTH + 2];
+    for (uint32_t base0 = 0; base0 < n; base0 += GROUP * PK) {
+        packet_state ps[GROUP];
+        packet16 pk[GROUP];
+        pwalk16 walks[GROUP];
+        uint32_t single[GROUP] = {0}, cnts[GROUP] = {0}, live = 0;
+        const uint32_t ngroups = PRT_MIN((n - base0 + PK - 1) / PK, (uint32_t)GROUP);
+        for (uint32_t g = 0; g < ngroups; g++) {
+            const uint32_t base = base0 + g * PK;
+            const uint32_t cnt = cnts[g] = PRT_MIN(n - base, (uint32_t)PK);
+            float tmin[PK] = {0}, tmax[PK] = {0};
+            int8_t axis_in[PK] = {0};
+            uint32_t mask = 0;
+            int sign[3] = {0, 0, 0};
+            for (uint32_t i = 0; i < cnt; i++) {
+                const prt_ray *r = &rays[base + i];
+                prt__rayx_init(&ps[g].rx[i], r);
+                ps[g].hit[i].t = r->tfar, ps[g].hit[i].prim = PRT_INVALID, ps[g].hit[i].u = ps[g].hit[i].v = 0.0f;
+                ps[g].tcolor[i] = 0, ps[g].radius[i] = 0.0f;
+                ps[g].tn[i][0] = ps[g].tn[i][1] = ps[g].tn[i][2] = 0.0f;
+                /* Rays the packet cannot take: zero direction components, or signs that differ
+                 * from the first ray's, are traced alone. */
+                bool alone = false;
+                for (int k = 0; k < 3; k++) {
+                    /* A component so small that its reciprocal overflows counts as zero. */
+                    int sg = isinf(ps[g].rx[i].inv[k]) ? 0 : r->dir[k] > 0.0f ? 1 : r->dir[k] < 0.0f ? -1 : 0;
+                    if (sg == 0 || (sign[k] && sg != sign[k])) alone = true;
+                    else if (!sign[k] && !alone) sign[k] = sg;
+                }
+                if (alone) {
+                    single[g] |= 1u << i;
+                    continue;
+                }
+                int ax;
+                if (clip_root(a, &ps[g].rx[i], r->tnear, r->tfar, &tmin[i], &tmax[i], &ax)) mask |= 1u << i;
+                axis_in[i] = (int8_t)ax;
             }
-            if (alone) {
-                single |= 1u << i;
+            if (!mask) continue;
+            const walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
+            if (!simd) {
+                walker ws = w;
+                packet_walk(&ws, &ps[g], mask, tmin, tmax, axis_in);
                 continue;
             }
-            int ax;
-            if (clip_root(a, &ps.rx[i], r->tnear, r->tfar, &tmin[i], &tmax[i], &ax)) mask |= 1u << i;
-            axis_in[i] = (int8_t)ax;
-        }
-        if (mask && simd) {
-            walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
-            packet16 pk = {.tri = 0, .done = 0, .any = occluded != NULL};
+            pk[g] = (packet16){.tri = 0, .done = 0, .any = occluded != NULL};
             int32_t ax[PK];
             for (int k = 0; k < 3; k++) {
                 float o[PK] = {0}, v[PK] = {0};
                 for (uint32_t m = mask; m; m &= m - 1) {
                     int i = __builtin_ctz(m);
-                    o[i] = ps.rx[i].org[k], v[i] = ps.rx[i].inv[k];
+                    o[i] = ps[g].rx[i].org[k], v[i] = ps[g].rx[i].inv[k];
                 }
-                pk.org[k] = vf16_load(o), pk.inv[k] = vf16_load(v);
-                pk.front[k] = sign[k] > 0 ? 0 : 1;
+                pk[g].org[k] = vf16_load(o), pk[g].inv[k] = vf16_load(v);
+                pk[g].front[k] = sign[k] > 0 ? 0 : 1;
             }
             for (int i = 0; i < PK; i++) ax[i] = axis_in[i];
-            packet_walk16(&w, &ps, &pk, mask, vf16_load(tmin), vf16_load(tmax), vi16_load(ax));
-        } else if (mask) {
-            walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
-            packet_walk(&w, &ps, mask, tmin, tmax, axis_in);
+            pwalk16_init(&walks[g], &w, &ps[g], &pk[g], stacks[g], mask, vf16_load(tmin), vf16_load(tmax),
+                         vi16_load(ax));
+            live |= 1u << g;
         }
-        for (uint32_t i = 0; occluded && i < cnt; i++) {
-            if (single >> i & 1) {
-                prt_ray r = rays[base + i];
-                prt_lod_hit o;
-                occluded[base + i] = ooc_intersect_lod(acc, &r, C, true, &o);
-            } else {
-                occluded[base + i] = ps.hit[i].prim != PRT_INVALID;
+        /* Round after round, each live packet to its next miss. */
+        if (live) packet_walks16(walks, live);
+        for (uint32_t g = 0; g < ngroups; g++) {
+            const uint32_t base = base0 + g * PK, cnt = cnts[g];
+            for (uint32_t i = 0; occluded && i < cnt; i++) {
+                if (single[g] >> i & 1) {
+                    prt_ray r = rays[base + i];
+                    prt_lod_hit o;
+                    occluded[base + i] = ooc_intersect_lod(acc, &r, C, true, &o);
+                } else {
+                    occluded[base + i] = ps[g].hit[i].prim != PRT_INVALID;
+                }
             }
-        }
-        for (uint32_t i = 0; !occluded && i < cnt; i++) {
-            prt_ray *r = &rays[base + i];
-            prt_lod_hit *o = &out[base + i];
-            if (single >> i & 1) {
-                ooc_intersect_lod(acc, r, C, false, o);
-                continue;
-            }
-            memset(o, 0, sizeof *o);
-            o->hit.t = INFINITY, o->hit.prim = PRT_INVALID;
-            const prt__hitx *h = &ps.hit[i];
-            if (h->prim == PRT_INVALID) continue;
-            o->hit.t = h->t, o->hit.u = h->u, o->hit.v = h->v, o->hit.prim = h->prim;
-            r->tfar = h->t;
-            if (h->prim == PRT_VOXEL_HIT) {
-                ooc_sample_unpack(ps.sample[i], o->normal, o->color);
-                o->voxel_radius = ps.radius[i];
-            } else {
-                float l = sqrtf(ps.tn[i][0] * ps.tn[i][0] + ps.tn[i][1] * ps.tn[i][1] + ps.tn[i][2] * ps.tn[i][2]);
-                for (int k = 0; k < 3; k++) {
-                    o->normal[k] = l > 0.0f ? ps.tn[i][k] / l : 0.0f;
-                    o->color[k] = (float)((ps.tcolor[i] >> (5 * k)) & 31) / 31.0f;
+            for (uint32_t i = 0; !occluded && i < cnt; i++) {
+                prt_ray *r = &rays[base + i];
+                prt_lod_hit *o = &out[base + i];
+                if (single[g] >> i & 1) {
+                    ooc_intersect_lod(acc, r, C, false, o);
+                    continue;
+                }
+                memset(o, 0, sizeof *o);
+                o->hit.t = INFINITY, o->hit.prim = PRT_INVALID;
+                const prt__hitx *h = &ps[g].hit[i];
+                if (h->prim == PRT_INVALID) continue;
+                o->hit.t = h->t, o->hit.u = h->u, o->hit.v = h->v, o->hit.prim = h->prim;
+                r->tfar = h->t;
+                if (h->prim == PRT_VOXEL_HIT) {
+                    ooc_sample_unpack(ps[g].sample[i], o->normal, o->color);
+                    o->voxel_radius = ps[g].radius[i];
+                } else {
+                    const float *tn = ps[g].tn[i];
+                    float l = sqrtf(tn[0] * tn[0] + tn[1] * tn[1] + tn[2] * tn[2]);
+                    for (int k = 0; k < 3; k++) {
+                        o->normal[k] = l > 0.0f ? tn[k] / l : 0.0f;
+                        o->color[k] = (float)((ps[g].tcolor[i] >> (5 * k)) & 31) / 31.0f;
+                    }
                 }
             }
         }
