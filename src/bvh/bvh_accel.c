@@ -327,7 +327,10 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     int layout = find_layout(spec->structure), codec = bvh_codec_find(spec->codec);
     const bvh_codec *c = &bvh_codecs[codec];
     /* Strip leaves are tested 8 triangles at a time (codecs/strip_kernel.inc). */
+    /* 128 SAH bins rather than Wald's 32: on the bunny every wide8 row ran 2% faster (warm
+     * random rays, six alternating runs), the 2M level the same, for 5-8% more build time. */
     bvh_build_params p = {.block = c->strips ? 8 : c->block,
+                          .bins = 128,
                           .threads = o ? o->threads : 0,
                           .progress = o ? o->progress : NULL,
                           .progress_user = o ? o->progress_user : NULL,

@@ -47,10 +47,13 @@ typedef enum bvh_split {
 
 extern const char *const bvh_split_names[BVH_SPLIT_COUNT];
 
+#define BVH_SAH_MAX_BINS 128
+
 typedef struct bvh_build_params {
     bvh_split split;
     int max_leaf; /* 1..16 primitives per leaf */
     int block;    /* primitives tested together by the codec: leaf cost is ceil(n / block) */
+    int bins;     /* SAH bins per axis, at most BVH_SAH_MAX_BINS; 0: Wald's 32 */
     int threads;  /* 0: all cores */
     /* Progress callback (fraction 0..1 of primitives placed in leaves), or NULL. */
     void (*progress)(void *user, float fraction);

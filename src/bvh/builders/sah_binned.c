@@ -1,11 +1,11 @@
 /* Binned SAH splitter (Wald, "On fast Construction of SAH-based Bounding Volume
- * Hierarchies", 2007): centroids binned into 32 bins per axis, the best plane by the
- * surface area heuristic, a leaf when that is cheaper. Leaf cost counts the codec's
+ * Hierarchies", 2007): centroids binned into 32 bins per axis (or params.bins), the best
+ * plane by the surface area heuristic, a leaf when that is cheaper. Leaf cost counts the codec's
  * blocks (ceil(n / block)), so SOA codecs get trees that fill their blocks. */
 #include "bvh/tree.h"
 #include "core/simd.h"
 
-#define BINS 32
+#define BINS BVH_SAH_MAX_BINS /* the arrays' size; params.bins says how many are used */
 /* Cost of one traversal step relative to one block intersection. 3 rather than the
  * textbook 1: on the bunny it costs 3% more instructions per ray (callgrind) and saves a
  * quarter of aabb:float3's memory, because leaves stop at the leaf size instead of 1. */
@@ -23,7 +23,8 @@ bool bvh_split_sah_axis(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *b
     const int block = b->params.block;
     /* Small nodes get as many bins as primitives: sweeping 32 mostly empty bins would cost
      * more than the binning itself. */
-    const int nbins = n < BINS ? (n < 4 ? 4 : (int)n) : BINS;
+    const int most = b->params.bins > 0 && b->params.bins <= BINS ? b->params.bins : 32;
+    const int nbins = n < (size_t)most ? (n < 4 ? 4 : (int)n) : most;
     float scale[3];
     bool axis_ok[3];
     for (int k = 0; k < 3; k++) {
@@ -34,9 +35,10 @@ bool bvh_split_sah_axis(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *b
     /* One pass over the primitives fills the bins of all three axes; a bin's box is two
      * vf4 (lane 3 unused), so growing it is two SIMD instructions. */
     vf4 bin_lo[3][BINS], bin_hi[3][BINS];
-    uint32_t bin_count[3][BINS] = {{0}};
+    uint32_t bin_count[3][BINS];
     for (int k = 0; k < 3; k++)
-        for (int i = 0; i < nbins; i++) bin_lo[k][i] = vf4_set1(FLT_MAX), bin_hi[k][i] = vf4_set1(-FLT_MAX);
+        for (int i = 0; i < nbins; i++)
+            bin_lo[k][i] = vf4_set1(FLT_MAX), bin_hi[k][i] = vf4_set1(-FLT_MAX), bin_count[k][i] = 0;
     const vf4 c_lo = {cbox->lo[0], cbox->lo[1], cbox->lo[2], 0}, c_scale = {scale[0], scale[1], scale[2], 0};
     for (size_t i = 0; i < n; i++) {
         vf4 lo = vf4_load(p[i].lo), hi = vf4_load(p[i].hi);
