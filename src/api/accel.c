@@ -104,13 +104,9 @@ void prt_accel_stats(const prt_accel *a, prt_stats *s) {
     s->build_peak_bytes = a->build_peak_bytes;
 }
 
-static void miss(prt_hit *h) {
-    h->t = INFINITY, h->u = 0, h->v = 0, h->prim = PRT_INVALID, h->geom = 0;
-}
-
 void prt_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     if (PRT_UNLIKELY(!prt__ray_valid(r))) {
-        miss(h);
+        *h = prt__miss();
         return;
     }
     a->ops->intersect1(a, r, h);
@@ -182,7 +178,7 @@ void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occlu
 bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h) {
     memset(h, 0, sizeof *h);
     if (PRT_UNLIKELY(!prt__ray_valid(r))) {
-        miss(&h->hit);
+        h->hit = prt__miss();
         return false;
     }
     if (a->ops->lod_query) return a->ops->lod_query(a, r, error, false, h);

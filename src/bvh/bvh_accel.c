@@ -177,10 +177,7 @@ static bvh_accel *bvh_new(int layout, int codec, int order) {
     bvh_accel *b = prt__calloc(1, sizeof *b);
     if (!b) return NULL;
     b->layout = order ? bvh_aabb_orders[order] : g_layouts[layout];
-    b->codec = codec;
-    b->intersect1 = b->layout->kernels[codec].intersect1;
-    b->occluded1 = b->layout->kernels[codec].occluded1;
-    b->stream = b->layout->kernels[codec].stream;
+    b->codec = codec; /* its kernels: bvh_pick_kernels, once the blob is set */
     return b;
 }
 

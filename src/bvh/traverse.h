@@ -11,13 +11,12 @@
 
 /* Copy a kernel's hit record out; on a hit also shrink the ray (prt_intersect1's contract). */
 static inline void bvh_finish_hit(prt_ray *ray, prt_hit *hit, const prt__hitx *h) {
-    if (h->prim != PRT_INVALID) {
-        hit->t = h->t, hit->u = h->u, hit->v = h->v, hit->prim = h->prim;
-        ray->tfar = h->t;
-    } else {
-        hit->t = INFINITY, hit->u = 0, hit->v = 0, hit->prim = PRT_INVALID;
+    if (h->prim == PRT_INVALID) {
+        *hit = prt__miss();
+        return;
     }
-    hit->geom = 0;
+    hit->t = h->t, hit->u = h->u, hit->v = h->v, hit->prim = h->prim, hit->geom = 0;
+    ray->tfar = h->t;
 }
 
 #endif

@@ -114,7 +114,7 @@ void cg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     prt__hitx hit = {r->tfar, 0, 0, PRT_INVALID};
     cg_dda_closest(&c->g, r, &hit);
     if (hit.prim == PRT_INVALID) {
-        h->t = INFINITY, h->u = 0, h->v = 0, h->prim = PRT_INVALID, h->geom = 0;
+        *h = prt__miss();
         return;
     }
     h->t = hit.t, h->u = hit.u, h->v = hit.v, h->prim = hit.prim, h->geom = 0;

@@ -457,7 +457,7 @@ void cg_intersect_packet(const prt_accel *a, prt_packet *p) {
     const cg_accel *c = (const cg_accel *)a;
     const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
     uint32_t idx[PRT_PACKET_MAX];
-    for (uint32_t i = 0; i < n; i++) p->hits[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
+    for (uint32_t i = 0; i < n; i++) p->hits[i] = prt__miss();
     if (c->opt.packet == 1) { /* single-ray mode: the DDA for every ray */
         for (uint32_t i = 0; i < n; i++)
             if (prt__ray_valid(&p->rays[i])) cg_intersect1(a, &p->rays[i], &p->hits[i]);

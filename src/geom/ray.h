@@ -56,6 +56,9 @@ static inline bool prt__ray_valid(const prt_ray *r) {
     return r->tnear <= r->tfar; /* false for NaN too */
 }
 
+/* What every query answers for a miss, an invalid ray's included. */
+static inline prt_hit prt__miss(void) { return (prt_hit){INFINITY, 0.0f, 0.0f, PRT_INVALID, 0}; }
+
 /* Ize 2013: moving the far slab distance away from the near one by 2*gamma(3) of its
  * magnitude makes the box test conservative against the rounding of (b - o) * inv. It is
  * applied once to the minimum (rounding is monotonic), growing positive distances and

@@ -26,25 +26,20 @@ PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__ra
     lgrec_intersect(leaf, n, r, c, h);
 }
 
-/* The walk of wide8_kernels.inc's intersect1 for lossygrid's records, the node test written
- * out so that it decodes only the ray's near and far planes, with the same operations in the
- * same order as wide8_box_hit: each plane is fma(q, 2^(e - 127), p), the scale made from the
- * exponent byte in a scalar register and broadcast, rather than through wide8_scales' vector
- * permutes and the stack. (The template folds the planes into the ray, wide8_fold_hit;
- * here that measured 3-5% slower. Both tests are conservative: the same hits.) */
+/* The walk of wide8_kernels.inc's intersect1 for lossygrid's records, with the node test
+ * wide8_nf_hit: wide8_box_hit's operations, each scale made from its exponent byte in a
+ * scalar register rather than through wide8_scales' vector permutes and the stack. (The
+ * template folds the planes into the ray, wide8_fold_hit; here that measured 3-5% slower.
+ * Both tests are conservative: the same hits.) */
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
     prt__rayx r;
     prt__rayx_init(&r, ray);
-    wide8_ray w;
-    wide8_ray_init(&w, &r, blob);
+    wide8_nfray c;
+    wide8_nfray_init(&c, &r, blob);
+    const wide8_ray *w = &c.w;
     lgrec_ray cr;
     lgrec_ray_init(&cr, &r, sh);
     prt__hitx h = {ray->tfar, 0, 0, PRT_INVALID};
-    size_t qn[3], qf[3]; /* byte offsets of the ray's near and far plane rows in a node */
-    for (int k = 0; k < 3; k++)
-        qn[k] = offsetof(wide8_node, q) + 8 * (size_t)w.near[k], qf[k] = offsetof(wide8_node, q) + 8 * (size_t)w.far[k];
-    const vf8 tnear = vf8_set1(w.tnear), grow = vf8_set1(0x1p-21f);
-    const vi8 abs_mask = lg_vi8_set1(0x7FFFFFFF);
     struct {
         uint64_t ref;
         float t;
@@ -54,21 +49,13 @@ void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit 
     for (;;) {
         if (!(ref & WIDE8_LEAF)) {
             const wide8_node *n = (const wide8_node *)(blob + ref);
-            const uint8_t *nb = (const uint8_t *)n;
-            vf8 tmin = tnear, tmax = vf8_set1(h.t);
-            for (int k = 0; k < 3; k++) {
-                const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
-                const vf8 np = vf8_fmadd(vf8_from_u8(nb + qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + qf[k]), s, p);
-                tmin = vf8_max((np - w.org[k]) * w.inv[k], tmin); /* NaN in the first operand: tmin */
-                tmax = vf8_min((fp - w.org[k]) * w.inv[k], tmax);
-            }
-            tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), grow, tmax);
-            unsigned mask = (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
+            vf8 tmin, tmax;
+            unsigned mask = wide8_nf_hit(n, &c, h.t, &tmin, &tmax);
             if (mask) {
                 const int i0 = __builtin_ctz(mask);
                 mask &= mask - 1;
                 if (!mask) { /* the common case: one child hit */
-                    ref = wide8_child_ref_lgrec(n, i0, &w);
+                    ref = wide8_child_ref_lgrec(n, i0, w);
                     continue;
                 }
                 float tt[8];
@@ -77,12 +64,12 @@ void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit 
                 if (!(mask & (mask - 1))) { /* two: the farther pushed (ties: the higher slot) */
                     const bool swap = tt[i1] < tt[i0];
                     const int nearer = swap ? i1 : i0, farther = swap ? i0 : i1;
-                    const uint64_t fref = wide8_child_ref_lgrec(n, farther, &w);
+                    const uint64_t fref = wide8_child_ref_lgrec(n, farther, w);
                     const uint8_t *fp = blob + (fref & WIDE8_OFFSET_MASK);
                     __builtin_prefetch(fp), __builtin_prefetch(fp + 64);
                     stack[top].ref = fref;
                     stack[top++].t = tt[farther];
-                    ref = wide8_child_ref_lgrec(n, nearer, &w);
+                    ref = wide8_child_ref_lgrec(n, nearer, w);
                     continue;
                 }
                 /* More: placed on the stack far to near by their rank (ties by slot), the
@@ -94,7 +81,7 @@ void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit 
                     const vf8 ti = vf8_set1(tt[i]);
                     const unsigned before = (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
                     const int slot = top + c - 1 - __builtin_popcount(before & mask);
-                    const uint64_t cref = wide8_child_ref_lgrec(n, i, &w);
+                    const uint64_t cref = wide8_child_ref_lgrec(n, i, w);
                     const uint8_t *cp = blob + (cref & WIDE8_OFFSET_MASK);
                     __builtin_prefetch(cp), __builtin_prefetch(cp + 64);
                     stack[slot].ref = cref;

@@ -353,7 +353,7 @@ void ooc_intersect1(const prt_accel *acc, prt_ray *r, prt_hit *h) {
         h->t = hit.t, h->u = hit.u, h->v = hit.v, h->prim = hit.prim, h->geom = 0;
         r->tfar = hit.t;
     } else {
-        h->t = INFINITY, h->u = h->v = 0.0f, h->prim = PRT_INVALID, h->geom = 0;
+        *h = prt__miss();
     }
 }
 

@@ -29,38 +29,6 @@
 /* Far distances grow by Ize's 2 gamma(3), as in geom/box.h, so clipping stays conservative. */
 static inline float rs_far(float t) { return t * (t >= 0.0f ? PRT_BOX_FAR_SCALE : PRT_BOX_FAR_SCALE_NEG); }
 
-/* A ray's constants for the top level's node test: wide8_box.h's, and the byte offsets of
- * its near and far plane rows in a node. */
-typedef struct rs_nray {
-    wide8_ray w;
-    size_t qn[3], qf[3];
-} rs_nray;
-
-static inline void rs_nray_init(rs_nray *c, const prt__rayx *r, const uint8_t *blob) {
-    wide8_ray_init(&c->w, r, blob);
-    for (int k = 0; k < 3; k++)
-        c->qn[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.near[k], c->qf[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.far[k];
-}
-
-/* The eight child boxes of node n against one ray within [tnear, tfar]: the mask of those
- * hit, with their entry and exit distances. Only the ray's near and far planes are decoded
- * (fma(q, 2^(e - 127), p), as wide8_box_hit); the exit distances grow by 2^-21 of their
- * magnitude (wide8_slab), so the strip's s-kd interval stays conservative. */
-PRT_INLINE unsigned rs_node_hit(const wide8_node *n, const rs_nray *c, float tfar, vf8 *tn, vf8 *tf) {
-    const uint8_t *nb = (const uint8_t *)n;
-    vf8 tmin = vf8_set1(c->w.tnear), tmax = vf8_set1(tfar);
-    for (int k = 0; k < 3; k++) {
-        const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
-        const vf8 np = vf8_fmadd(vf8_from_u8(nb + c->qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + c->qf[k]), s, p);
-        tmin = vf8_max((np - c->w.org[k]) * c->w.inv[k], tmin); /* NaN in the first operand: tmin */
-        tmax = vf8_min((fp - c->w.org[k]) * c->w.inv[k], tmax);
-    }
-    const vi8 abs_mask = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
-    tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), vf8_set1(0x1p-21f), tmax);
-    *tn = tmin, *tf = tmax;
-    return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
-}
-
 /* A hit inside a strip: the record, the strip triangle, the weights of its three strip
  * vertices. */
 typedef struct rs_best {
@@ -125,11 +93,11 @@ static inline rs_strip rs_strip_of(const rs_accel *a, const uint32_t *e) {
 /* The hit's mesh triangle (or position, ids=none), barycentrics in the mesh triangle's
  * vertex order and material, from the strip triangle's id. */
 static inline void rs_finish(const rs_accel *a, const rs_best *b, prt_ray *ray, prt_hit *hit) {
-    hit->geom = 0;
     if (!b->rec) {
-        hit->t = INFINITY, hit->u = 0, hit->v = 0, hit->prim = PRT_INVALID;
+        *hit = prt__miss();
         return;
     }
+    hit->geom = 0;
     const uint32_t code = b->id & ((1u << RS_ID_SHIFT) - 1);
     hit->t = b->t, hit->prim = b->id >> RS_ID_SHIFT;
     hit->u = b->b[rs_perm[code][0]], hit->v = b->b[rs_perm[code][1]];

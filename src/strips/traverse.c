@@ -98,8 +98,8 @@ PRT_INLINE bool rs_pop(const rs_entry *stack, int *top, float t, rs_entry *cur) 
 
 /* Shared by both queries: any stops at the first hit. */
 static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_best *best) {
-    rs_nray c;
-    rs_nray_init(&c, r, a->blob);
+    wide8_nfray c;
+    wide8_nfray_init(&c, r, a->blob);
     rs_entry stack[RS_STACK];
     int top = 0;
     rs_entry cur = {0, -1, r->tnear, best->t};
@@ -107,7 +107,7 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
         const wide8_node *n = &a->nodes[cur.node];
         if (cur.slot < 0) {
             vf8 tmin, tmax;
-            unsigned mask = rs_node_hit(n, &c, best->t, &tmin, &tmax);
+            unsigned mask = wide8_nf_hit(n, &c, best->t, &tmin, &tmax);
             if (mask) {
                 cur = rs_descend(a, n, cur.node, mask, tmin, tmax, stack, &top);
                 continue;
@@ -124,7 +124,7 @@ static inline bool trace(const rs_accel *a, const prt__rayx *r, bool any, rs_bes
 /* One ray of rs_intersect_stream in flight: trace's state. */
 typedef struct rs_lane {
     prt__rayx r;
-    rs_nray c;
+    wide8_nfray c;
     rs_best best;
     rs_entry cur;
     int top;
@@ -141,11 +141,11 @@ static bool rs_lane_start(const rs_accel *a, rs_lane *l, prt_ray *rays, prt_hit 
     for (; *next < n; ++*next) {
         const prt_ray *ray = &rays[*next];
         if (!prt__ray_valid(ray)) {
-            hits[*next] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
+            hits[*next] = prt__miss();
             continue;
         }
         prt__rayx_init(&l->r, ray);
-        rs_nray_init(&l->c, &l->r, a->blob);
+        wide8_nfray_init(&l->c, &l->r, a->blob);
         l->best = (rs_best){ray->tfar, {0, 0, 0}, NULL, 0, 0};
         l->cur = (rs_entry){0, -1, l->r.tnear, l->best.t};
         l->top = 0;
@@ -184,7 +184,7 @@ void rs_intersect_stream(const prt_accel *acc, prt_ray *rays, prt_hit *hits, siz
     while (on) {
         for (int i = 0; i < RS_LANES; i++) {
             rs_lane *l = &lanes[i];
-            if (on >> i & 1 && l->cur.slot < 0) l->mask = rs_node_hit(&a->nodes[l->cur.node], &l->c, l->best.t, &l->tmin, &l->tmax);
+            if (on >> i & 1 && l->cur.slot < 0) l->mask = wide8_nf_hit(&a->nodes[l->cur.node], &l->c, l->best.t, &l->tmin, &l->tmax);
         }
         for (int i = 0; i < RS_LANES; i++) {
             rs_lane *l = &lanes[i];

@@ -94,6 +94,37 @@ PRT_INLINE unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, float
     return wide8_slab(near, far, wide8_occupied(n), w, tfar, tentry);
 }
 
+/* wide8_box_hit for walks written out by hand (lossygrid's single rays, Ray-Strips' top
+ * level): the byte offsets of the ray's near and far plane rows kept with its constants,
+ * each axis's scale made from its exponent byte in a scalar register, the same operations
+ * in the same order (the same hits), and the exit distances returned too (Ray-Strips bounds
+ * a strip's s-kd interval by them). */
+typedef struct wide8_nfray {
+    wide8_ray w;
+    size_t qn[3], qf[3];
+} wide8_nfray;
+
+static inline void wide8_nfray_init(wide8_nfray *c, const prt__rayx *r, const uint8_t *blob) {
+    wide8_ray_init(&c->w, r, blob);
+    for (int k = 0; k < 3; k++)
+        c->qn[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.near[k], c->qf[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.far[k];
+}
+
+PRT_INLINE unsigned wide8_nf_hit(const wide8_node *n, const wide8_nfray *c, float tfar, vf8 *tn, vf8 *tf) {
+    const uint8_t *nb = (const uint8_t *)n;
+    vf8 tmin = vf8_set1(c->w.tnear), tmax = vf8_set1(tfar);
+    for (int k = 0; k < 3; k++) {
+        const vf8 s = vf8_set1(wide8_scale(n->e[k])), p = vf8_set1(n->p[k]);
+        const vf8 np = vf8_fmadd(vf8_from_u8(nb + c->qn[k]), s, p), fp = vf8_fmadd(vf8_from_u8(nb + c->qf[k]), s, p);
+        tmin = vf8_max((np - c->w.org[k]) * c->w.inv[k], tmin); /* NaN in the first operand: tmin */
+        tmax = vf8_min((fp - c->w.org[k]) * c->w.inv[k], tmax);
+    }
+    const vi8 abs_mask = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
+    tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), vf8_set1(0x1p-21f), tmax);
+    *tn = tmin, *tf = tmax;
+    return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
+}
+
 /* The header fields child_ref reads, without the rest of a wide8_ray. */
 static inline void wide8_ray_header(wide8_ray *w, const uint8_t *blob) {
     wide8_header hd;
