@@ -6,6 +6,7 @@
 #include "test.h"
 
 #include "bench.h"
+#include "render/render.h"
 
 #ifdef PRT_HAVE_PNG
 #include <png.h>
@@ -629,6 +630,41 @@ TEST(test_png_round_trip_keeps_every_pixel) {
     prt_mesh_free(m);
 }
 
+/* The 8-bit sRGB encoding rounds as the exact transfer function does (srgb8, in double) for
+ * floats on both sides of every decision boundary, a sweep over [0, 1] and the specials. */
+static void test_srgb_encoding_rounds_as_the_exact_transfer_function(void) {
+    enum { SWEEP = 1 << 16 };
+    float vals[255 * 3 + SWEEP + 8];
+    size_t n = 0;
+    for (int k = 1; k < 256; k++) {
+        const double e = (k - 0.5) / 255.0;
+        const float f = (float)(e <= 0.04045 ? e / 12.92 : pow((e + 0.055) / 1.055, 2.4));
+        vals[n++] = nextafterf(f, 0.0f), vals[n++] = f, vals[n++] = nextafterf(f, 2.0f);
+    }
+    const uint32_t one = 0x3F800000u;
+    for (uint32_t i = 0; i < SWEEP; i++) {
+        const uint32_t bits = (uint32_t)((uint64_t)one * i / SWEEP);
+        memcpy(&vals[n++], &bits, 4);
+    }
+    const float special[8] = {NAN, -NAN, INFINITY, -INFINITY, -1.0f, -0.0f, 1.0f, 2.0f};
+    for (int i = 0; i < 8; i++) vals[n++] = special[i];
+    render_framebuffer fb;
+    CHECK(render_framebuffer_init(&fb, (uint32_t)n, 1, false, false) == PRT_OK);
+    prt_image img = {(uint32_t)n, 1, malloc(3 * n), 0, 0};
+    CHECK(img.rgb != NULL);
+    if (!img.rgb) return;
+    for (size_t i = 0; i < n; i++) fb.direct[3 * i] = fb.direct[3 * i + 1] = fb.direct[3 * i + 2] = vals[i];
+    render_framebuffer_resolve(&fb, PRT_SHADE_DIFFUSE, 2, &img);
+    size_t wrong = 0;
+    for (size_t i = 0; i < n; i++) {
+        const int want = isnan(vals[i]) ? 0 : srgb8(vals[i]);
+        for (int k = 0; k < 3; k++) wrong += img.rgb[3 * i + k] != want;
+    }
+    CHECK_MSG(wrong == 0, "%zu channels of %zu encode differently from the exact transfer function", wrong, 3 * n);
+    free(img.rgb);
+    render_framebuffer_free(&fb);
+}
+
 int main(void) {
     RUN(test_normal_mode_matches_brute_force_image);
     RUN(test_diffuse_mode_matches_brute_force_image);
@@ -646,5 +682,6 @@ int main(void) {
     RUN(test_bad_arguments_are_errors_not_crashes);
     RUN(test_compare_counts_differences_and_psnr);
     RUN(test_png_round_trip_keeps_every_pixel);
+    RUN(test_srgb_encoding_rounds_as_the_exact_transfer_function);
     TEST_END();
 }
