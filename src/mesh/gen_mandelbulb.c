@@ -2,6 +2,7 @@
  * distance estimator (Hart et al. 1989), in the trigonometry-free form of Quilez's
  * "Mandelbulb" notes; the grid resolution is calibrated to the requested triangle count. */
 #include "mesh/gen.h"
+#include "mesh/iso_bricks.h"
 #include "mesh/isosurface.h"
 #include "mesh/ply_writer.h"
 
@@ -228,6 +229,10 @@ static prt_status stream_grid(size_t triangles, gen_iso_params *p) {
         if (correction(triangles, r, got, rc, tc, &r2)) r = r2;
     }
     return grid(r, p);
+}
+
+prt_status gen_mandelbulb_grid(size_t triangles, gen_iso_params *p) {
+    return stream_grid(triangles, p);
 }
 
 prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_budget,

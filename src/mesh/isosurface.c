@@ -3,6 +3,7 @@
  * the bricks' pieces are stitched into one indexed mesh (vertices shared per grid edge) or
  * handed on as triangles without building a mesh. */
 #include "mesh/iso_brick.h"
+#include "mesh/iso_bricks.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -11,6 +12,7 @@
 #define S ISO_S
 #define OWN_WORDS ISO_OWN_WORDS
 #define MAX_BRICK_TRIS ISO_MAX_BRICK_TRIS
+_Static_assert(GEN_ISO_MAX_BRICK_TRIS == ISO_MAX_BRICK_TRIS, "iso_bricks.h's brick size");
 
 /* An octree node is skipped when its centre's distance estimate exceeds this many
  * half-diagonals. Estimators overshoot (the Mandelbulb's by up to 6x in places), so this
@@ -103,10 +105,12 @@ static void soup_corner(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, con
     }
 }
 
-static void process_brick(const iso *s, uint32_t id, iso_brick_out *out, brick_result *res) {
+/* Sample brick id and run marching cubes over its cells: val receives the samples, tri the
+ * triangles as extended slots; returns the triangle count, *neighbours the bricks sharing
+ * a crossed edge (brick_result's bits). */
+static uint32_t brick_cells(const iso *s, uint32_t id, float *val, uint16_t *tri,
+                            uint32_t *neighbours_out) {
     uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
-    float val[S * S * S];
-    uint16_t tri[3 * MAX_BRICK_TRIS];
     sample_brick(s, bx, by, bz, val);
 
     uint32_t ntri = 0, neighbours = 0;
@@ -140,7 +144,23 @@ static void process_brick(const iso *s, uint32_t id, iso_brick_out *out, brick_r
                     }
                 ntri += (uint32_t)n;
             }
-    neighbours &= ~(1u << 13); /* the brick itself */
+    *neighbours_out = neighbours & ~(1u << 13); /* not the brick itself */
+    return ntri;
+}
+
+/* The corners of a brick's triangles (9 floats each) from its samples and slots. */
+static void brick_soup(const iso *s, uint32_t id, const float *val, const uint16_t *tri,
+                       uint32_t ntri, float *f) {
+    uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
+    for (uint32_t i = 0; i < 3 * ntri; i++) soup_corner(s, bx, by, bz, val, tri[i], f + 3 * i);
+}
+
+static void process_brick(const iso *s, uint32_t id, iso_brick_out *out, brick_result *res) {
+    uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
+    float val[S * S * S];
+    uint16_t tri[3 * MAX_BRICK_TRIS];
+    uint32_t neighbours;
+    uint32_t ntri = brick_cells(s, id, val, tri, &neighbours);
     out->id = id;
     out->ntri = ntri;
     out->rec = NULL;
@@ -154,7 +174,7 @@ static void process_brick(const iso *s, uint32_t id, iso_brick_out *out, brick_r
             res->failed = 1;
             return;
         }
-        for (uint32_t i = 0; i < 3 * ntri; i++) soup_corner(s, bx, by, bz, val, tri[i], f + 3 * i);
+        brick_soup(s, id, val, tri, ntri, f);
         out->soup = f;
         return;
     }
@@ -453,19 +473,24 @@ static prt_status check_params(const gen_iso_params *p) {
     return PRT_OK;
 }
 
+static void iso_init(iso *s, const gen_iso_params *p, gen_mc_table *mc, iso_mode mode) {
+    gen_mc_table_build(mc);
+    *s = (iso){p, mc, iso_bricks_per_side(p), p->cell, mode, {0}};
+    for (int e = 0; e < 12; e++) {
+        int o[3];
+        gen_mc_edge_origin(e, o);
+        s->ext_off[e] = (uint16_t)(gen_mc_edge_axis(e) * S * S * S + sidx(o[0], o[1], o[2]));
+    }
+}
+
 prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_brick_fn fn,
                      void *user, uint64_t *triangles) {
     if (triangles) *triangles = 0;
     prt_status st = check_params(p);
     if (st) return st;
     gen_mc_table mc;
-    gen_mc_table_build(&mc);
-    iso s = {p, &mc, iso_bricks_per_side(p), p->cell, mode, {0}};
-    for (int e = 0; e < 12; e++) {
-        int o[3];
-        gen_mc_edge_origin(e, o);
-        s.ext_off[e] = (uint16_t)(gen_mc_edge_axis(e) * S * S * S + sidx(o[0], o[1], o[2]));
-    }
+    iso s;
+    iso_init(&s, p, &mc, mode);
     uint32_t nb = s.nb;
     size_t nbricks = (size_t)nb * nb * nb;
 
@@ -641,4 +666,72 @@ prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, 
     prt__free(u.buf);
     if (!st && triangles) *triangles = total;
     return st;
+}
+
+/* The census of bricks (iso_bricks.h): the stream's flood fill, each brick that holds surface
+ * handed on with its own triangles. */
+typedef struct census {
+    gen_iso_bricks_fn fn;
+    void *user;
+    gen_iso_brick *b;
+    size_t cap;
+} census;
+
+static prt_status census_bricks(void *user, iso_brick_out *b, size_t n) {
+    census *c = user;
+    if (n > c->cap) {
+        gen_iso_brick *q = prt__realloc(c->b, n * sizeof *q);
+        if (!q) return prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
+        c->b = q;
+        c->cap = n;
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (b[i].ntri) c->b[m++] = (gen_iso_brick){b[i].id, b[i].ntri, b[i].soup};
+    return m ? c->fn(c->user, c->b, m) : PRT_OK;
+}
+
+prt_status gen_isosurface_bricks(const gen_iso_params *p, size_t memory_budget,
+                                 gen_iso_bricks_fn fn, void *user, uint64_t *triangles) {
+    if (triangles) *triangles = 0;
+    if (!fn) return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: the brick callback is NULL");
+    /* Groups as gen_isosurface_stream's: a brick's worst case is all of it triangles. */
+    const size_t brick_bytes = ISO_MAX_BRICK_TRIS * 9 * sizeof(float) + 64;
+    size_t budget = PRT_MAX(memory_budget, GEN_ISO_MIN_BUDGET);
+    size_t group = PRT_MAX(budget / brick_bytes, (size_t)16);
+    census c = {fn, user, NULL, 0};
+    prt_status st = iso_flood(p, ISO_SOUP, group, census_bricks, &c, triangles);
+    prt__free(c.b);
+    return st;
+}
+
+struct gen_iso_regen {
+    gen_iso_params p;
+    gen_mc_table mc;
+    iso s;
+};
+
+prt_status gen_iso_regen_open(const gen_iso_params *p, gen_iso_regen **out) {
+    *out = NULL;
+    prt_status st = check_params(p);
+    if (st) return st;
+    gen_iso_regen *r = prt__alloc(sizeof *r);
+    if (!r) return prt__fail(PRT_ERROR_NOMEM, "out of memory for the isosurface's bricks");
+    r->p = *p;
+    iso_init(&r->s, &r->p, &r->mc, ISO_SOUP);
+    *out = r;
+    return PRT_OK;
+}
+
+uint32_t gen_iso_regen_brick(const gen_iso_regen *r, uint32_t id, float *soup) {
+    float val[S * S * S];
+    uint16_t tri[3 * MAX_BRICK_TRIS];
+    uint32_t neighbours;
+    uint32_t ntri = brick_cells(&r->s, id, val, tri, &neighbours);
+    brick_soup(&r->s, id, val, tri, ntri, soup);
+    return ntri;
+}
+
+void gen_iso_regen_free(gen_iso_regen *r) {
+    prt__free(r);
 }
