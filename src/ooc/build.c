@@ -22,6 +22,14 @@
  * sift pass over the whole model than the budget needs). */
 #define INCORE_BYTES_PER_TRI 160
 
+/* A brick of a procedural source (the brick path, below). */
+typedef struct ooc_brick {
+    float box[6];   /* of its hittable triangles */
+    uint32_t id;    /* the source's brick id */
+    uint32_t ntri;  /* triangles, hittable or not (they use up stream ids) */
+    uint32_t first; /* the stream id of its first triangle */
+} ooc_brick;
+
 typedef struct spool {
     FILE *f;        /* a temporary file, or NULL while the spool is in memory */
     ooc_btri *mem;  /* in memory (a root that fits the budget) */
@@ -52,6 +60,11 @@ typedef struct builder {
     long faults_kd, faults_layout; /* minor page faults */
     unsigned sift_passes;
     uint64_t sifted;
+    /* The brick path (ooc_build_bricks): the census's bricks, and what regenerates them. */
+    const ooc_brick *bricks;
+    size_t nbricks;
+    const ooc_brick_source *src;
+    uint64_t regenerated;
 } builder;
 
 /* CPU seconds of the whole process (all threads): the phases run one after the other. */
@@ -195,15 +208,15 @@ static void report(builder *b, uint64_t tris) {
 }
 
 /* Where an out-of-core node splits: an empty-space cut, or the middle of the longest axis. */
-static void ooc_split(const builder *b, const spool *s, const float cell[6], int *axis, float *split) {
+static void ooc_split(const builder *b, const float bounds[6], const float cell[6], int *axis, float *split) {
     float best = 0.0f;
     *axis = -1;
     for (int k = 0; k < 3; k++) {
         float ext = cell[3 + k] - cell[k];
         if (!(ext > 0.0f)) continue;
-        float lo = (s->bounds[k] - cell[k]) / ext, hi = (cell[3 + k] - s->bounds[3 + k]) / ext;
-        if (lo > best) best = lo, *axis = k, *split = s->bounds[k];
-        if (hi > best) best = hi, *axis = k, *split = s->bounds[3 + k];
+        float lo = (bounds[k] - cell[k]) / ext, hi = (cell[3 + k] - bounds[3 + k]) / ext;
+        if (lo > best) best = lo, *axis = k, *split = bounds[k];
+        if (hi > best) best = hi, *axis = k, *split = bounds[3 + k];
     }
     if (*axis >= 0 && best >= b->p->empty_cut) return;
     int k = 0;
@@ -212,16 +225,12 @@ static void ooc_split(const builder *b, const spool *s, const float cell[6], int
     *axis = k, *split = 0.5f * (cell[k] + cell[3 + k]);
 }
 
-static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32_t depth, ooc_frag *out) {
-    ooc_btri *tris = prt__alloc(prt__mul_size(PRT_MAX(s->count, 1), sizeof *tris));
-    if (!tris) return prt__fail(PRT_ERROR_NOMEM, "out of memory reading %llu triangles for an in-core subtree", (unsigned long long)s->count);
-    double c0 = cpu_now();
-    prt_status st = read_all(s, tris);
-    spool_close(s);
+/* Build the in-core subtree over n triangles (cell, at depth) and lay it out; frees tris. */
+static prt_status build_tris(builder *b, ooc_btri *tris, uint64_t n, const float cell[6], uint32_t depth, ooc_frag *out) {
     double c1 = cpu_now();
     ooc_tree t;
     long f1 = faults_now();
-    if (!st) st = ooc_kd_build(tris, s->count, cell, depth, b->p, &t);
+    prt_status st = ooc_kd_build(tris, n, cell, depth, b->p, &t);
     double c2 = cpu_now();
     long f2 = faults_now();
     if (!st) {
@@ -230,11 +239,25 @@ static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32
         ooc_tree_free(&t);
     }
     double c3 = cpu_now();
-    b->cpu_read += c1 - c0, b->cpu_kd += c2 - c1, b->cpu_layout += c3 - c2;
+    b->cpu_kd += c2 - c1, b->cpu_layout += c3 - c2;
     b->faults_kd += f2 - f1, b->faults_layout += faults_now() - f2;
     prt__free(tris);
-    report(b, s->count);
+    report(b, n);
     return st;
+}
+
+static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32_t depth, ooc_frag *out) {
+    ooc_btri *tris = prt__alloc(prt__mul_size(PRT_MAX(s->count, 1), sizeof *tris));
+    if (!tris) return prt__fail(PRT_ERROR_NOMEM, "out of memory reading %llu triangles for an in-core subtree", (unsigned long long)s->count);
+    double c0 = cpu_now();
+    prt_status st = read_all(s, tris);
+    spool_close(s);
+    b->cpu_read += cpu_now() - c0;
+    if (st) {
+        prt__free(tris);
+        return st;
+    }
+    return build_tris(b, tris, s->count, cell, depth, out);
 }
 
 static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t depth, ooc_frag *out) {
@@ -242,7 +265,7 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
     if (s->count <= b->incore_max || depth + 1 >= OOC_MAX_DEPTH) return build_incore(b, s, cell, depth, out);
     int axis;
     float split;
-    ooc_split(b, s, cell, &axis, &split);
+    ooc_split(b, s->bounds, cell, &axis, &split);
     float box[2][6];
     memcpy(box[0], cell, sizeof box[0]), memcpy(box[1], cell, sizeof box[1]);
     box[0][3 + axis] = split, box[1][axis] = split;
@@ -295,6 +318,23 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
     return st;
 }
 
+static void print_stats(const builder *b, uint64_t built, double c0) {
+    double lz4 = ooc_writer_compress_seconds(b->w), all = cpu_now() - c0, per = 1e6 / (double)PRT_MAX(built, 1);
+    const char *produce = b->bricks ? "census" : "produce";
+    fprintf(stderr,
+            "ooc build CPU (s, us/tri): %s %.2f %.3f | %s %u passes over %.2f tris/tri %.2f %.3f | %s %.2f %.3f | "
+            "kd %.2f %.3f | layout+looks %.2f %.3f | compression %.2f %.3f | finish %.2f | all %.2f %.3f\n"
+            "ooc build page faults: kd %ld | layout+looks %ld | all %ld\n",
+            produce, b->cpu_produce, b->cpu_produce * per, b->bricks ? "brick splits" : "sift", b->sift_passes,
+            (double)b->sifted / (double)PRT_MAX(built, 1), b->cpu_sift, b->cpu_sift * per, b->bricks ? "regenerate" : "read",
+            b->cpu_read, b->cpu_read * per, b->cpu_kd, b->cpu_kd * per, b->cpu_layout + b->cpu_finish - lz4,
+            (b->cpu_layout + b->cpu_finish - lz4) * per, lz4, lz4 * per, b->cpu_finish, all, all * per, b->faults_kd,
+            b->faults_layout, faults_now());
+    if (b->bricks)
+        fprintf(stderr, "ooc build bricks: %zu with surface (%.1f MB), %.3f triangles regenerated a triangle\n", b->nbricks,
+                (double)b->nbricks * sizeof *b->bricks / 1e6, (double)b->regenerated / (double)PRT_MAX(b->total, 1));
+}
+
 prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build_job *job, ooc_header *h,
                      void **image, size_t *image_size) {
     const double t0 = prt__now();
@@ -338,21 +378,322 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
     double c1 = cpu_now();
     if (!s) s = ooc_writer_finish(b.w, root, h, image, image_size);
     b.cpu_finish = cpu_now() - c1;
-    if (b.stats && !s) {
-        double lz4 = ooc_writer_compress_seconds(b.w), all = cpu_now() - c0, per = 1e6 / (double)PRT_MAX(built, 1);
-        fprintf(stderr,
-                "ooc build CPU (s, us/tri): produce %.2f %.3f | sift %u passes over %.2f tris/tri %.2f %.3f | read %.2f %.3f | "
-                "kd %.2f %.3f | layout+looks %.2f %.3f | compression %.2f %.3f | finish %.2f | all %.2f %.3f\n"
-                "ooc build page faults: kd %ld | layout+looks %ld | all %ld\n",
-                b.cpu_produce, b.cpu_produce * per, b.sift_passes, (double)b.sifted / (double)PRT_MAX(built, 1), b.cpu_sift,
-                b.cpu_sift * per, b.cpu_read, b.cpu_read * per, b.cpu_kd, b.cpu_kd * per, b.cpu_layout + b.cpu_finish - lz4,
-                (b.cpu_layout + b.cpu_finish - lz4) * per, lz4, lz4 * per, b.cpu_finish, all, all * per, b.faults_kd,
-                b.faults_layout, faults_now());
-    }
+    if (b.stats && !s) print_stats(&b, built, c0);
     spool_close(&b.root);
     prt__free(root);
     prt__free(b.batch);
     ooc_writer_free(b.w);
     if (s && job->out_path) remove(job->out_path);
+    return s;
+}
+
+/* --- The brick path (ooc_build_bricks) -------------------------------------------------
+ * A procedural source need not be spooled: one census pass records each brick that holds
+ * triangles (its count and the box of its hittable triangles, 36 bytes), and the upper
+ * levels split the set of bricks. The sift sends a triangle to every child whose closed
+ * cell its box touches, so a node holds exactly the triangles whose boxes touch its cell;
+ * a brick goes to a child when its box (the union of its triangles') does, a superset.
+ * A node whose bricks' triangles fit the budget regenerates them, keeps those that touch
+ * its cell, in stream order, and continues in core as build_incore does. */
+
+
+/* Lists of at most this many bricks are counted exactly (by regenerating them) before a
+ * node is split: a node of a few bricks that all touch its split plane would otherwise
+ * hand them all to both children, level after level. */
+#define EXACT_COUNT_BRICKS 256
+
+typedef struct census_ctx {
+    builder *b;
+    ooc_brick *v;
+    size_t n, cap;
+    uint64_t next_id;
+    int threads;
+    /* Per group: each brick's box, hittable count and first bad triangle (or UINT32_MAX). */
+    float (*box)[6];
+    uint32_t *hit, *bad;
+    size_t scap;
+} census_ctx;
+
+static bool tri_finite(const float *v) {
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(v[k]) || fabsf(v[k]) > PRT_MAX_COORDINATE) return false;
+    return true;
+}
+
+static prt_status bad_triangle(const float *v, uint64_t id) {
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(v[k])) return prt__fail(PRT_ERROR_MESH, "triangle %llu has a non-finite coordinate", (unsigned long long)id);
+    for (int k = 0; k < 9; k++)
+        if (fabsf(v[k]) > PRT_MAX_COORDINATE)
+            return prt__fail(PRT_ERROR_LIMIT, "triangle %llu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
+                             (unsigned long long)id, (double)v[k], (double)PRT_MAX_COORDINATE);
+    return PRT_OK;
+}
+
+static prt_status census_sink(void *user, const gen_iso_brick *g, size_t n) {
+    census_ctx *c = user;
+    builder *b = c->b;
+    if (n > c->scap) {
+        prt__free(c->box), prt__free(c->hit), prt__free(c->bad);
+        c->box = prt__alloc(n * sizeof *c->box);
+        c->hit = prt__alloc(n * sizeof *c->hit);
+        c->bad = prt__alloc(n * sizeof *c->bad);
+        c->scap = c->box && c->hit && c->bad ? n : 0;
+        if (!c->scap) return prt__fail(PRT_ERROR_NOMEM, "out of memory in the brick census");
+    }
+    float(*box)[6] = c->box;
+    uint32_t *hit = c->hit, *bad = c->bad;
+#pragma omp parallel for num_threads(c->threads) schedule(dynamic, 8)
+    for (size_t i = 0; i < n; i++) {
+        box_empty(box[i]);
+        hit[i] = 0, bad[i] = UINT32_MAX;
+        for (uint32_t t = 0; t < g[i].ntri; t++) {
+            const float *v = g[i].soup + 9 * (size_t)t;
+            if (!tri_finite(v)) {
+                bad[i] = t;
+                break;
+            }
+            if (!hittable(v)) continue;
+            ooc_btri tr;
+            memcpy(tr.v, v, sizeof tr.v);
+            float tb[6];
+            tri_box(&tr, NULL, tb);
+            box_add(box[i], tb, NULL);
+            hit[i]++;
+        }
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (bad[i] != UINT32_MAX) return bad_triangle(g[i].soup + 9 * (size_t)bad[i], c->next_id + bad[i]);
+        if (c->next_id + g[i].ntri > UINT32_MAX)
+            return prt__fail(PRT_ERROR_LIMIT, "the stream has more than 2^32 - 1 triangles (ids are 32-bit)");
+        b->degenerate += g[i].ntri - hit[i];
+        if (hit[i]) {
+            if (c->n == c->cap) {
+                size_t cap = c->cap ? c->cap + c->cap / 2 : 65536;
+                ooc_brick *q = prt__realloc(c->v, prt__mul_size(cap, sizeof *q));
+                if (!q) return prt__fail(PRT_ERROR_NOMEM, "out of memory holding %zu bricks", cap);
+                c->v = q, c->cap = cap;
+            }
+            ooc_brick *r = &c->v[c->n++];
+            memcpy(r->box, box[i], sizeof r->box);
+            r->id = g[i].id, r->ntri = g[i].ntri, r->first = (uint32_t)c->next_id;
+            box_add(b->root.bounds, box[i], NULL);
+            b->root.count += hit[i];
+        }
+        c->next_id += g[i].ntri;
+    }
+    b->total = c->next_id;
+    return PRT_OK;
+}
+
+static inline bool box_touches(const float tb[6], const float cell[6]) {
+    for (int k = 0; k < 3; k++)
+        if (tb[k] > cell[3 + k] || tb[3 + k] < cell[k]) return false;
+    return true;
+}
+
+/* Regenerate the listed bricks and keep the hittable triangles whose boxes touch cell, in
+ * stream order: into out (room for the bricks' counts) when not NULL, else only counted. */
+static prt_status regen_bricks(builder *b, const uint32_t *list, size_t n, const float cell[6], ooc_btri *out, uint64_t *kept) {
+    const ooc_brick_source *src = b->src;
+    uint64_t *off = prt__alloc((n + 1) * sizeof *off);
+    uint32_t *got = prt__alloc((n ? n : 1) * sizeof *got);
+    prt_status st = off && got ? PRT_OK : prt__fail(PRT_ERROR_NOMEM, "out of memory regenerating %zu bricks", n);
+    if (!st) {
+        off[0] = 0;
+        for (size_t i = 0; i < n; i++) off[i + 1] = off[i] + b->bricks[list[i]].ntri;
+    }
+    int threads = prt__threads(b->p->threads), failed = 0;
+    double c0 = cpu_now();
+#pragma omp parallel num_threads(threads) if (!st && n > 1)
+    {
+        float *soup = st ? NULL : prt__alloc((size_t)src->max_brick_tris * 9 * sizeof *soup);
+        if (!st && !soup) {
+#pragma omp atomic write
+            failed = 1;
+        }
+#pragma omp for schedule(dynamic, 4)
+        for (size_t i = 0; i < n; i++) {
+            if (!soup) continue;
+            const ooc_brick *r = &b->bricks[list[i]];
+            uint32_t nt = src->regen(src->ctx, r->id, soup), k = 0;
+            if (nt != r->ntri) {
+#pragma omp atomic write
+                failed = 2;
+                continue;
+            }
+            for (uint32_t t = 0; t < nt; t++) {
+                const float *v = soup + 9 * (size_t)t;
+                if (!hittable(v)) continue;
+                ooc_btri tr;
+                memcpy(tr.v, v, sizeof tr.v);
+                float tb[6];
+                tri_box(&tr, NULL, tb);
+                if (!box_touches(tb, cell)) continue;
+                if (out) {
+                    tr.prim = r->first + t;
+                    tr.color = GREY15;
+                    out[off[i] + k] = tr;
+                }
+                k++;
+            }
+            got[i] = k;
+        }
+        prt__free(soup);
+    }
+    if (!st && failed == 1) st = prt__fail(PRT_ERROR_NOMEM, "out of memory regenerating bricks");
+    if (!st && failed == 2) st = prt__fail(PRT_ERROR_MESH, "a brick regenerated with another triangle count than its census (bug)");
+    uint64_t m = 0;
+    for (size_t i = 0; !st && i < n; i++) {
+        if (out && m != off[i]) memmove(out + m, out + off[i], got[i] * sizeof *out);
+        m += got[i];
+    }
+    if (!st) b->regenerated += off[n];
+    *kept = m;
+    prt__free(off);
+    prt__free(got);
+    b->cpu_read += cpu_now() - c0;
+    return st;
+}
+
+static prt_status brick_incore(builder *b, uint32_t *list, size_t n, const float cell[6], uint32_t depth, ooc_frag *out) {
+    uint64_t tris = 0; /* room for every triangle of the bricks: regen_bricks places them so */
+    for (size_t i = 0; i < n; i++) tris += b->bricks[list[i]].ntri;
+    ooc_btri *t = prt__alloc(prt__mul_size(PRT_MAX(tris, 1), sizeof *t));
+    if (!t) {
+        prt__free(list);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory regenerating %llu triangles for an in-core subtree", (unsigned long long)tris);
+    }
+    uint64_t kept;
+    prt_status st = regen_bricks(b, list, n, cell, t, &kept);
+    prt__free(list);
+    if (st || kept == 0) {
+        prt__free(t);
+        return st;
+    }
+    return build_tris(b, t, kept, cell, depth, out);
+}
+
+/* Node over the listed bricks (the list is the node's to free): bounds is the union of
+ * their boxes clipped to cell, tris the sum of their counts (at least the node's). */
+static prt_status brick_node(builder *b, uint32_t *list, size_t n, const float cell[6], const float bounds[6], uint64_t tris,
+                             uint32_t depth, ooc_frag *out) {
+    memset(out, 0, sizeof *out);
+    if (tris > b->incore_max && n <= EXACT_COUNT_BRICKS && depth + 1 < OOC_MAX_DEPTH) {
+        prt_status st = regen_bricks(b, list, n, cell, NULL, &tris);
+        if (st) {
+            prt__free(list);
+            return st;
+        }
+    }
+    if (tris <= b->incore_max || depth + 1 >= OOC_MAX_DEPTH) return brick_incore(b, list, n, cell, depth, out);
+    int axis;
+    float split;
+    ooc_split(b, bounds, cell, &axis, &split);
+    float box[2][6], kb[2][6];
+    memcpy(box[0], cell, sizeof box[0]), memcpy(box[1], cell, sizeof box[1]);
+    box[0][3 + axis] = split, box[1][axis] = split;
+    box_empty(kb[0]), box_empty(kb[1]);
+    double c0 = cpu_now();
+    b->sift_passes++, b->sifted += tris;
+    uint32_t *kid[2] = {prt__alloc((n ? n : 1) * sizeof **kid), prt__alloc((n ? n : 1) * sizeof **kid)};
+    size_t cnt[2] = {0, 0};
+    uint64_t kt[2] = {0, 0};
+    prt_status st = kid[0] && kid[1] ? PRT_OK : prt__fail(PRT_ERROR_NOMEM, "out of memory splitting %zu bricks", n);
+    for (size_t i = 0; !st && i < n; i++) {
+        const ooc_brick *r = &b->bricks[list[i]];
+        float tb[6];
+        for (int k = 0; k < 3; k++) tb[k] = MAXF(r->box[k], cell[k]), tb[3 + k] = MINF(r->box[3 + k], cell[3 + k]);
+        for (int k = 0; k < 2; k++)
+            if (k == 0 ? tb[axis] <= split : tb[3 + axis] >= split) {
+                kid[k][cnt[k]++] = list[i];
+                kt[k] += r->ntri;
+                box_add(kb[k], tb, box[k]);
+            }
+    }
+    prt__free(list);
+    b->cpu_sift += cpu_now() - c0;
+    ooc_frag *f = st ? NULL : prt__alloc(2 * sizeof *f);
+    if (!st && !f) st = prt__fail(PRT_ERROR_NOMEM, "out of memory in the out-of-core build");
+    for (int k = 0; k < 2; k++) {
+        if (!st && cnt[k]) {
+            st = brick_node(b, kid[k], cnt[k], box[k], kb[k], kt[k], depth + 1, &f[k]);
+        } else {
+            prt__free(kid[k]);
+            if (f) memset(&f[k], 0, sizeof f[k]);
+        }
+        kid[k] = NULL;
+    }
+    double c1 = cpu_now();
+    if (!st && (f[0].count || f[1].count)) st = ooc_writer_inner(b->w, depth, cell, axis, split, &f[0], &f[1], out);
+    b->cpu_layout += cpu_now() - c1;
+    prt__free(f);
+    return st;
+}
+
+prt_status ooc_build_bricks(const ooc_brick_source *src, const ooc_build_job *job, ooc_header *h) {
+    const double t0 = prt__now();
+    builder b = {.p = &job->params, .progress = job->progress, .progress_user = job->progress_user, .src = src};
+    const char *env = getenv("PRT_OOC_STATS");
+    b.stats = env && *env && strcmp(env, "0");
+    double c0 = cpu_now();
+    uint64_t budget = job->memory_budget ? job->memory_budget : (uint64_t)4 << 30;
+    if (!job->out_path) return prt__fail(PRT_ERROR_ARGUMENT, "ooc_build_bricks: no output path");
+    if (budget - budget / 4 < 4096 * (uint64_t)INCORE_BYTES_PER_TRI)
+        return prt__fail(PRT_ERROR_LIMIT, "--memory %.2f MB is too small: the out-of-core build needs at least %.2f MB",
+                         (double)budget / 1e6, (double)(4096 * INCORE_BYTES_PER_TRI * 4 / 3 + 1) / 1e6);
+    prt_status s = ooc_writer_open(&b.w, job->out_path);
+    if (s) return s;
+    ooc_writer_set_level(b.w, job->params.lz4hc);
+    box_empty(b.root.bounds);
+    /* The census: the source's bricks in flight get a quarter of the budget (as the
+     * stream's do in ooc_build_generated); the table of bricks comes out of the rest. */
+    census_ctx c = {.b = &b, .threads = prt__threads(job->params.threads)};
+    s = src->census(src->ctx, (size_t)(budget / 4), census_sink, &c);
+    prt__free(c.box), prt__free(c.hit), prt__free(c.bad);
+    b.cpu_produce = cpu_now() - c0;
+    b.bricks = c.v, b.nbricks = c.n;
+    uint64_t built = b.root.count;
+    if (!s && built == 0)
+        s = prt__fail(PRT_ERROR_MESH, "the mesh has no triangle that can be hit (%llu degenerate)", (unsigned long long)b.degenerate);
+    /* What the build holds besides in-core subtrees: the census's quarter (its freed
+     * memory may stay in the heap), the table and two levels of lists. */
+    uint64_t held = budget / 4 + (uint64_t)c.n * (sizeof *c.v + 3 * sizeof(uint32_t));
+    if (!s && held + 4096 * (uint64_t)INCORE_BYTES_PER_TRI > budget)
+        s = prt__fail(PRT_ERROR_LIMIT, "--memory %.0f MB is too small for the source's %zu bricks (%.0f MB of them)",
+                      (double)budget / 1e6, c.n, (double)(held - budget / 4) / 1e6);
+    if (!s) b.incore_max = PRT_MAX((budget - held) / INCORE_BYTES_PER_TRI, (uint64_t)4096);
+    float cell[6];
+    memcpy(cell, b.root.bounds, sizeof cell);
+    if (!s) {
+        double ext = 0.0;
+        for (int k = 0; k < 3; k++) ext += ((double)cell[3 + k] - cell[k]) * ((double)cell[3 + k] - cell[k]);
+        if (sqrt(ext) < PRT_MIN_EXTENT)
+            s = prt__fail(PRT_ERROR_LIMIT, "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g",
+                          sqrt(ext), (double)PRT_MIN_EXTENT);
+    }
+    ooc_frag *root = s ? NULL : prt__alloc(sizeof *root);
+    uint32_t *list = s ? NULL : prt__alloc((c.n ? c.n : 1) * sizeof *list);
+    if (!s && (!root || !list)) s = prt__fail(PRT_ERROR_NOMEM, "out of memory in the out-of-core build");
+    if (!s) {
+        uint64_t tris = 0;
+        for (size_t i = 0; i < c.n; i++) list[i] = (uint32_t)i, tris += c.v[i].ntri;
+        memcpy(h->bounds, cell, sizeof cell);
+        h->triangles = b.total;
+        h->triangles_built = built;
+        s = brick_node(&b, list, c.n, cell, cell, tris, 0, root);
+        list = NULL;
+    }
+    prt__free(list);
+    h->depth = b.depth;
+    h->build_seconds = prt__now() - t0;
+    double c1 = cpu_now();
+    if (!s) s = ooc_writer_finish(b.w, root, h, NULL, NULL);
+    b.cpu_finish = cpu_now() - c1;
+    if (b.stats && !s) print_stats(&b, built, c0);
+    prt__free(root);
+    prt__free(c.v);
+    ooc_writer_free(b.w);
+    if (s) remove(job->out_path);
     return s;
 }

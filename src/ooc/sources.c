@@ -78,12 +78,48 @@ static prt_status gen_producer(void *ctx, tri_sink_fn sink, void *user) {
     return gen_mandelbulb_stream((size_t)g->triangles, g->seed, (size_t)(g->budget / 4), sink, user, NULL);
 }
 
+/* The Mandelbulb's bricks (mesh/iso_bricks.h) as an ooc_brick_source. */
+typedef struct bulb_bricks {
+    gen_iso_params grid;
+    gen_iso_regen *regen;
+} bulb_bricks;
+
+static prt_status bulb_census(void *ctx, size_t memory_budget, gen_iso_bricks_fn fn, void *user) {
+    const bulb_bricks *g = ctx;
+    uint64_t n = 0;
+    prt_status s = gen_isosurface_bricks(&g->grid, memory_budget, fn, user, &n);
+    if (!s && n == 0) s = prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found");
+    return s;
+}
+
+static uint32_t bulb_regen(void *ctx, uint32_t id, float *soup) {
+    const bulb_bricks *g = ctx;
+    return gen_iso_regen_brick(g->regen, id, soup);
+}
+
+static prt_status build_bulb_bricks(uint64_t triangles, ooc_build_job *job, ooc_header *h) {
+    if (triangles > GEN_MAX_TRIANGLES)
+        return prt__fail(PRT_ERROR_LIMIT, "mandelbulb: %llu triangles requested; at most %zu are supported",
+                         (unsigned long long)triangles, GEN_MAX_TRIANGLES);
+    bulb_bricks g;
+    prt_status s = gen_mandelbulb_grid((size_t)triangles, &g.grid);
+    if (s) return s;
+    if ((s = gen_iso_regen_open(&g.grid, &g.regen))) return s;
+    ooc_brick_source src = {bulb_census, bulb_regen, GEN_ISO_MAX_BRICK_TRIS, &g};
+    s = ooc_build_bricks(&src, job, h);
+    gen_iso_regen_free(g.regen);
+    return s;
+}
+
 prt_status ooc_build_generated(const char *kind, uint64_t triangles, uint64_t seed, ooc_build_job *job, ooc_header *h) {
     char prefix[4096];
     tmp_prefix(prefix, sizeof prefix, job->out_path);
     job->tmp_prefix = prefix;
     prt_status s;
-    if (!strcmp(kind, "mandelbulb")) {
+    if (!strcmp(kind, "mandelbulb") && job->out_path && !job->sift_generated) {
+        /* Bricks regenerated where the build needs them: nothing spooled (docs/ooc.md). */
+        s = build_bulb_bricks(triangles, job, h);
+    } else if (!strcmp(kind, "mandelbulb")) {
         /* The generator's bricks in flight get a quarter of the budget, the builder the rest. */
         uint64_t budget = job->memory_budget ? job->memory_budget : (uint64_t)4 << 30;
         gen_ctx g = {triangles, seed, budget};
