@@ -203,7 +203,13 @@ static inline int lg_row_hit(const lg_sheared *s, int row, unsigned diag, const 
     vf8 w = bx * ay - by * ax;
     const vf8 zero = vf8_set1(0.0f);
     const vi8 any_zero = (u == zero) | (v == zero) | (w == zero);
-    if (PRT_UNLIKELY(vi8_mask(any_zero))) prt__tri8_fix_edges(any_zero, &ax, &ay, &bx, &by, &cx, &cy, &u, &v, &w);
+    if (PRT_UNLIKELY(vi8_mask(any_zero))) {
+        /* Copies: were the operands themselves passed by address, the compiler would keep
+         * all nine in memory, stored on every row, for this rare path. */
+        vf8 a[6] = {ax, ay, bx, by, cx, cy}, e[3] = {u, v, w};
+        prt__tri8_fix_edges(any_zero, &a[0], &a[1], &a[2], &a[3], &a[4], &a[5], &e[0], &e[1], &e[2]);
+        u = e[0], v = e[1], w = e[2];
+    }
     const vi8 mixed = (vf8_min(vf8_min(u, v), w) < zero) & (vf8_max(vf8_max(u, v), w) > zero);
     const vf8 det = u + v + w;
     const vi8 inside = ~mixed & (det != zero);
