@@ -503,35 +503,6 @@ TEST(test_lossygrid_packets_equal_single_rays) {
     free(order);
 }
 
-/* Test ray i of a set over m (bounds lo, hi): from a point on a mesh triangle nudged off
- * it in a random direction (as diffuse bounces leave), random rays through the box, zero
- * direction components, a NaN one (invalid), cut-short tfar and tnear past the origin. */
-static prt_ray mixed_ray(const prt_mesh *m, const float lo[3], const float hi[3], uint32_t i, uint64_t *seed) {
-    float r[8];
-    for (int k = 0; k < 8; k++) {
-        *seed = *seed * 6364136223846793005ull + 1442695040888963407ull;
-        r[k] = (float)(*seed >> 40) / 16777216.0f;
-    }
-    prt_ray ray;
-    const uint32_t t = (uint32_t)(r[0] * (float)m->triangle_count) % (uint32_t)m->triangle_count;
-    const float b1 = r[1] * 0.5f, b2 = r[2] * 0.5f;
-    for (int k = 0; k < 3; k++) {
-        const float *v0 = &m->vertices[3 * m->triangles[3 * t]], *v1 = &m->vertices[3 * m->triangles[3 * t + 1]],
-                    *v2 = &m->vertices[3 * m->triangles[3 * t + 2]];
-        ray.org[k] = v0[k] + b1 * (v1[k] - v0[k]) + b2 * (v2[k] - v0[k]);
-        ray.dir[k] = 2.0f * r[3 + k] - 1.0f;
-    }
-    if (i % 4 == 1) /* random rays from outside through the box */
-        for (int k = 0; k < 3; k++) ray.org[k] = lo[k] - 0.5f + 2.0f * r[3 + k] * (hi[k] - lo[k]);
-    if (i % 4 == 2) ray.org[1] += 1e-4f;
-    ray.tnear = i % 16 == 3 ? 0.05f : 0.0f;
-    ray.tfar = i % 16 == 5 ? 0.1f + r[6] : INFINITY;
-    if (i % 16 == 7) ray.dir[(int)(r[7] * 3) % 3] = 0.0f;
-    if (i % 64 == 9) ray.dir[0] = ray.dir[2] = 0.0f;
-    if (i % 97 == 11) ray.dir[1] = NAN;
-    return ray;
-}
-
 /* lg_trace1 walks the tree with its own loop (nodes tested in place, records out of line):
  * it answers as the wide8 kernel template instantiated for lossygrid's records, bit for bit,
  * on rays leaving the surface as diffuse bounces do, random rays, rays with zero direction
@@ -564,7 +535,29 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
             float lo[3], hi[3];
             prt_mesh_bounds(m, lo, hi);
             for (uint32_t i = 0; i < N; i++) {
-                const prt_ray ray = mixed_ray(m, lo, hi, i, &seed);
+                float r[8];
+                for (int k = 0; k < 8; k++) {
+                    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                    r[k] = (float)(seed >> 40) / 16777216.0f;
+                }
+                prt_ray ray;
+                /* From a point on a mesh triangle, nudged off it, in a random direction. */
+                const uint32_t t = (uint32_t)(r[0] * (float)m->triangle_count) % (uint32_t)m->triangle_count;
+                const float b1 = r[1] * 0.5f, b2 = r[2] * 0.5f;
+                for (int k = 0; k < 3; k++) {
+                    const float *v0 = &m->vertices[3 * m->triangles[3 * t]], *v1 = &m->vertices[3 * m->triangles[3 * t + 1]],
+                                *v2 = &m->vertices[3 * m->triangles[3 * t + 2]];
+                    ray.org[k] = v0[k] + b1 * (v1[k] - v0[k]) + b2 * (v2[k] - v0[k]);
+                    ray.dir[k] = 2.0f * r[3 + k] - 1.0f;
+                }
+                if (i % 4 == 1) /* random rays from outside through the box */
+                    for (int k = 0; k < 3; k++) ray.org[k] = lo[k] - 0.5f + 2.0f * r[3 + k] * (hi[k] - lo[k]);
+                if (i % 4 == 2) ray.org[1] += 1e-4f;
+                ray.tnear = i % 16 == 3 ? 0.05f : 0.0f;
+                ray.tfar = i % 16 == 5 ? 0.1f + r[6] : INFINITY;
+                if (i % 16 == 7) ray.dir[(int)(r[7] * 3) % 3] = 0.0f;
+                if (i % 64 == 9) ray.dir[0] = ray.dir[2] = 0.0f;
+                if (i % 97 == 11) ray.dir[1] = NAN;
                 srays[i] = want_rays[i] = ray;
                 if (!prt__ray_valid(&ray)) {
                     want[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
@@ -594,83 +587,6 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
     for (size_t mi = 0; mi < 4; mi++) prt_mesh_free(meshes[mi]);
 }
 
-/* Where the CPU has AVX-512, the 16-lane record kernels (two cell rows per pass) decode
- * every sub-grid vertex to the 8-lane kernels' bits and answer every query as they do, bit
- * for bit: single rays, streams and any hit, over every encoding, leaf sizes 1 and 4,
- * partial sub-grids (odd row counts) and exact records. */
-TEST(test_lossygrid_sixteen_lanes_equal_eight) {
-    if (!lg_avx512_usable()) SKIP("no AVX-512 on this CPU: the 16-lane kernels are not used");
-    const char *kinds[] = {"terrain", "torus", "canyon"};
-    prt_mesh *meshes[5];
-    for (size_t k = 0; k < 3; k++) CHECK_OK(prt_mesh_generate(kinds[k], 20000, 5, &meshes[k]));
-    meshes[3] = mesh_grid(31); /* partial sub-grids of 3 quads a side */
-    meshes[4] = mesh_random_soup(3000, 7);
-    const int encs[] = {LG_ENC_FIX, LG_ENC_OCT, LG_ENC_EXP}, leaves[] = {1, 4, 1};
-    size_t vdiffer = 0, vertices = 0, differ = 0, sdiffer = 0, adiffer = 0, hits = 0, blocked = 0, total = 0;
-    uint64_t seed = 777;
-    enum { N = 3000 };
-    prt_ray *rays8 = malloc(N * sizeof *rays8), *rays16 = malloc(N * sizeof *rays16);
-    prt_hit *hits8 = malloc(N * sizeof *hits8), *hits16 = malloc(N * sizeof *hits16);
-    CHECK(rays8 && rays16 && hits8 && hits16);
-    for (size_t mi = 0; mi < 5; mi++) {
-        if (!meshes[mi]) continue;
-        const prt_mesh *m = meshes[mi];
-        for (size_t e = 0; e < COUNT_OF(encs); e++) {
-            lg_extraction ex;
-            lg_grid_rec *recs;
-            prt_aabb *boxes;
-            if (encode_as_built(m, encs[e], &ex, &recs, &boxes))
-                for (size_t s = 0; s < ex.subgrid_count; s++) {
-                    lg_grid_vertices gv;
-                    float v8[3][5][8], v16[3][5][8];
-                    lg_grid_decode(&recs[s], &gv);
-                    memcpy(v8, &gv, sizeof v8);
-                    lg_grid_decode16(&recs[s], v16);
-                    for (int k = 0; k < 3; k++)
-                        for (int j = 0; j <= lg_ry(&recs[s]); j++)
-                            for (int i = 0; i <= lg_rx(&recs[s]); i++, vertices++)
-                                vdiffer += memcmp(&v8[k][j][i], &v16[k][j][i], 4) != 0;
-                }
-            lg_extraction_free(&ex), free(recs), free(boxes);
-
-            lg_build_params p = {encs[e], leaves[e], 1};
-            bvh_blob blob;
-            uint32_t *order = NULL;
-            lg_build_report rep;
-            CHECK_OK(lg_build_blob(m, &p, &blob, &order, &rep));
-            bvh_shared sh = {0};
-            sh.data = blob.data, sh.size = blob.size, sh.triangles = rep.triangles;
-            float lo[3], hi[3];
-            prt_mesh_bounds(m, lo, hi);
-            for (uint32_t i = 0; i < N; i++) {
-                rays8[i] = rays16[i] = mixed_ray(m, lo, hi, i, &seed);
-                if (!prt__ray_valid(&rays8[i])) continue;
-                const bool b8 = lg_trace_any(blob.data, &sh, &rays8[i]), b16 = lg_trace_any_w16(blob.data, &sh, &rays8[i]);
-                adiffer += b8 != b16, blocked += b8;
-                prt_ray a = rays8[i], b = rays8[i];
-                prt_hit ha, hb;
-                lg_trace1(blob.data, &sh, &a, &ha);
-                lg_trace1_w16(blob.data, &sh, &b, &hb);
-                differ += memcmp(&ha, &hb, sizeof ha) != 0 || memcmp(&a, &b, sizeof a) != 0;
-                hits += ha.prim != PRT_INVALID, total++;
-            }
-            lg_trace_stream(blob.data, &sh, rays8, hits8, N);
-            lg_trace_stream_w16(blob.data, &sh, rays16, hits16, N);
-            for (uint32_t i = 0; i < N; i++)
-                sdiffer += memcmp(&hits8[i], &hits16[i], sizeof hits8[i]) != 0 || memcmp(&rays8[i], &rays16[i], sizeof rays8[i]) != 0;
-            prt__free(blob.data), prt__free(order);
-        }
-    }
-    CHECK_MSG(vdiffer == 0, "%zu of %zu decoded vertex components differ", vdiffer, vertices);
-    CHECK_MSG(differ == 0, "%zu of %zu single rays answered differently", differ, total);
-    CHECK_MSG(sdiffer == 0, "%zu stream answers differ", sdiffer);
-    CHECK_MSG(adiffer == 0, "%zu any-hit answers differ", adiffer);
-    CHECK_MSG(hits > total / 8 && blocked > total / 8 && vertices > 100000, "too little seen: %zu hits, %zu blocked of %zu, %zu vertices",
-              hits, blocked, total, vertices);
-    free(rays8), free(rays16), free(hits8), free(hits16);
-    for (size_t mi = 0; mi < 5; mi++) prt_mesh_free(meshes[mi]);
-}
-
 int main(void) {
     RUN(test_lossygrid_puts_a_regular_mesh_into_sub_grids);
     RUN(test_lossygrid_error_bound_holds_for_every_decoded_vertex);
@@ -684,6 +600,5 @@ int main(void) {
     RUN(test_lossygrid_bunny_within_the_bound);
     RUN(test_lossygrid_packets_equal_single_rays);
     RUN(test_lossygrid_single_ray_walk_equals_the_template);
-    RUN(test_lossygrid_sixteen_lanes_equal_eight);
     TEST_END();
 }

@@ -62,27 +62,6 @@ static void fill_tables(void) {
             for (int h = 0; h < 2; h++)
                 for (int c = 0; c < 3; c++) lg_row_index[d][c][2 * x + h] = tri[h][c];
         }
-    for (int r = 0; r < 16; r++) { /* the five-to-a-row layout of the 16-lane kernels */
-        lg_res_tables *t = &lg_res[r];
-        const int rx = (r & 3) + 1, ry = (r >> 2) + 1;
-        memset(t->code_perm, 0, sizeof t->code_perm);
-        t->code_keep[0] = t->code_keep[1] = 0;
-        t->cinner[0] = t->cinner[1] = 0;
-        for (int l = 0; l < 32; l++) {
-            const int i = l % 5, j = l / 5, h = l / 16, hl = l % 16;
-            t->cu1[l] = t->cu[l] = t->cv1[l] = t->cv[l] = NAN;
-            if (l >= 25 || i > rx || j > ry) continue;
-            t->cu1[l] = t->u1[8 * j + i], t->cu[l] = t->u[8 * j + i];
-            t->cv1[l] = t->v1[8 * j + i], t->cv[l] = t->v[8 * j + i];
-            if (t->inner[8 * j + i]) t->cinner[h] |= (uint16_t)(1u << hl);
-            const int at = t->code_at[8 * j + i];
-            if (at < 0) continue;
-            for (int b = 0; b < 3; b++) {
-                t->code_perm[h][4 * hl + b] = (uint8_t)(at - LG_DISP_OFFSET + b);
-                t->code_keep[h] |= 1ull << (4 * hl + b);
-            }
-        }
-    }
 }
 
 void lg_tables_init(void) { pthread_once(&g_once, fill_tables); }

@@ -40,15 +40,6 @@ typedef struct lg_res_tables {
     int32_t row_load[5];
     int32_t inner[40];   /* -1 for a vertex inside the sub-grid (not on its border), else 0 */
     int8_t slot_lane[21];
-    /* The same vertices five to a row (lane 5 j + i, 25 of 32 lanes) for the 16-lane
-     * kernels (record_avx512.c), each half of 16 lanes: weights as above (NaN past the
-     * resolution and in lanes 25-31), the inner lanes as bits, and the codes as one 64-byte
-     * load at LG_DISP_OFFSET whose bytes code_perm[h][4 l + b] (b < 3) make lane l's code;
-     * code_keep[h]: the result bytes that hold a code byte (the others zero). */
-    float cu1[32], cu[32], cv1[32], cv[32];
-    uint8_t code_perm[2][64];
-    uint64_t code_keep[2];
-    uint16_t cinner[2];
 } lg_res_tables;
 extern lg_res_tables lg_res[16];
 

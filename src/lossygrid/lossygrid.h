@@ -45,24 +45,6 @@ void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
  * reference the tests hold lg_trace1's own walk to, bit for bit. */
 void lg_trace1_template(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
 
-/* The same three with the sub-grids tested 16 lanes at a time in AVX-512
- * (record_avx512.c), bit for bit the same answers; only where lg_avx512_usable(). */
-void lg_trace1_w16(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
-bool lg_trace_any_w16(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
-void lg_trace_stream_w16(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
-bool lg_avx512_usable(void);
-
-/* One set of the entry points above, chosen once per accel (build or load):
- * lg_kernels_pick gives the 16-lane ones where the CPU has AVX-512 (F, BW, DQ, VL, VBMI)
- * unless the environment sets PRT_LOSSYGRID_LANES=8 (for measurements). */
-typedef struct lg_kernels {
-    void (*trace1)(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
-    bool (*trace_any)(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
-    void (*trace_stream)(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
-} lg_kernels;
-extern const lg_kernels lg_kernels8, lg_kernels16;
-const lg_kernels *lg_kernels_pick(void);
-
 /* Closest hits of n <= LG_PACKET valid rays traced together (primary rays): each wide8
  * node's child boxes decoded once for the packet and each record once for the rays that
  * reach it; every answer is lg_trace1's bit for bit (the same box and triangle operations

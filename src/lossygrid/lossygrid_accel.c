@@ -37,7 +37,6 @@ typedef struct lg_accel {
     const uint8_t *idmap_data;
     size_t idmap_size;
     bool owns_blob; /* and idmap_data */
-    const lg_kernels *k; /* chosen for the CPU at build or load */
 } lg_accel;
 
 extern const prt_accel_ops prt__lossygrid_ops;
@@ -51,13 +50,13 @@ static inline void lg_name_hit(const lg_accel *g, prt_hit *h) {
 
 static void lg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
     const lg_accel *g = (const lg_accel *)a;
-    g->k->trace1(g->blob.data, &g->shared, r, h);
+    lg_trace1(g->blob.data, &g->shared, r, h);
     lg_name_hit(g, h);
 }
 
 static void lg_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
     const lg_accel *g = (const lg_accel *)a;
-    g->k->trace_stream(g->blob.data, &g->shared, rays, hits, n);
+    lg_trace_stream(g->blob.data, &g->shared, rays, hits, n);
     for (size_t i = 0; i < n; i++) lg_name_hit(g, &hits[i]);
 }
 
@@ -122,7 +121,7 @@ static void lg_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t 
 
 static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
     const lg_accel *g = (const lg_accel *)a;
-    return g->k->trace_any(g->blob.data, &g->shared, r);
+    return lg_trace_any(g->blob.data, &g->shared, r);
 }
 
 static void lg_stats(const prt_accel *a, prt_stats *s) {
@@ -218,7 +217,6 @@ static prt_status lg_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
         g->meta.vertex_error = nextafterf(g->meta.vertex_error, INFINITY);
     memcpy(g->base.bounds, g->report.bounds, sizeof g->base.bounds);
     g->base.ops = &prt__lossygrid_ops;
-    g->k = lg_kernels_pick();
     g->base.triangles_built = g->report.triangles;
     *out = &g->base;
     return PRT_OK;
@@ -275,7 +273,6 @@ static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         return s;
     }
     g->base.ops = &prt__lossygrid_ops;
-    g->k = lg_kernels_pick();
     *out = &g->base;
     return PRT_OK;
 }

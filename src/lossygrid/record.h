@@ -331,13 +331,4 @@ PRT_INLINE bool lgrec_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx 
     return false;
 }
 
-/* lgrec_intersect and lgrec_occluded with the sub-grids in 16-lane AVX-512
- * (record_avx512.c): the same answers bit for bit, to be called only where
- * lg_avx512_usable() (elsewhere they are the 8-lane kernels). lg_grid_decode16: a
- * sub-grid's vertices as its kernels decode them, in lg_grid_vertices' layout, for tests. */
-bool lg_avx512_usable(void);
-void lg_records16_hit(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h);
-bool lg_records16_block(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, float tfar);
-void lg_grid_decode16(const lg_grid_rec *g, float out[3][5][8]);
-
 #endif

@@ -7,8 +7,6 @@
 #include "lossygrid/lossygrid.h"
 #include "lossygrid/record.h"
 
-#include <stdlib.h>
-
 #define CODEC lgrec
 #include "bvh/layouts/wide8_kernels.inc"
 #undef CODEC
@@ -33,7 +31,7 @@ PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__ra
  * scalar register rather than through wide8_scales' vector permutes and the stack. (The
  * template folds the planes into the ray, wide8_fold_hit; here that measured 3-5% slower.
  * Both tests are conservative: the same hits.) */
-PRT_INLINE void lg_walk1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit, const bool w16) {
+void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
     prt__rayx r;
     prt__rayx_init(&r, ray);
     wide8_nfray c;
@@ -94,8 +92,7 @@ PRT_INLINE void lg_walk1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray
                 continue;
             }
         } else {
-            if (w16) lg_records16_hit(blob + (ref & WIDE8_OFFSET_MASK), (uint32_t)(ref >> 56 & 0x7F), &r, &cr, &h);
-            else lg_leaf1(blob + (ref & WIDE8_OFFSET_MASK), (uint32_t)(ref >> 56 & 0x7F), &r, &cr, &h);
+            lg_leaf1(blob + (ref & WIDE8_OFFSET_MASK), (uint32_t)(ref >> 56 & 0x7F), &r, &cr, &h);
         }
         for (;;) {
             if (top == 0) goto done;
@@ -110,9 +107,6 @@ done:
     bvh_finish_hit(ray, hit, &h);
 }
 
-void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) { lg_walk1(blob, sh, ray, hit, false); }
-void lg_trace1_w16(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) { lg_walk1(blob, sh, ray, hit, true); }
-
 /* Streams: the wide8 template's interleaved walk (four rays at a time), with the template's
  * folded box test, whose hits are lg_trace1's (test_lossygrid holds the two walks to each
  * other bit for bit). */
@@ -121,27 +115,6 @@ void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
 }
 
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) { return wide8_occluded1_lgrec(blob, sh, r); }
-
-
-const lg_kernels lg_kernels8 = {lg_trace1, lg_trace_any, lg_trace_stream};
-const lg_kernels lg_kernels16 = {lg_trace1_w16, lg_trace_any_w16, lg_trace_stream_w16};
-
-bool lg_avx512_usable(void) {
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
-           __builtin_cpu_supports("avx512vbmi");
-#else
-    return false;
-#endif
-}
-
-const lg_kernels *lg_kernels_pick(void) {
-    const char *lanes = getenv("PRT_LOSSYGRID_LANES");
-    if (lanes && !strcmp(lanes, "8")) return &lg_kernels8;
-    return lg_avx512_usable() ? &lg_kernels16 : &lg_kernels8;
-}
 
 /* --- packets ---------------------------------------------------------------------------- */
 
