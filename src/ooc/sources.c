@@ -78,17 +78,22 @@ static prt_status gen_producer(void *ctx, tri_sink_fn sink, void *user) {
     return gen_mandelbulb_stream((size_t)g->triangles, g->seed, (size_t)(g->budget / 4), sink, user, NULL);
 }
 
-/* The Mandelbulb's bricks (mesh/iso_bricks.h) as an ooc_brick_source. */
+/* The Mandelbulb's bricks (mesh/iso_bricks.h) as an ooc_brick_source. The grid is
+ * calibrated inside the census, so the build's census phase counts it (as the sifting
+ * path's produce phase does). */
 typedef struct bulb_bricks {
+    uint64_t triangles;
     gen_iso_params grid;
     gen_iso_regen *regen;
 } bulb_bricks;
 
 static prt_status bulb_census(void *ctx, size_t memory_budget, gen_iso_bricks_fn fn, void *user) {
-    const bulb_bricks *g = ctx;
+    bulb_bricks *g = ctx;
+    prt_status s = gen_mandelbulb_grid((size_t)g->triangles, &g->grid);
+    if (!s) s = gen_iso_regen_open(&g->grid, &g->regen);
     uint64_t n = 0;
-    prt_status s = gen_isosurface_bricks(&g->grid, memory_budget, fn, user, &n);
-    if (!s && n == 0) s = prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found");
+    if (!s) s = gen_isosurface_bricks(&g->grid, memory_budget, fn, user, &n);
+    if (!s && n == 0) s = prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found for %llu triangles", (unsigned long long)g->triangles);
     return s;
 }
 
@@ -101,12 +106,9 @@ static prt_status build_bulb_bricks(uint64_t triangles, ooc_build_job *job, ooc_
     if (triangles > GEN_MAX_TRIANGLES)
         return prt__fail(PRT_ERROR_LIMIT, "mandelbulb: %llu triangles requested; at most %zu are supported",
                          (unsigned long long)triangles, GEN_MAX_TRIANGLES);
-    bulb_bricks g;
-    prt_status s = gen_mandelbulb_grid((size_t)triangles, &g.grid);
-    if (s) return s;
-    if ((s = gen_iso_regen_open(&g.grid, &g.regen))) return s;
+    bulb_bricks g = {.triangles = triangles};
     ooc_brick_source src = {bulb_census, bulb_regen, GEN_ISO_MAX_BRICK_TRIS, &g};
-    s = ooc_build_bricks(&src, job, h);
+    prt_status s = ooc_build_bricks(&src, job, h);
     gen_iso_regen_free(g.regen);
     return s;
 }
