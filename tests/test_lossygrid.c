@@ -507,8 +507,9 @@ TEST(test_lossygrid_packets_equal_single_rays) {
  * it answers as the wide8 kernel template instantiated for lossygrid's records, bit for bit,
  * on rays leaving the surface as diffuse bounces do, random rays, rays with zero direction
  * components, cut-short tfar and a tnear past the origin, over every encoding and leaf size.
- * lg_trace_stream, the same rays' walks interleaved, answers as lg_trace1 bit for bit, and
- * the invalid rays among them (skipped by the others) are misses. */
+ * lg_trace_stream, the same rays' walks interleaved over its cache of decoded records,
+ * answers as lg_trace1 bit for bit, and the invalid rays among them (skipped by the others)
+ * are misses. */
 TEST(test_lossygrid_single_ray_walk_equals_the_template) {
     const char *kinds[] = {"terrain", "torus", "canyon"};
     prt_mesh *meshes[4];
@@ -517,6 +518,7 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
     const int encs[] = {LG_ENC_FIX, LG_ENC_OCT, LG_ENC_EXP}, leaves[] = {1, 1, 4};
     size_t differ = 0, hits = 0, total = 0, sdiffer = 0, invalid = 0;
     uint64_t seed = 12345;
+    uint32_t run_tri = 0;
     enum { N = 4000 };
     prt_ray *srays = malloc(N * sizeof *srays), *want_rays = malloc(N * sizeof *want_rays);
     prt_hit *shits = malloc(N * sizeof *shits), *want = malloc(N * sizeof *want);
@@ -542,7 +544,10 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
                 }
                 prt_ray ray;
                 /* From a point on a mesh triangle, nudged off it, in a random direction. */
-                const uint32_t t = (uint32_t)(r[0] * (float)m->triangle_count) % (uint32_t)m->triangle_count;
+                /* Runs of eight rays leave one triangle, as neighbouring pixels' bounces
+                 * do, so that the stream's cache of decoded records answers some. */
+                if (i % 8 == 0) run_tri = (uint32_t)(r[0] * (float)m->triangle_count) % (uint32_t)m->triangle_count;
+                const uint32_t t = run_tri;
                 const float b1 = r[1] * 0.5f, b2 = r[2] * 0.5f;
                 for (int k = 0; k < 3; k++) {
                     const float *v0 = &m->vertices[3 * m->triangles[3 * t]], *v1 = &m->vertices[3 * m->triangles[3 * t + 1]],
@@ -552,6 +557,11 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
                 }
                 if (i % 4 == 1) /* random rays from outside through the box */
                     for (int k = 0; k < 3; k++) ray.org[k] = lo[k] - 0.5f + 2.0f * r[3 + k] * (hi[k] - lo[k]);
+                if (i % 4 == 3) /* from outside at the run's point: hits on a record just decoded */
+                    for (int k = 0; k < 3; k++) {
+                        const float o = lo[k] - 0.5f + 2.0f * r[3 + k] * (hi[k] - lo[k]);
+                        ray.dir[k] = ray.org[k] - o, ray.org[k] = o;
+                    }
                 if (i % 4 == 2) ray.org[1] += 1e-4f;
                 ray.tnear = i % 16 == 3 ? 0.05f : 0.0f;
                 ray.tfar = i % 16 == 5 ? 0.1f + r[6] : INFINITY;

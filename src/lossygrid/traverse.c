@@ -11,6 +11,60 @@
 #include "bvh/layouts/wide8_kernels.inc"
 #undef CODEC
 
+/* The records a stream decoded last, kept for the rays after: a stream's neighbouring rays
+ * (the bench's diffuse bounces, in pixel tiles) mostly start on the same sub-grid. One
+ * cache per lg_trace_stream call, so no entry outlives the blob it came from; an entry
+ * holds the decoder's bits, so a ray meets the same vertices either way. */
+#define LG_CACHE 8
+typedef struct lg_cache {
+    const uint8_t *key[LG_CACHE];
+    unsigned next; /* the slot replaced next (first in, first out) */
+    lg_decoded d[LG_CACHE];
+} lg_cache;
+
+/* The stream's shared state: the accel's, then its cache (lgrecc_ray_init finds it there). */
+typedef struct lg_stream_shared {
+    bvh_shared sh; /* first: a pointer to it is a pointer to the whole */
+    lg_cache cache;
+} lg_stream_shared;
+
+PRT_INLINE const lg_decoded *lg_cache_get(lg_cache *c, const uint8_t *rec) {
+    for (int i = 0; i < LG_CACHE; i++)
+        if (c->key[i] == rec) return &c->d[i];
+    const unsigned i = c->next++ % LG_CACHE;
+    c->key[i] = rec;
+    lg_record_decode(rec, &c->d[i]);
+    return &c->d[i];
+}
+
+/* The record kernels with the cache, for the stream's walk (CODEC = lgrecc). */
+typedef struct lgrecc_ray {
+    lgrec_ray c;
+    lg_cache *cache;
+} lgrecc_ray;
+enum { lgrecc_block = lgrec_block, lgrecc_align = lgrec_align, lgrecc_seq_ids = lgrec_seq_ids };
+static inline size_t lgrecc_leaf_bytes(uint32_t n) { return lgrec_leaf_bytes(n); }
+static inline void lgrecc_ray_init(lgrecc_ray *c, const prt__rayx *r, const bvh_shared *sh) {
+    lgrec_ray_init(&c->c, r, sh);
+    c->cache = &((lg_stream_shared *)(uintptr_t)sh)->cache;
+}
+PRT_INLINE void lgrecc_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrecc_ray *c, prt__hitx *h) {
+    for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES) lg_record_hit(leaf, lg_cache_get(c->cache, leaf), r, &c->c, h);
+}
+PRT_INLINE bool lgrecc_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrecc_ray *c, float tfar) {
+    return lgrec_occluded(leaf, n, r, &c->c, tfar);
+}
+#define CODEC lgrecc
+#include "bvh/layouts/wide8_kernels.inc"
+#undef CODEC
+/* Instantiated whole, used in part: the stream walks over the cache, the rest without. */
+static __attribute__((unused)) void (*const lg_unused_walks[])(const uint8_t *, const bvh_shared *, prt_ray *,
+                                                                prt_hit *) = {wide8_intersect1_lgrecc};
+static __attribute__((unused)) bool (*const lg_unused_any[])(const uint8_t *, const bvh_shared *,
+                                                              const prt_ray *) = {wide8_occluded1_lgrecc};
+static __attribute__((unused)) void (*const lg_unused_streams[])(const uint8_t *, const bvh_shared *, prt_ray *, prt_hit *,
+                                                                  size_t) = {wide8_stream_lgrec};
+
 static inline vi8 lg_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
 
 void lg_trace1_template(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h) {
@@ -111,7 +165,11 @@ done:
  * folded box test, whose hits are lg_trace1's (test_lossygrid holds the two walks to each
  * other bit for bit). */
 void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n) {
-    wide8_stream_lgrec(blob, sh, rays, hits, n);
+    lg_stream_shared s;
+    s.sh = *sh;
+    memset(s.cache.key, 0, sizeof s.cache.key);
+    s.cache.next = 0;
+    wide8_stream_lgrecc(blob, &s.sh, rays, hits, n);
 }
 
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) { return wide8_occluded1_lgrec(blob, sh, r); }
