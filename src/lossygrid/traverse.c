@@ -57,13 +57,6 @@ PRT_INLINE bool lgrecc_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx
 #define CODEC lgrecc
 #include "bvh/layouts/wide8_kernels.inc"
 #undef CODEC
-/* Instantiated whole, used in part: the stream walks over the cache, the rest without. */
-static __attribute__((unused)) void (*const lg_unused_walks[])(const uint8_t *, const bvh_shared *, prt_ray *,
-                                                                prt_hit *) = {wide8_intersect1_lgrecc};
-static __attribute__((unused)) bool (*const lg_unused_any[])(const uint8_t *, const bvh_shared *,
-                                                              const prt_ray *) = {wide8_occluded1_lgrecc};
-static __attribute__((unused)) void (*const lg_unused_streams[])(const uint8_t *, const bvh_shared *, prt_ray *, prt_hit *,
-                                                                  size_t) = {wide8_stream_lgrec};
 
 static inline vi8 lg_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
 
