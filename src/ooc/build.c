@@ -2,7 +2,9 @@
  * bounded memory. The stream is spooled to a temporary file; while a node's triangles
  * exceed the in-core budget it is split at an empty-space cut or the spatial median by
  * one sequential pass that sifts its file into two; below the budget the node's
- * triangles are read in and built with SAH in core (in parallel), and laid out at once. */
+ * triangles are read in and built with SAH in core (in parallel), and laid out at once.
+ * A source that comes in bricks it can regenerate (the Mandelbulb) skips the spool: the
+ * upper levels split its bricks and in-core nodes regenerate theirs (ooc_build_bricks). */
 #include "ooc/ooc_build.h"
 
 #include <errno.h>
