@@ -20,22 +20,6 @@ static char *tmp_path(const char *name) {
     return b;
 }
 
-/* Hits of rays through a and b agree bit for bit; returns the number of hits. */
-static size_t same_hits(const prt_accel *a, const prt_accel *b, const prt_ray *rays, size_t n, const char *what) {
-    size_t hits = 0, differ = 0;
-    for (size_t i = 0; i < n; i++) {
-        prt_ray r1 = rays[i], r2 = rays[i];
-        prt_hit h1, h2;
-        prt_intersect1(a, &r1, &h1);
-        prt_intersect1(b, &r2, &h2);
-        hits += h2.prim != PRT_INVALID;
-        if (h1.prim != h2.prim || (h1.prim != PRT_INVALID && (h1.t != h2.t || h1.u != h2.u || h1.v != h2.v))) differ++;
-        if (prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i])) differ++;
-    }
-    CHECK_MSG(differ == 0, "%s: %zu of %zu rays differ", what, differ, n);
-    return hits;
-}
-
 /* A file build with a budget of a few thousand triangles splits out of core many times;
  * opened with the smallest cache, exact queries evict and reload blocks as they go. */
 TEST(test_streamed_build_and_small_cache_answer_exactly) {
@@ -57,7 +41,7 @@ TEST(test_streamed_build_and_small_cache_answer_exactly) {
                   st.bytes_tree + st.bytes_geometry);
         CHECK(st.triangles == m->triangle_count);
         prt_ray *rays = rays_random(m, 4000, 7);
-        size_t hits = same_hits(a, ref, rays, 4000, "small cache");
+        size_t hits = repr_same_hits(a, ref, rays, 4000, "small cache");
         CHECK(hits > 1000);
         /* Many threads at once through the same small cache. */
         prt_hit *h = calloc(4000, sizeof *h), *g = calloc(4000, sizeof *g);
@@ -100,7 +84,7 @@ TEST(test_plain_lz4_blocks_answer_as_lz4hc_ones) {
     CHECK_OK(prt_accel_open(fast, NULL, &b));
     if (a && b) {
         prt_ray *rays = rays_random(m, 2000, 11);
-        CHECK(same_hits(a, b, rays, 2000, "plain LZ4") > 500);
+        CHECK(repr_same_hits(a, b, rays, 2000, "plain LZ4") > 500);
         CHECK_OK(prt_accel_check(b));
         free(rays);
     }

@@ -73,22 +73,6 @@ static prt_status build_sifted(const char *out, uint64_t budget) {
     return ooc_build_generated("mandelbulb", BULB, 1, &job, &h);
 }
 
-/* Hits of rays through a and b agree bit for bit (t, u, v, triangle id; any-hit too). */
-static size_t same_hits(const prt_accel *a, const prt_accel *b, const prt_ray *rays, size_t n, const char *what) {
-    size_t hits = 0, differ = 0;
-    for (size_t i = 0; i < n; i++) {
-        prt_ray r1 = rays[i], r2 = rays[i];
-        prt_hit h1, h2;
-        prt_intersect1(a, &r1, &h1);
-        prt_intersect1(b, &r2, &h2);
-        hits += h2.prim != PRT_INVALID;
-        if (h1.prim != h2.prim || (h1.prim != PRT_INVALID && (h1.t != h2.t || h1.u != h2.u || h1.v != h2.v))) differ++;
-        if (prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i])) differ++;
-    }
-    CHECK_MSG(differ == 0, "%s: %zu of %zu rays differ", what, differ, n);
-    return hits;
-}
-
 /* Rays from outside toward the bulb and rays from points near its surface outward in
  * every direction (grazing the bricks' faces, where split planes fall). */
 static prt_ray *bulb_rays(const prt_mesh *m, size_t n) {
@@ -128,8 +112,8 @@ TEST(test_brick_build_holds_the_generator_stream_exactly) {
                   sb.triangles_built);
         CHECK_MSG(sa.triangles > BULB / 2 && sa.triangles < 2 * BULB, "%zu triangles for %d asked", sa.triangles, BULB);
         prt_ray *rays = bulb_rays(m, 6000);
-        CHECK(same_hits(a, ref, rays, 6000, "bricks against the BVH") > 2000);
-        CHECK(same_hits(a, b, rays, 6000, "bricks against sifted") > 2000);
+        CHECK(repr_same_hits(a, ref, rays, 6000, "bricks against the BVH") > 2000);
+        CHECK(repr_same_hits(a, b, rays, 6000, "bricks against sifted") > 2000);
         CHECK_OK(prt_accel_check(a));
         free(rays);
     }

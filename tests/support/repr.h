@@ -35,6 +35,24 @@ static inline bool repr_t_near(const prt_accel *a, float got, float want) {
     return err == 0 ? got == want : fabs((double)got - want) <= 2 * err + 1e-6 * fabs((double)want);
 }
 
+/* Whether rays through a and b get the same answers bit for bit (closest hit: triangle, t,
+ * u, v; any hit too); fails the running test naming what otherwise. Returns the hits. */
+static inline size_t repr_same_hits(const prt_accel *a, const prt_accel *b, const prt_ray *rays, size_t n,
+                                    const char *what) {
+    size_t hits = 0, differ = 0;
+    for (size_t i = 0; i < n; i++) {
+        prt_ray r1 = rays[i], r2 = rays[i];
+        prt_hit h1, h2;
+        prt_intersect1(a, &r1, &h1);
+        prt_intersect1(b, &r2, &h2);
+        hits += h2.prim != PRT_INVALID;
+        if (h1.prim != h2.prim || (h1.prim != PRT_INVALID && (h1.t != h2.t || h1.u != h2.u || h1.v != h2.v))) differ++;
+        if (prt_occluded1(a, &rays[i]) != prt_occluded1(b, &rays[i])) differ++;
+    }
+    CHECK_MSG(differ == 0, "%s: %zu of %zu rays differ", what, differ, n);
+    return hits;
+}
+
 /* Whether representation name belongs to the covering set that tests on large meshes
  * run: every codec under the quad layout and every layout with the float3-soa4 and
  * idx32-soa4 codecs (scalar, SIMD and indexed kernels), plus every non-BVH
