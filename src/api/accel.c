@@ -3,6 +3,7 @@
 #include "api/accel.h"
 #include "ooc/ooc_accel.h"
 #include "geom/ray.h"
+#include "mesh/mesh.h"
 
 #include <math.h>
 #include <omp.h>
@@ -20,11 +21,7 @@ prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_o
                              i / 3, (double)m->vertices[i], (double)PRT_MAX_COORDINATE);
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
-    const double extent = sqrt(((double)hi[0] - lo[0]) * ((double)hi[0] - lo[0]) + ((double)hi[1] - lo[1]) * ((double)hi[1] - lo[1]) +
-                               ((double)hi[2] - lo[2]) * ((double)hi[2] - lo[2]));
-    if (extent < PRT_MIN_EXTENT)
-        return prt__fail(PRT_ERROR_LIMIT, "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g: "
-                         "scale it up", extent, (double)PRT_MIN_EXTENT);
+    if ((s = prt__check_extent(lo, hi))) return s;
     prt_spec spec;
     if ((s = prt__spec_parse(spec_text, &spec))) return s;
     const prt_repr_family *f = prt__registry_find(&spec);

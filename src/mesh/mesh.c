@@ -93,6 +93,14 @@ void prt_mesh_bounds(const prt_mesh *m, float lo[3], float hi[3]) {
     }
 }
 
+prt_status prt__check_extent(const float lo[3], const float hi[3]) {
+    double d2 = 0.0;
+    for (int k = 0; k < 3; k++) d2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
+    if (sqrt(d2) >= PRT_MIN_EXTENT) return PRT_OK;
+    return prt__fail(PRT_ERROR_LIMIT, "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g: "
+                     "scale it up", sqrt(d2), (double)PRT_MIN_EXTENT);
+}
+
 bool prt__triangle_degenerate(const float *a, const float *b, const float *c) {
     /* Exactly zero area, decided in double: differences of floats are exact there for
      * any sane mesh, so a collinear triangle is caught even when float rounding in the

@@ -7,6 +7,8 @@
  * upper levels split its bricks and in-core nodes regenerate theirs (ooc_build_bricks). */
 #include "ooc/ooc_build.h"
 
+#include "mesh/mesh.h"
+
 #include <errno.h>
 #include <float.h>
 #include <math.h>
@@ -360,11 +362,7 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
     float cell[6];
     if (!s) {
         memcpy(cell, b.root.bounds, sizeof cell);
-        double ext = 0.0;
-        for (int k = 0; k < 3; k++) ext += ((double)cell[3 + k] - cell[k]) * ((double)cell[3 + k] - cell[k]);
-        if (sqrt(ext) < PRT_MIN_EXTENT)
-            s = prt__fail(PRT_ERROR_LIMIT, "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g",
-                          sqrt(ext), (double)PRT_MIN_EXTENT);
+        s = prt__check_extent(cell, cell + 3);
     }
     ooc_frag *root = s ? NULL : prt__alloc(sizeof *root);
     if (!s && !root) s = prt__fail(PRT_ERROR_NOMEM, "out of memory in the out-of-core build");
@@ -667,13 +665,7 @@ prt_status ooc_build_bricks(const ooc_brick_source *src, const ooc_build_job *jo
     if (!s) b.incore_max = PRT_MAX((budget - held) / INCORE_BYTES_PER_TRI, (uint64_t)4096);
     float cell[6];
     memcpy(cell, b.root.bounds, sizeof cell);
-    if (!s) {
-        double ext = 0.0;
-        for (int k = 0; k < 3; k++) ext += ((double)cell[3 + k] - cell[k]) * ((double)cell[3 + k] - cell[k]);
-        if (sqrt(ext) < PRT_MIN_EXTENT)
-            s = prt__fail(PRT_ERROR_LIMIT, "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g",
-                          sqrt(ext), (double)PRT_MIN_EXTENT);
-    }
+    if (!s) s = prt__check_extent(cell, cell + 3);
     ooc_frag *root = s ? NULL : prt__alloc(sizeof *root);
     uint32_t *list = s ? NULL : prt__alloc((c.n ? c.n : 1) * sizeof *list);
     if (!s && (!root || !list)) s = prt__fail(PRT_ERROR_NOMEM, "out of memory in the out-of-core build");
