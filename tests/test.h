@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static int test_checks_failed;
 static int test_passed, test_failed, test_skipped;
@@ -72,6 +73,16 @@ static const char *test_current;
         }                                                                                            \
         fflush(stdout);                                                                              \
     } while (0)
+
+/* A temporary file name for this test process: $P_tmpdir/packrt_test_PID_name. Up to four
+ * live at once (rotating buffers). */
+static inline char *test_tmp_path(const char *name) {
+    static char buf[4][512];
+    static int next;
+    char *b = buf[next++ % 4];
+    snprintf(b, 512, "%s/packrt_test_%d_%s", P_tmpdir, (int)getpid(), name);
+    return b;
+}
 
 /* Ends main: every test skipped -> 77 (ctest reports skipped), any failure -> 1. */
 #define TEST_END()                                                                                   \

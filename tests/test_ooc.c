@@ -11,23 +11,14 @@
 #include <math.h>
 #include <unistd.h>
 
-/* A temporary file name; up to four live at once. */
-static char *tmp_path(const char *name) {
-    static char buf[4][512];
-    static int next;
-    char *b = buf[next++ % 4];
-    snprintf(b, 512, "%s/packrt_test_ooc_%d_%s", P_tmpdir, (int)getpid(), name);
-    return b;
-}
-
 /* A file build with a budget of a few thousand triangles splits out of core many times;
  * opened with the smallest cache, exact queries evict and reload blocks as they go. */
 TEST(test_streamed_build_and_small_cache_answer_exactly) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("sphere", 150000, 3, &m));
-    const char *ply = tmp_path("sphere.ply");
+    const char *ply = test_tmp_path("sphere.ply");
     CHECK_OK(prt_mesh_save_ply(m, ply));
-    const char *path = tmp_path("sphere.ooc");
+    const char *path = test_tmp_path("sphere.ooc");
     prt_build_options o = {.memory_budget = 1 << 20}; /* 1 MB: in-core subtrees of 6553 triangles */
     CHECK_OK(prt_build_file(ply, "ooc", path, &o));
     prt_open_options oo = {.cache_bytes = 1}; /* the minimum: 64 slots, fewer than the blocks */
@@ -67,11 +58,11 @@ TEST(test_streamed_build_and_small_cache_answer_exactly) {
 TEST(test_plain_lz4_blocks_answer_as_lz4hc_ones) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("sphere", 60000, 5, &m));
-    const char *ply = tmp_path("lz4.ply"), *hc = tmp_path("hc.ooc"), *fast = tmp_path("fast.ooc");
+    const char *ply = test_tmp_path("lz4.ply"), *hc = test_tmp_path("hc.ooc"), *fast = test_tmp_path("fast.ooc");
     CHECK_OK(prt_mesh_save_ply(m, ply));
     CHECK_OK(prt_build_file(ply, "ooc", hc, NULL));
     CHECK_OK(prt_build_file(ply, "ooc,lz4=0", fast, NULL));
-    CHECK(prt_build_file(ply, "ooc,lz4=13", tmp_path("bad.ooc"), NULL) == PRT_ERROR_ARGUMENT);
+    CHECK(prt_build_file(ply, "ooc,lz4=13", test_tmp_path("bad.ooc"), NULL) == PRT_ERROR_ARGUMENT);
     FILE *f1 = fopen(hc, "rb"), *f2 = fopen(fast, "rb");
     long n1 = -1, n2 = -1;
     if (f1 && !fseek(f1, 0, SEEK_END)) n1 = ftell(f1);
@@ -293,7 +284,7 @@ TEST(test_fetchers_load_requested_blocks_between_frames) {
     CHECK_OK(prt_mesh_generate("sphere", 100000, 5, &m));
     prt_accel *built = NULL, *a = NULL;
     CHECK_OK(prt_build(m, "ooc", NULL, &built));
-    const char *path = tmp_path("frames.ooc");
+    const char *path = test_tmp_path("frames.ooc");
     if (built) CHECK_OK(prt_accel_save(built, path));
     prt_open_options oo = {.fetchers = 2};
     CHECK_OK(prt_accel_open(path, &oo, &a));
@@ -341,7 +332,7 @@ TEST(test_progressive_lod_render_converges_to_the_exact_image) {
     prt_accel *built = NULL, *a = NULL, *ref = NULL;
     CHECK_OK(prt_build(m, "ooc", NULL, &built));
     CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &ref));
-    const char *path = tmp_path("render.ooc");
+    const char *path = test_tmp_path("render.ooc");
     if (built) CHECK_OK(prt_accel_save(built, path));
     CHECK_OK(prt_accel_open(path, NULL, &a));
     if (!a || !ref) {
@@ -392,10 +383,10 @@ TEST(test_bad_input_is_an_error) {
         CHECK(prt_build(m, "ooc", NULL, &a) == PRT_ERROR_MESH && a == NULL);
         prt_mesh_free(m);
     }
-    const char *out = tmp_path("bad.ooc");
+    const char *out = test_tmp_path("bad.ooc");
     CHECK(prt_build_file("/nonexistent/mesh.ply", "ooc", out, NULL) == PRT_ERROR_IO);
     CHECK(access(out, F_OK) != 0);
-    const char *ply = tmp_path("bad.ply");
+    const char *ply = test_tmp_path("bad.ply");
     FILE *f = fopen(ply, "wb");
     fputs("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 nan\n0 1 0\n3 0 1 2\n",

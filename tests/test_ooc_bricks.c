@@ -14,14 +14,6 @@
 
 #define BULB 120000 /* triangles requested */
 
-static char *tmp_path(const char *name) {
-    static char buf[4][512];
-    static int next;
-    char *b = buf[next++ % 4];
-    snprintf(b, 512, "%s/packrt_test_ooc_bricks_%d_%s", P_tmpdir, (int)getpid(), name);
-    return b;
-}
-
 /* The generator's stream as a mesh of separate triangles: mesh triangle i is stream
  * triangle i, corners in the stream's order. */
 typedef struct soup {
@@ -93,7 +85,7 @@ static prt_ray *bulb_rays(const prt_mesh *m, size_t n) {
 
 TEST(test_brick_build_holds_the_generator_stream_exactly) {
     prt_mesh *m = stream_mesh();
-    const char *bricks = tmp_path("bricks.ooc"), *sifted = tmp_path("sifted.ooc");
+    const char *bricks = test_tmp_path("bricks.ooc"), *sifted = test_tmp_path("sifted.ooc");
     /* 1 MB: in-core subtrees of 4096 triangles, about 30 of them. */
     prt_build_options o = {.memory_budget = 1 << 20};
     CHECK_OK(prt_build_generated("mandelbulb", BULB, 1, "ooc", bricks, &o));
@@ -127,7 +119,7 @@ TEST(test_brick_build_holds_the_generator_stream_exactly) {
 /* A budget below the in-core minimum, and an output nobody can create, fail with a
  * message and leave no file behind. */
 TEST(test_brick_build_errors_are_clear) {
-    const char *out = tmp_path("small.ooc");
+    const char *out = test_tmp_path("small.ooc");
     prt_build_options o = {.memory_budget = 100000};
     CHECK(prt_build_generated("mandelbulb", 20000, 1, "ooc", out, &o) == PRT_ERROR_LIMIT);
     CHECK_MSG(strstr(prt_last_error(), "--memory") != NULL, "message: %s", prt_last_error());

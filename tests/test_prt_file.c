@@ -5,12 +5,6 @@
 
 #include <unistd.h>
 
-static char *tmp_path(const char *name) {
-    static char buf[512];
-    snprintf(buf, sizeof buf, "%s/packrt_test_%d_%s", P_tmpdir, (int)getpid(), name);
-    return buf;
-}
-
 static unsigned char *read_all(const char *path, size_t *size) {
     *size = 0;
     FILE *f = fopen(path, "rb");
@@ -37,7 +31,7 @@ TEST(test_save_load_cast_is_bit_identical) {
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a, *b;
         if (!repr_build(m, prt_repr_name(k), &a)) continue;
-        const char *path = tmp_path("roundtrip.prt");
+        const char *path = test_tmp_path("roundtrip.prt");
         CHECK_OK(prt_accel_save(a, path));
         prt_status s = prt_accel_load(path, &b);
         CHECK_OK(s);
@@ -83,7 +77,7 @@ TEST(test_corrupted_files_are_rejected) {
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
         if (!repr_build(m, prt_repr_name(k), &a)) continue;
-        const char *path = tmp_path("good.prt");
+        const char *path = test_tmp_path("good.prt");
         CHECK_OK(prt_accel_save(a, path));
         prt_accel_free(a);
         size_t size = 0;
@@ -115,7 +109,7 @@ TEST(test_foreign_and_missing_files_are_errors) {
     prt_accel *a = NULL;
     CHECK(prt_accel_load("/nonexistent/dir/x.prt", &a) == PRT_ERROR_IO && a == NULL);
     CHECK(strstr(prt_last_error(), "/nonexistent/dir/x.prt") != NULL);
-    const char *path = tmp_path("foreign.prt");
+    const char *path = test_tmp_path("foreign.prt");
     char junk[4096];
     for (size_t i = 0; i < sizeof junk; i++) junk[i] = (char)(i * 7 + 3);
     memcpy(junk, "ply\n", 4);
@@ -133,7 +127,7 @@ TEST(test_foreign_and_missing_files_are_errors) {
 TEST(test_rays_and_hits_files_round_trip) {
     prt_mesh *m = mesh_random_soup(100, 41);
     prt_ray *rays = rays_random(m, 1000, 42);
-    const char *rp = tmp_path("x.rays");
+    const char *rp = test_tmp_path("x.rays");
     CHECK_OK(prt_rays_write(rp, rays, 1000));
     prt_ray *back;
     size_t n;
@@ -149,7 +143,7 @@ TEST(test_rays_and_hits_files_round_trip) {
     remove(rp);
 
     prt_hit hits[3] = {{1.5f, 0.25f, 0.5f, 7, 0}, {INFINITY, 0, 0, PRT_INVALID, 0}, {0.1f, 0, 1, 0, 0}};
-    const char *hp = tmp_path("x.hits");
+    const char *hp = test_tmp_path("x.hits");
     CHECK_OK(prt_hits_write(hp, hits, 3));
     prt_hit *hb;
     CHECK_OK(prt_hits_read(hp, &hb, &n));
