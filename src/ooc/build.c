@@ -92,11 +92,11 @@ static void box_empty(float b[6]) {
 #define MINF(a, b) ((a) < (b) ? (a) : (b))
 #define MAXF(a, b) ((a) > (b) ? (a) : (b))
 
-/* A triangle's box, clipped to cell when cell is not NULL. */
-static inline void tri_box(const ooc_btri *t, const float *cell, float tb[6]) {
+/* The box of a triangle's corners v, clipped to cell when cell is not NULL. */
+static inline void tri_box(const float v[9], const float *cell, float tb[6]) {
     for (int k = 0; k < 3; k++) {
-        float lo = MINF(MINF(t->v[k], t->v[3 + k]), t->v[6 + k]);
-        float hi = MAXF(MAXF(t->v[k], t->v[3 + k]), t->v[6 + k]);
+        float lo = MINF(MINF(v[k], v[3 + k]), v[6 + k]);
+        float hi = MAXF(MAXF(v[k], v[3 + k]), v[6 + k]);
         if (cell) lo = MAXF(lo, cell[k]), hi = MINF(hi, cell[3 + k]);
         tb[k] = lo, tb[3 + k] = hi;
     }
@@ -149,10 +149,26 @@ static prt_status spool_write(spool *s, const ooc_btri *t, size_t n) {
     return PRT_OK;
 }
 
-/* The triangle is kept when it can be hit: finite, non-zero area. */
-static bool hittable(const float *v) {
+/* Every corner finite and within PRT_MAX_COORDINATE (bad_triangle says which failed). */
+static bool tri_finite(const float *v) {
     for (int k = 0; k < 9; k++)
         if (!isfinite(v[k]) || fabsf(v[k]) > PRT_MAX_COORDINATE) return false;
+    return true;
+}
+
+static prt_status bad_triangle(const float *v, uint64_t id) {
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(v[k])) return prt__fail(PRT_ERROR_MESH, "triangle %llu has a non-finite coordinate", (unsigned long long)id);
+    for (int k = 0; k < 9; k++)
+        if (fabsf(v[k]) > PRT_MAX_COORDINATE)
+            return prt__fail(PRT_ERROR_LIMIT, "triangle %llu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
+                             (unsigned long long)id, (double)v[k], (double)PRT_MAX_COORDINATE);
+    return PRT_OK;
+}
+
+/* The triangle is kept when it can be hit: finite, non-zero area. */
+static bool hittable(const float *v) {
+    if (!tri_finite(v)) return false;
     double e1[3], e2[3];
     for (int k = 0; k < 3; k++) e1[k] = (double)v[3 + k] - v[k], e2[k] = (double)v[6 + k] - v[k];
     double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
@@ -165,13 +181,7 @@ static prt_status root_sink(void *user, const float *tris, size_t count, uint64_
     builder *b = user;
     for (size_t i = 0; i < count; i++) {
         const float *v = tris + 9 * i;
-        for (int k = 0; k < 9; k++)
-            if (!isfinite(v[k]))
-                return prt__fail(PRT_ERROR_MESH, "triangle %llu has a non-finite coordinate", (unsigned long long)(first_id + i));
-        for (int k = 0; k < 9; k++)
-            if (fabsf(v[k]) > PRT_MAX_COORDINATE)
-                return prt__fail(PRT_ERROR_LIMIT, "triangle %llu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
-                                 (unsigned long long)(first_id + i), (double)v[k], (double)PRT_MAX_COORDINATE);
+        if (!tri_finite(v)) return bad_triangle(v, first_id + i);
         if (first_id + i >= UINT32_MAX)
             return prt__fail(PRT_ERROR_LIMIT, "the stream has more than 2^32 - 1 triangles (ids are 32-bit)");
         if (!hittable(v)) {
@@ -183,7 +193,7 @@ static prt_status root_sink(void *user, const float *tris, size_t count, uint64_
         t->prim = (uint32_t)(first_id + i);
         t->color = GREY15;
         float tb[6];
-        tri_box(t, NULL, tb);
+        tri_box(t->v, NULL, tb);
         box_add(b->root.bounds, tb, NULL);
         if (b->nbatch == IO_BATCH) {
             prt_status s = spool_write(&b->root, b->batch, b->nbatch);
@@ -293,7 +303,7 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
         for (size_t i = 0; i < n; i++) {
             const ooc_btri *t = &b->batch[2 * IO_BATCH + i];
             float tb[6]; /* clipped to the cell; the child's box clips it to the child's */
-            tri_box(t, cell, tb);
+            tri_box(t->v, cell, tb);
             for (int k = 0; k < 2; k++)
                 if (k == 0 ? tb[axis] <= split : tb[3 + axis] >= split) {
                     side[k][cnt[k]++] = *t;
@@ -414,22 +424,6 @@ typedef struct census_ctx {
     size_t scap;
 } census_ctx;
 
-static bool tri_finite(const float *v) {
-    for (int k = 0; k < 9; k++)
-        if (!isfinite(v[k]) || fabsf(v[k]) > PRT_MAX_COORDINATE) return false;
-    return true;
-}
-
-static prt_status bad_triangle(const float *v, uint64_t id) {
-    for (int k = 0; k < 9; k++)
-        if (!isfinite(v[k])) return prt__fail(PRT_ERROR_MESH, "triangle %llu has a non-finite coordinate", (unsigned long long)id);
-    for (int k = 0; k < 9; k++)
-        if (fabsf(v[k]) > PRT_MAX_COORDINATE)
-            return prt__fail(PRT_ERROR_LIMIT, "triangle %llu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
-                             (unsigned long long)id, (double)v[k], (double)PRT_MAX_COORDINATE);
-    return PRT_OK;
-}
-
 static prt_status census_sink(void *user, const gen_iso_brick *g, size_t n) {
     census_ctx *c = user;
     builder *b = c->b;
@@ -454,10 +448,8 @@ static prt_status census_sink(void *user, const gen_iso_brick *g, size_t n) {
                 break;
             }
             if (!hittable(v)) continue;
-            ooc_btri tr;
-            memcpy(tr.v, v, sizeof tr.v);
             float tb[6];
-            tri_box(&tr, NULL, tb);
+            tri_box(v, NULL, tb);
             box_add(box[i], tb, NULL);
             hit[i]++;
         }
@@ -525,15 +517,14 @@ static prt_status regen_bricks(builder *b, const uint32_t *list, size_t n, const
             for (uint32_t t = 0; t < nt; t++) {
                 const float *v = soup + 9 * (size_t)t;
                 if (!hittable(v)) continue;
-                ooc_btri tr;
-                memcpy(tr.v, v, sizeof tr.v);
                 float tb[6];
-                tri_box(&tr, NULL, tb);
+                tri_box(v, NULL, tb);
                 if (!box_touches(tb, cell)) continue;
                 if (out) {
-                    tr.prim = r->first + t;
-                    tr.color = GREY15;
-                    out[off[i] + k] = tr;
+                    ooc_btri *tr = &out[off[i] + k];
+                    memcpy(tr->v, v, sizeof tr->v);
+                    tr->prim = r->first + t;
+                    tr->color = GREY15;
                 }
                 k++;
             }
