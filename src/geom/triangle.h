@@ -45,6 +45,10 @@ static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float
     return true;
 }
 
+/* The axes of a ray whose triangle vertices were renamed kx, ky, kz -> 0, 1, 2 as they
+ * were loaded (prt__rayx4t_init_renamed): what such codecs pass to prt__tri4_hit. */
+static const prt__rayx prt__rayx_renamed = {.kx = 0, .ky = 1, .kz = 2};
+
 /* N triangles at once (N = 4 and 8, from geom/triangle_simd.inc): prt__rayx4t /
  * prt__tri4_hit and prt__rayx8t / prt__tri8_hit. */
 #define TRI_W 4

@@ -8,6 +8,7 @@
 
 #include "bvh/codecs/codec.h"
 #include "core/simd.h"
+#include "geom/triangle.h"
 
 #include <math.h>
 
@@ -100,11 +101,17 @@ static inline double bpv_buffer_error(const bvh_shared *sh) {
 }
 
 /* Decode the 12 words of a block of four triangles (w[v][lane]: vertex v of each) into the
- * SOA form the 4-wide kernel reads, lanes in pad turned to NaN (padding lanes repeat one
- * vertex: their exactly zero edge functions would send the block to the double-precision
- * fallback). Per vertex, the four words in one register, each component masked out and
- * widened to float, then lo + q * step as bpv_decode computes it (same bits). */
-PRT_INLINE void bpv_decode4(const uint64_t w[3][4], const float lo[3], const float step[3], vi4 pad, float p[36]) {
+ * SOA form the 4-wide kernel reads, row k of each vertex holding component comp[k] (the
+ * caller's order: the watertight test's axes kx, ky, kz, so that its inputs sit at fixed
+ * places and stay in registers), decoded with lo[k] and step[k] given in that order too.
+ * Lanes in pad get NaN for kz of vertices 0 and 1 (padding lanes repeat one vertex: their
+ * exactly zero edge functions would send the block to the double-precision fallback): every
+ * sheared coordinate but c's, so all three edge functions, t and det are NaN, and the lane
+ * never hits, as with nine NaN coordinates, for 2 blends instead of 9. Per vertex, the four
+ * words in one register, each component shifted and masked out and widened to float,
+ * then lo + q * step as bpv_decode computes it (same bits). */
+PRT_INLINE void bpv_decode4(const uint64_t w[3][4], const float lo[3], const float step[3], const int comp[3], vi4 pad,
+                            float p[36]) {
     const vf4 nan = vf4_set1(NAN);
 #if defined(__AVX2__)
     const __m256i mask = _mm256_set1_epi64x(BPV_MASK), low = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
@@ -112,9 +119,10 @@ PRT_INLINE void bpv_decode4(const uint64_t w[3][4], const float lo[3], const flo
         __m256i words;
         memcpy(&words, w[v], sizeof words);
         for (int k = 0; k < 3; k++) {
-            const __m256i q = _mm256_and_si256(_mm256_srli_epi64(words, BPV_BITS * k), mask);
+            const __m256i q = _mm256_and_si256(_mm256_srl_epi64(words, _mm_cvtsi32_si128(BPV_BITS * comp[k])), mask);
             const vf4 qf = (vf4)_mm_cvtepi32_ps(_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(q, low)));
-            const vf4 x = vf4_select(pad, nan, vf4_set1(lo[k]) + qf * vf4_set1(step[k]));
+            vf4 x = vf4_set1(lo[k]) + qf * vf4_set1(step[k]);
+            if (v < 2 && k == 2) x = vf4_select(pad, nan, x); /* enough: see above */
             memcpy(p + 4 * (3 * v + k), &x, sizeof x);
         }
     }
@@ -122,9 +130,32 @@ PRT_INLINE void bpv_decode4(const uint64_t w[3][4], const float lo[3], const flo
     for (int v = 0; v < 3; v++)
         for (int l = 0; l < 4; l++)
             for (int k = 0; k < 3; k++)
-                p[4 * (3 * v + k) + l] = pad[l] ? NAN : bpv_decode(lo[k], step[k], (uint32_t)(w[v][l] >> (BPV_BITS * k)) & BPV_MASK);
+                p[4 * (3 * v + k) + l] = pad[l] && v < 2 && k == 2
+                                             ? NAN
+                                             : bpv_decode(lo[k], step[k], (uint32_t)(w[v][l] >> (BPV_BITS * comp[k])) & BPV_MASK);
     (void)nan;
 #endif
+}
+
+/* Per-ray constants of the Indexed BitPack codecs' leaves (idx8/idx16/idx32-bitpack-soa4):
+ * the buffer's grid in the watertight test's axis order kx, ky, kz (bpv_decode4's comp),
+ * the origin in that order too. */
+typedef struct bpv_ray {
+    prt__rayx4t r4;
+    const uint8_t *vertices; /* the u64 entries */
+    float lo[3], step[3];    /* of components comp[0], comp[1], comp[2] */
+    int comp[3];             /* kx, ky, kz */
+    const bvh_shared *sh;
+} bpv_ray;
+
+PRT_INLINE void bpv_ray_init(bpv_ray *c, const prt__rayx *r, const bvh_shared *sh) {
+    prt__rayx4t_init_renamed(&c->r4, r);
+    bpv_header hd;
+    memcpy(&hd, sh->data, sizeof hd);
+    c->comp[0] = r->kx, c->comp[1] = r->ky, c->comp[2] = r->kz;
+    for (int k = 0; k < 3; k++) c->lo[k] = hd.lo[c->comp[k]], c->step[k] = hd.step[c->comp[k]];
+    c->vertices = sh->data + sizeof hd;
+    c->sh = sh;
 }
 
 /* Lanes whose vertex 0 and vertex 1 are the same index (padding), as an all-ones mask. */

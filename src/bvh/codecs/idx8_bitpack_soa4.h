@@ -30,12 +30,7 @@ enum { idx8_bitpack_soa4_block = 4, idx8_bitpack_soa4_align = 4, idx8_bitpack_so
 /* Head of the shared buffer: bitpack_vertices.h's. */
 typedef bpv_header idx8bp_header;
 
-typedef struct idx8_bitpack_soa4_ray {
-    prt__rayx4t r4;
-    const uint8_t *vertices; /* the u64 entries */
-    float lo[3], step[3];
-    const bvh_shared *sh;
-} idx8_bitpack_soa4_ray;
+typedef bpv_ray idx8_bitpack_soa4_ray;
 
 static inline size_t idx8_bitpack_soa4_leaf_bytes(uint32_t n) { return vw_leaf_bytes(n); }
 
@@ -68,26 +63,22 @@ static inline bool idx8_bitpack_soa4_leaf_valid(const uint8_t *leaf, uint32_t n,
 
 /* --- traversal ------------------------------------------------------------------------ */
 
-static inline void idx8_bitpack_soa4_ray_init(idx8_bitpack_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
-    prt__rayx4t_init(&c->r4, r);
-    idx8bp_header hd;
-    memcpy(&hd, sh->data, sizeof hd);
-    for (int k = 0; k < 3; k++) c->lo[k] = hd.lo[k], c->step[k] = hd.step[k];
-    c->vertices = sh->data + sizeof hd;
-    c->sh = sh;
+PRT_INLINE void idx8_bitpack_soa4_ray_init(idx8_bitpack_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
+    bpv_ray_init(c, r, sh);
 }
 
-/* Decode a block's 12 vertices into the SOA form the SIMD kernel reads (bitpack_vertices.h),
- * padding lanes NaN (vertex_window.h). */
+/* Decode a block's 12 vertices into the SOA form the SIMD kernel reads, axes renamed
+ * (bitpack_vertices.h), padding lanes NaN (vertex_window.h). */
 PRT_INLINE void idx8bp_gather(const uint8_t *block, const uint8_t *base, const idx8_bitpack_soa4_ray *c, float p[36]) {
     uint64_t w[3][4];
     for (int v = 0; v < 3; v++)
         for (int l = 0; l < 4; l++) memcpy(&w[v][l], base + 8 * (size_t)block[4 * v + l], 8);
-    bpv_decode4(w, c->lo, c->step, vw_padding(block), p);
+    bpv_decode4((const uint64_t(*)[4])w, c->lo, c->step, c->comp, vw_padding(block), p);
 }
 
 PRT_INLINE void idx8_bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r,
                                             const idx8_bitpack_soa4_ray *c, prt__hitx *h) {
+    (void)r; /* the test reads the renamed axes (bpv_ray) */
     uint32_t first, id0;
     memcpy(&first, leaf, 4);
     memcpy(&id0, leaf + 4, 4);
@@ -97,7 +88,7 @@ PRT_INLINE void idx8_bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, con
         float p[36];
         idx8bp_gather(leaf, base, c, p);
         vf4 t, u, v;
-        int mask = prt__tri4_hit(r, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
+        int mask = prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
         if (!mask) continue;
         bvh_take_block4_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
     }
@@ -105,6 +96,7 @@ PRT_INLINE void idx8_bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, con
 
 PRT_INLINE bool idx8_bitpack_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r,
                                            const idx8_bitpack_soa4_ray *c, float tfar) {
+    (void)r;
     uint32_t first;
     memcpy(&first, leaf, 4);
     const uint8_t *base = c->vertices + 8 * (size_t)first;
@@ -114,7 +106,7 @@ PRT_INLINE bool idx8_bitpack_soa4_occluded(const uint8_t *leaf, uint32_t n, cons
         float p[36];
         idx8bp_gather(leaf, base, c, p);
         vf4 t, u, v;
-        if (prt__tri4_hit(r, &c->r4, p, tf, &t, &u, &v)) return true;
+        if (prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
 }

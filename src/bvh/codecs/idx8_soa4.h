@@ -72,9 +72,7 @@ static inline bool idx8_soa4_leaf_valid(const uint8_t *leaf, uint32_t n, const b
 }
 
 PRT_INLINE void idx8_soa4_ray_init(idx8_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
-    prt__rayx4t_init(&c->r4, r);
-    const int k[3] = {r->kx, r->ky, r->kz};
-    for (int i = 0; i < 3; i++) c->r4.org[i] = vf4_set1(r->org[k[i]]);
+    prt__rayx4t_init_renamed(&c->r4, r);
     c->perm = (vi4){r->kx, r->ky, r->kz, 3};
     c->vertices = (const float *)(sh->data + sizeof(idx8_head));
     c->sh = sh;
@@ -111,7 +109,6 @@ PRT_INLINE void idx8_gather(const uint8_t *block, const float *base, vi4 perm, f
 PRT_INLINE void idx8_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const idx8_soa4_ray *c,
                                     prt__hitx *h) {
     (void)r;
-    const prt__rayx ident = {.kx = 0, .ky = 1, .kz = 2}; /* the axes as renamed by the gather */
     uint32_t first, id0;
     memcpy(&first, leaf, 4);
     memcpy(&id0, leaf + 4, 4);
@@ -121,7 +118,7 @@ PRT_INLINE void idx8_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__
         float p[36];
         idx8_gather(leaf, base, c->perm, p);
         vf4 t, u, v;
-        int mask = prt__tri4_hit(&ident, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
+        int mask = prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
         if (!mask) continue;
         bvh_take_block4_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
     }
@@ -130,7 +127,6 @@ PRT_INLINE void idx8_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__
 PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const idx8_soa4_ray *c,
                                    float tfar) {
     (void)r;
-    const prt__rayx ident = {.kx = 0, .ky = 1, .kz = 2}; /* the axes as renamed by the gather */
     uint32_t first;
     memcpy(&first, leaf, 4);
     const float *base = c->vertices + 3 * (size_t)first;
@@ -140,7 +136,7 @@ PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__r
         float p[36];
         idx8_gather(leaf, base, c->perm, p);
         vf4 t, u, v;
-        if (prt__tri4_hit(&ident, &c->r4, p, tf, &t, &u, &v)) return true;
+        if (prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
 }

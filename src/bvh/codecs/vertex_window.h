@@ -96,9 +96,14 @@ static inline bool vw_leaf_valid(const uint8_t *leaf, uint32_t n, uint32_t count
 static inline vi4 vw_padding(const uint8_t *block) {
     uint32_t i0, i1;
     memcpy(&i0, block, 4), memcpy(&i1, block + 4, 4);
+#if defined(__SSE4_1__)
+    /* Bytes compared at once and widened to lanes: 4 instructions instead of about 25. */
+    return (vi4)_mm_cvtepi8_epi32(_mm_cmpeq_epi8(_mm_cvtsi32_si128((int)i0), _mm_cvtsi32_si128((int)i1)));
+#else
     const uint32_t same = ~(i0 ^ i1);
     return (vi4){-(int32_t)((same & 0xFF) == 0xFF), -(int32_t)((same >> 8 & 0xFF) == 0xFF),
                  -(int32_t)((same >> 16 & 0xFF) == 0xFF), -(int32_t)((same >> 24) == 0xFF)};
+#endif
 }
 
 #endif
