@@ -293,7 +293,12 @@ static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32
     prt_status s = PRT_OK;
     if (c->shared_build || c->shared_remap) {
         uint8_t *data = NULL;
-        s = c->shared_remap ? c->shared_remap(em, &data, &b->shared.size) : c->shared_build(em, &data, &b->shared.size);
+        /* Every layout's leaf is a run of at most the largest binary leaf's triangles
+         * (wide8 merges leaves up to that size). */
+        uint32_t max_leaf = 1;
+        for (size_t i = 0; i < tree->node_count; i++) max_leaf = PRT_MAX(max_leaf, tree->nodes[i].count);
+        s = c->shared_remap ? c->shared_remap(em, max_leaf, &data, &b->shared.size)
+                            : c->shared_build(em, &data, &b->shared.size);
         b->shared.data = data;
     }
     if (!s && c->strips) s = encode_strips(b, tree, em, ids, strip_error);

@@ -84,8 +84,9 @@ typedef struct bvh_codec {
     /* Codecs whose leaves index a buffer laid out in leaf order (Indexed8's 8-bit windows,
      * Rouwé §3.9), instead of shared_build: build the shared data from m, whose triangles are
      * in leaf order (seq_ids) in a copy the codec may rewrite, replacing each vertex index by
-     * the buffer position that encode() then stores. NULL for the others. */
-    prt_status (*shared_remap)(prt_mesh *m, uint8_t **data, size_t *size);
+     * the buffer position that encode() then stores; no leaf of the layout will hold more
+     * than max_leaf triangles. NULL for the others. */
+    prt_status (*shared_remap)(prt_mesh *m, uint32_t max_leaf, uint8_t **data, size_t *size);
     /* Lossy codecs: the largest distance between a vertex as decoded and the mesh's vertex,
      * kept in the shared data so it survives saving and loading. NULL: lossless. */
     double (*vertex_error)(const bvh_shared *shared);

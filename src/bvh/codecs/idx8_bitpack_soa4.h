@@ -36,11 +36,11 @@ static inline size_t idx8_bitpack_soa4_leaf_bytes(uint32_t n) { return vw_leaf_b
 
 /* m: triangles in leaf order, rewritten in place to buffer positions; the grid spans the
  * mesh's bounds, taken before the indices change meaning. */
-static inline prt_status idx8_bitpack_soa4_shared_remap(prt_mesh *m, uint8_t **data, size_t *size) {
+static inline prt_status idx8_bitpack_soa4_shared_remap(prt_mesh *m, uint32_t max_leaf, uint8_t **data, size_t *size) {
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
     uint32_t *source = NULL, len = 0;
-    prt_status s = vw_build(m, "idx8-bitpack-soa4", &source, &len);
+    prt_status s = vw_build(m, "idx8-bitpack-soa4", max_leaf, &source, &len);
     if (!s) s = bpv_buffer_build_in(m, source, len, lo, hi, data, size);
     prt__free(source);
     return s;

@@ -34,9 +34,9 @@ typedef struct idx8_soa4_ray {
 
 static inline size_t idx8_soa4_leaf_bytes(uint32_t n) { return vw_leaf_bytes(n); }
 
-static inline prt_status idx8_soa4_shared_remap(prt_mesh *m, uint8_t **data, size_t *size) {
+static inline prt_status idx8_soa4_shared_remap(prt_mesh *m, uint32_t max_leaf, uint8_t **data, size_t *size) {
     uint32_t *source = NULL, len = 0;
-    prt_status s = vw_build(m, "idx8-soa4", &source, &len);
+    prt_status s = vw_build(m, "idx8-soa4", max_leaf, &source, &len);
     if (s) return s;
     const size_t bytes = sizeof(idx8_head) + (size_t)len * 12 + 4;
     uint8_t *out = prt__alloc(bytes);

@@ -1,20 +1,20 @@
 /* The vertex buffer of the Indexed8 codecs (Rouwé 2019, §3.9): one pass over the
  * triangles in leaf order that reuses a vertex while its last entry lies within the last
- * VERTEX_WINDOW entries and appends it again otherwise (the paper's greedy reuse). Any run
- * of at most 16 consecutive triangles, which is every leaf whatever the layout, then spans
- * at most VERTEX_WINDOW + 48 < 256 entries, so 8-bit indices from the leaf's lowest entry
- * reach all its vertices. Shared by idx8-soa4 (float entries) and idx8-bitpack-soa4
+ * 256 - 3 n entries, n the largest leaf, and appends it again otherwise (the paper's greedy
+ * reuse, its window). Any run of at most n consecutive triangles, which is every leaf
+ * whatever the layout, then spans at most 256 entries, so 8-bit indices from the leaf's
+ * lowest entry reach all its vertices. Shared by idx8-soa4 (float entries) and idx8-bitpack-soa4
  * (packed entries); the leaf format below is theirs too. */
 #ifndef PRT_BVH_CODECS_VERTEX_WINDOW_H
 #define PRT_BVH_CODECS_VERTEX_WINDOW_H
 
+#include "bvh/bvh.h"
 #include "bvh/codecs/codec.h"
 #include "core/simd.h"
 #include "mesh/mesh.h"
 
 #include <assert.h>
 
-#define VERTEX_WINDOW 192
 /* Leaf: u32 first entry, u32 leaf-order id of the first triangle, then per block of four
  * triangles their 3 x 4 8-bit indices in SOA order (vertex 0 of the four, 1, 2). */
 #define VW_HEAD_BYTES 8
@@ -22,9 +22,16 @@
 
 static inline size_t vw_leaf_bytes(uint32_t n) { return VW_HEAD_BYTES + (size_t)((n + 3) / 4) * VW_BLOCK_BYTES; }
 
-/* Rewrites m's indices (triangles in leaf order) to entry positions; *source receives the
- * mesh vertex of each of the *count entries (prt__free it). */
-static inline prt_status vw_build(prt_mesh *m, const char *codec, uint32_t **source, uint32_t *count) {
+/* Rewrites m's indices (triangles in leaf order, no leaf above max_leaf, at most
+ * BVH_MAX_LEAF) to entry positions; *source receives the mesh vertex of each of the
+ * *count entries (prt__free it). */
+static inline prt_status vw_build(prt_mesh *m, const char *codec, uint32_t max_leaf, uint32_t **source,
+                                  uint32_t *count) {
+    /* A vertex reused at most `window` entries back from the buffer's end: a leaf's entries
+     * then lie within window + 3 max_leaf - 1 <= 255 of its lowest (the paper's 256 - 3 n;
+     * the fixed 192 before left more duplicate entries below leaves of 16). */
+    assert(max_leaf >= 1 && max_leaf <= BVH_MAX_LEAF);
+    const uint32_t window = 256 - 3 * max_leaf;
     const size_t nt = m->triangle_count, nv = m->vertex_count;
     if (3 * nt > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "%s: %zu triangles exceed the 32-bit vertex buffer", codec, nt);
@@ -43,7 +50,7 @@ static inline prt_status vw_build(prt_mesh *m, const char *codec, uint32_t **sou
     uint32_t len = 0;
     for (size_t i = 0; i < 3 * nt; i++) {
         uint32_t v = canon[m->triangles[i]], p = last[v];
-        if (p == UINT32_MAX || len - p > VERTEX_WINDOW) p = len++, src[p] = v, last[v] = p;
+        if (p == UINT32_MAX || len - p > window) p = len++, src[p] = v, last[v] = p;
         m->triangles[i] = p;
     }
     prt__free(canon), prt__free(last);
@@ -68,7 +75,7 @@ static inline void vw_encode(uint8_t *dst, const prt_mesh *m, const uint32_t *id
             const uint32_t *t = m->triangles + 3 * (size_t)ids[real ? 4 * b + l : 0];
             for (int k = 0; k < 3; k++) {
                 uint32_t p = t[real ? k : 0] - first;
-                assert(p < 256); /* at most VERTEX_WINDOW + 3 * 16 by construction */
+                assert(p < 256); /* at most window + 3 max_leaf - 1 by construction (vw_build) */
                 idx[k][l] = (uint8_t)p;
             }
         }
