@@ -253,10 +253,52 @@ TEST(test_wide8_folded_box_test_is_conservative) {
     prt_mesh_free(soup);
 }
 
+/* collapse=fill trades traversal for fewer nodes: never more nodes than the SAH's collapse
+ * of the same binary tree, the same closest hits and any hits (the same triangles under a
+ * differently grouped tree, exact codecs), and a saved file keeps its collapse. */
+TEST(test_wide8_filled_collapse_same_hits_no_more_nodes) {
+    prt_mesh *m = mesh_grid(90);
+    const char *pairs[][2] = {{"wide8:float3-soa4", "wide8:float3-soa4,collapse=fill"},
+                              {"wide8:idx8-soa4,leaf=12", "wide8:idx8-soa4,leaf=12,collapse=fill"}};
+    prt_ray *rays = rays_random(m, 3000, 17);
+    for (size_t p = 0; p < COUNT_OF(pairs); p++) {
+        prt_accel *sah = NULL, *fill = NULL, *loaded = NULL;
+        CHECK_OK(prt_build(m, pairs[p][0], NULL, &sah));
+        CHECK_OK(prt_build(m, pairs[p][1], NULL, &fill));
+        char *path = test_tmp_path("filled.prt");
+        if (fill) CHECK_OK(prt_accel_save(fill, path));
+        CHECK_OK(prt_accel_load(path, &loaded));
+        remove(path);
+        if (!sah || !fill || !loaded) {
+            prt_accel_free(sah), prt_accel_free(fill), prt_accel_free(loaded);
+            continue;
+        }
+        prt_stats a, b;
+        prt_accel_stats(sah, &a), prt_accel_stats(fill, &b);
+        CHECK_MSG(b.nodes <= a.nodes && b.bytes_tree <= a.bytes_tree, "%s: %zu nodes, the SAH collapse %zu",
+                  pairs[p][1], (size_t)b.nodes, (size_t)a.nodes);
+        CHECK_MSG(strstr(prt_accel_spec(loaded), "collapse=fill") != NULL, "loaded spec %s", prt_accel_spec(loaded));
+        size_t differ = 0, hits = 0;
+        for (size_t i = 0; i < 3000; i++) {
+            prt_ray r1 = rays[i], r2 = rays[i], r3 = rays[i];
+            prt_hit h1, h2, h3;
+            prt_intersect1(sah, &r1, &h1), prt_intersect1(fill, &r2, &h2), prt_intersect1(loaded, &r3, &h3);
+            hits += h1.prim != PRT_INVALID;
+            differ += h1.prim != h2.prim || h1.t != h2.t || h2.prim != h3.prim || h2.t != h3.t;
+            differ += prt_occluded1(sah, &rays[i]) != prt_occluded1(fill, &rays[i]);
+        }
+        CHECK_MSG(differ == 0 && hits > 500, "%s: %zu of 3000 rays differ (%zu hits)", pairs[p][1], differ, hits);
+        prt_accel_free(sah), prt_accel_free(fill), prt_accel_free(loaded);
+    }
+    free(rays);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_wide8_child_boxes_contain_their_triangles);
     RUN(test_wide8_far_and_tiny_meshes_hit_as_brute_force);
     RUN(test_wide8_largest_leaves_fit_the_meta_bits);
     RUN(test_wide8_folded_box_test_is_conservative);
+    RUN(test_wide8_filled_collapse_same_hits_no_more_nodes);
     TEST_END();
 }

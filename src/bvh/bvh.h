@@ -51,6 +51,9 @@ typedef struct bvh_layout {
 BVH_LAYOUTS(X)
 #undef X
 
+/* wide8 with its collapse filling nodes (the spec's collapse=fill, wide8_pack_filled). */
+extern const bvh_layout bvh_layout_wide8_filled;
+
 /* AABBTree's node orders (Rouwé §4.3), the spec's order=: the layout object for each, the
  * first being bvh_layout_aabb itself (depth first, triangles behind their leaf). */
 #define BVH_ORDER_COUNT 4

@@ -173,10 +173,21 @@ static prt_status parse_order(prt_spec *spec, int layout, int *order) {
     return PRT_OK;
 }
 
-static bvh_accel *bvh_new(int layout, int codec, int order) {
+/* collapse=fill: wide8's collapse with a cost per node (bvh_layout_wide8_filled). */
+static const char *const collapse_names[] = {"sah", "fill"};
+
+static prt_status parse_collapse(prt_spec *spec, int layout, int *fill) {
+    prt_status s = prt__spec_enum(spec, "collapse", collapse_names, 2, 0, fill);
+    if (s) return s;
+    if (*fill && g_layouts[layout] != &bvh_layout_wide8)
+        return prt__fail(PRT_ERROR_ARGUMENT, "collapse=fill: only the wide8 layout collapses its tree");
+    return PRT_OK;
+}
+
+static bvh_accel *bvh_new(int layout, int codec, int order, int fill) {
     bvh_accel *b = prt__calloc(1, sizeof *b);
     if (!b) return NULL;
-    b->layout = order ? bvh_aabb_orders[order] : g_layouts[layout];
+    b->layout = order ? bvh_aabb_orders[order] : fill ? &bvh_layout_wide8_filled : g_layouts[layout];
     b->codec = codec; /* its kernels: bvh_pick_kernels, once the blob is set */
     return b;
 }
@@ -346,8 +357,9 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         (s = prt__spec_int(spec, "leaf", default_leaf, 1, BVH_MAX_LEAF, &leaf)))
         return s;
     static const char *const id_modes[] = {"mesh", "none"}, *const update_modes[] = {"rebuild", "refit"};
-    int order, ids, refit;
-    if ((s = parse_order(spec, layout, &order)) || (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids)) ||
+    int order, ids, refit, fill;
+    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill)) ||
+        (s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &ids)) ||
         (s = prt__spec_enum(spec, "update", update_modes, 2, 0, &refit)))
         return s;
     if (refit && c->strips)
@@ -366,6 +378,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     prt__spec_set(spec, "split", bvh_split_names[split]);
     prt__spec_set(spec, "leaf", num);
     if (order) prt__spec_set(spec, "order", bvh_order_names[order]);
+    if (fill) prt__spec_set(spec, "collapse", collapse_names[fill]);
     if (refit) prt__spec_set(spec, "update", update_modes[refit]);
 
     prt_mesh cleared;
@@ -381,7 +394,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         s = bvh_build(prims, n, &p, &tree);
         prt__free(prims);
     }
-    bvh_accel *b = s ? NULL : bvh_new(layout, codec, order);
+    bvh_accel *b = s ? NULL : bvh_new(layout, codec, order, fill);
     if (!s && !b) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
     if (s) {
         bvh_tree_free(&tree);
@@ -476,9 +489,9 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
                              shared.triangles);
         shared.mesh_ids = ids;
     }
-    int order;
-    if ((s = parse_order(spec, layout, &order))) return s;
-    bvh_accel *b = bvh_new(layout, codec, order);
+    int order, fill;
+    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill))) return s;
+    bvh_accel *b = bvh_new(layout, codec, order, fill);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
     b->shared = shared;

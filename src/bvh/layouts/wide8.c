@@ -42,24 +42,31 @@ static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_
     return wide8_pack(t, &lv, out);
 }
 
+static prt_status wide8_encode_filled(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
+    codec_leaves x = {c, m, NULL};
+    wide8_leaves lv = leaves_of(&x);
+    return wide8_pack_filled(t, &lv, out);
+}
+
 static prt_status wide8_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {
     codec_leaves x = {c, NULL, sh};
     wide8_leaves lv = leaves_of(&x);
     return wide8_check(b, &lv);
 }
 
-const bvh_layout bvh_layout_wide8 = {
-    "wide8",
-    "8-wide BVH after Ylitie et al. 2017 (beyond Rouwe): 80-byte nodes, child boxes as 8-bit offsets on a "
-    "power-of-two grid, one 8-lane box test",
-    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4,
-     [BVH_CODEC_idx32_soa4] = 8},
-    wide8_encode,
-    wide8_validate,
-    {
-#define X(id, nm, desc)                                                                                        \
+/* The layout object, and the same with the filled collapse (collapse=fill): the blobs
+ * differ in their trees only, so both share validation and kernels. */
+#define WIDE8_LAYOUT(encode)                                                                                       \
+    {                                                                                                              \
+        "wide8",                                                                                                   \
+        "8-wide BVH after Ylitie et al. 2017 (beyond Rouwe): 80-byte nodes, child boxes as 8-bit offsets on a "    \
+        "power-of-two grid, one 8-lane box test",                                                                  \
+        {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4, \
+         [BVH_CODEC_idx32_soa4] = 8},                                                                              \
+        encode, wide8_validate, {BVH_CODECS(WIDE8_KERNELS)},                                                      \
+    }
+#define WIDE8_KERNELS(id, nm, desc)                                                                                \
     [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id, wide8_for_blob_##id},
-        BVH_CODECS(X)
-#undef X
-    },
-};
+
+const bvh_layout bvh_layout_wide8 = WIDE8_LAYOUT(wide8_encode);
+const bvh_layout bvh_layout_wide8_filled = WIDE8_LAYOUT(wide8_encode_filled);
