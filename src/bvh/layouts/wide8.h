@@ -73,7 +73,7 @@ prt_status wide8_pack(const bvh_tree *t, const wide8_leaves *leaves, bvh_blob *o
 
 /* wide8_pack with a fixed cost per wide node on top of the SAH's (the spec's
  * collapse=fill): the collapse then prefers fewer, fuller nodes, a smaller tree for a
- * little more traversal (bunny, leaves of 8-12: 7-8% fewer nodes, 0.11-0.17 B/tri). */
+ * little more traversal (bunny, leaves of 8-12: 7% fewer nodes, 0.11-0.18 B/tri). */
 prt_status wide8_pack_filled(const bvh_tree *t, const wide8_leaves *leaves, bvh_blob *out);
 
 /* Check a loaded blob: every node reached once, every leaf inside the geometry range and
