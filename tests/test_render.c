@@ -301,6 +301,35 @@ TEST(test_every_representation_renders_the_same_image) {
     prt_mesh_free(m);
 }
 
+/* Tiles go out in blocks (render.c's tile_at), with partial bands and blocks at the right
+ * and bottom edges: at sizes that end mid-tile, mid-block and mid-band, every pixel of a
+ * plane filling the view is rendered, and rendered the same. A tile left out stays black. */
+TEST(test_every_tile_is_rendered_at_any_size) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_create(4, 2, &m));
+    if (!m) return;
+    const float v[12] = {-1e4f, -1e4f, 0, 1e4f, -1e4f, 0, 1e4f, 1e4f, 0, -1e4f, 1e4f, 0};
+    const uint32_t t[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
+    prt_accel *a;
+    CHECK_OK(prt_build(m, "aabb:float3", NULL, &a));
+    const prt_camera cam = {{0, 0, 5}, {0, 0, 0}, {0, 1, 0}, 40.0f};
+    const uint32_t sizes[][2] = {{1, 1}, {64, 64}, {200, 150}, {513, 9}, {9, 513}, {72, 200}};
+    for (size_t k = 0; k < COUNT_OF(sizes) && a; k++) {
+        prt_render_options o = {.width = sizes[k][0], .height = sizes[k][1], .shade = PRT_SHADE_NORMAL, .threads = 2};
+        prt_image img = {0};
+        CHECK_OK(prt_render(a, m, &cam, &o, &img));
+        size_t off = 0, n = (size_t)o.width * o.height;
+        for (size_t i = 0; img.rgb && i < n; i++) off += memcmp(&img.rgb[3 * i], img.rgb, 3) != 0;
+        CHECK_MSG(img.rgb && img.rgb[2] > 200, "%ux%u: the plane's normal (0, 0, 1) should be blue", o.width,
+                  o.height);
+        CHECK_MSG(off == 0, "%ux%u: %zu of %zu pixels differ from the first", o.width, o.height, off, n);
+        prt_image_free(&img);
+    }
+    prt_accel_free(a);
+    prt_mesh_free(m);
+}
+
 TEST(test_image_does_not_depend_on_thread_count) {
     prt_mesh *m = scene_mesh();
     prt_accel *a;
@@ -675,6 +704,7 @@ int main(void) {
     RUN(test_embree_accel_renders_what_packrt_renders);
     RUN(test_every_representation_renders_the_same_image);
     RUN(test_image_does_not_depend_on_thread_count);
+    RUN(test_every_tile_is_rendered_at_any_size);
     RUN(test_ao_is_open_on_a_convex_sphere_and_darker_near_contact);
     RUN(test_meshless_normals_match_mesh_normals);
     RUN(test_default_camera_is_the_benchmark_camera);
