@@ -19,16 +19,6 @@ cat > "$tmp/cpu.c" <<'EOF'
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-static double now(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-static int cmp(const void *a, const void *b) {
-    const double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 int main(int argc, char **argv) {
     const char *spec = argv[2];
     const int reps = atoi(argv[3]);
@@ -58,12 +48,11 @@ int main(int argc, char **argv) {
         for (int rep = 0; rep < reps && rep < 64; rep++)
             for (int k = 0; k < 2; k++) {
                 be[k].reset(be[k].self, b[k]);
-                const double t0 = now();
+                const double t0 = bench_thread_seconds();
                 be[k].stream(be[k].self, b[k], 1);
-                t[k][rep] = now() - t0;
+                t[k][rep] = bench_thread_seconds() - t0;
             }
-        qsort(t[0], (size_t)reps, sizeof(double), cmp), qsort(t[1], (size_t)reps, sizeof(double), cmp);
-        const double ours = t[0][reps / 2], theirs = t[1][reps / 2];
+        const double ours = bench_median(t[0], (size_t)reps), theirs = bench_median(t[1], (size_t)reps);
         printf("%s\t%s\t%s\t%zu rays\t%.3f Mrays/s\tembree %.3f Mrays/s\tratio %.3f\n", argv[1], spec, argv[w], r.count,
                (double)r.count / ours / 1e6, (double)r.count / theirs / 1e6, theirs / ours);
         for (int k = 0; k < 2; k++) be[k].unload(be[k].self, b[k]);

@@ -12,6 +12,7 @@
 # Usage: bench/lossygrid_inproc.sh MESH [REV] [REPS] [WORKLOAD]   (HEAD, 21, diffuse|random)
 #   BUILD=dir (default build): the library the program links for everything else
 set -euo pipefail
+[ $# -ge 1 ] || { echo "usage: bench/lossygrid_inproc.sh MESH [REV] [REPS] [WORKLOAD]" >&2; exit 2; }
 cd "$(dirname "$0")/.."
 build=${BUILD:-build}
 rev=${2:-HEAD}
@@ -28,18 +29,8 @@ cat > "$tmp/ab.c" <<'EOF'
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 typedef void stream_fn(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
 stream_fn base_lg_trace_stream, tree_lg_trace_stream;
-static double now(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-static int cmp(const void *a, const void *b) {
-    const double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 int main(int argc, char **argv) {
     int reps = atoi(argv[2]);
     if (reps < 1 || reps > 256) reps = 21;
@@ -74,18 +65,18 @@ int main(int argc, char **argv) {
     for (int k = 0; k < reps; k++)
         for (int s = 0; s < 2; s++) {
             memcpy(rw, r.rays, n * sizeof *rw);
-            const double t0 = now();
+            const double t0 = bench_thread_seconds();
             f[s](blob.data, &sh, rw, h[s], n);
-            t[s][k] = now() - t0;
+            t[s][k] = bench_thread_seconds() - t0;
         }
     size_t differ = 0;
     for (size_t i = 0; i < n; i++) differ += memcmp(&h[0][i], &h[1][i], sizeof(prt_hit)) != 0;
     for (int k = 0; k < reps; k++) ratio[k] = t[0][k] / t[1][k];
-    qsort(ratio, (size_t)reps, sizeof(double), cmp);
-    qsort(t[0], (size_t)reps, sizeof(double), cmp), qsort(t[1], (size_t)reps, sizeof(double), cmp);
+    const double speedup = bench_median(ratio, (size_t)reps); /* ratio is sorted now: its quartiles */
+    const double base = bench_median(t[0], (size_t)reps), tree = bench_median(t[1], (size_t)reps);
     printf("%s\t%s\t%zu rays\tbase %.3f Mrays/s\ttree %.3f Mrays/s\tspeed-up %.3f (quartiles %.3f-%.3f)\t%zu hits differ\n",
-           argv[1], work, n, (double)n / t[0][reps / 2] / 1e6, (double)n / t[1][reps / 2] / 1e6, ratio[reps / 2],
-           ratio[reps / 4], ratio[3 * reps / 4], differ);
+           argv[1], work, n, (double)n / base / 1e6, (double)n / tree / 1e6, speedup, ratio[reps / 4],
+           ratio[3 * reps / 4], differ);
     return differ != 0;
 }
 EOF
