@@ -7,7 +7,8 @@
 #   BUILD=dir (default build), OUT=dir to keep the meshes and JSON (default a temp dir; JSON
 #   files already there are reported too, so a 40M run can be added to a kept one),
 #   REPS=n (default 5), KINDS="terrain canyon torus", REAL=0 to skip ../shared/data,
-#   RESULTS=file (default docs/results/lossygrid.md), SPECS="spec ..." to bench only these
+#   RESULTS=file (default docs/results/lossygrid.md; an existing one is kept and the tables go
+#   to RESULTS.new unless FORCE=1), SPECS="spec ..." to bench only these
 #   representations (default: the three encodings, ids=mesh and three triangle BVHs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,6 +17,9 @@ sizes=${1:-"1M 10M"}
 out=${OUT:-$(mktemp -d)}
 reps=${REPS:-5}
 results=${RESULTS:-docs/results/lossygrid.md}
+# The results file also holds sections written by hand around the generated tables: a rerun
+# writes its tables beside it (FILE.new, to merge by hand) rather than over it, unless FORCE=1.
+if [ -e "$results" ] && [ "${FORCE:-0}" != 1 ]; then results="$results.new"; fi
 mkdir -p "$out"
 if [ ! -x "$build/packrt" ]; then
   cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null

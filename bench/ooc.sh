@@ -10,7 +10,8 @@
 # Usage: bench/ooc.sh [SIZES]   (default "10M 100M")
 #   BUILD=dir (default build), DATA=dir for the block files (default $TMPDIR; they are
 #   kept, and reused when KEEP=1), MEMORY=build budget (default 4G), CACHE (default 1G),
-#   REPS=n converged frames (default 5), RESULTS=file (default docs/results/ooc.md)
+#   REPS=n converged frames (default 5), RESULTS=file (default docs/results/ooc.md; an
+#   existing one is kept and the tables go to RESULTS.new unless FORCE=1)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${BUILD:-build}
@@ -20,6 +21,9 @@ memory=${MEMORY:-4G}
 cache=${CACHE:-1G}
 reps=${REPS:-5}
 results=${RESULTS:-docs/results/ooc.md}
+# The results file also holds sections written by hand around the generated tables: a rerun
+# writes its tables beside it (FILE.new, to merge by hand) rather than over it, unless FORCE=1.
+if [ -e "$results" ] && [ "${FORCE:-0}" != 1 ]; then results="$results.new"; fi
 mkdir -p "$data"
 if [ ! -x "$build/packrt" ]; then
   cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
