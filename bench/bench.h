@@ -222,9 +222,6 @@ size_t bench_cache_flush_default_bytes(void);
 /* Median and minimum of n values (values is reordered: sorted, for the median). */
 double bench_median(double *values, size_t n);
 double bench_min(const double *values, size_t n);
-/* CPU seconds of the calling thread: on a shared machine, time another process takes from
- * the core between two readings does not count (bench/lossygrid_cpu.sh, lossygrid_inproc.sh). */
-double bench_thread_seconds(void);
 
 /* Figures of one workload on one backend. 0 where not measured. */
 typedef struct bench_figures {

@@ -15,6 +15,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 cat > "$tmp/cpu.c" <<'EOF'
 #include "bench.h"
+#include "core/common.h"
 #include "packrt.h"
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,9 +49,9 @@ int main(int argc, char **argv) {
         for (int rep = 0; rep < reps && rep < 64; rep++)
             for (int k = 0; k < 2; k++) {
                 be[k].reset(be[k].self, b[k]);
-                const double t0 = bench_thread_seconds();
+                const double t0 = prt__thread_seconds();
                 be[k].stream(be[k].self, b[k], 1);
-                t[k][rep] = bench_thread_seconds() - t0;
+                t[k][rep] = prt__thread_seconds() - t0;
             }
         const double ours = bench_median(t[0], (size_t)reps), theirs = bench_median(t[1], (size_t)reps);
         printf("%s\t%s\t%s\t%zu rays\t%.3f Mrays/s\tembree %.3f Mrays/s\tratio %.3f\n", argv[1], spec, argv[w], r.count,

@@ -24,6 +24,7 @@ git archive "$rev" src include | tar -x -C "$tmp/tree"
 cp src/lossygrid/* "$tmp/tree/src/lossygrid/"
 cat > "$tmp/ab.c" <<'EOF'
 #include "bench.h"
+#include "core/common.h"
 #include "lossygrid/lossygrid.h"
 #include "packrt.h"
 #include <stdio.h>
@@ -65,9 +66,9 @@ int main(int argc, char **argv) {
     for (int k = 0; k < reps; k++)
         for (int s = 0; s < 2; s++) {
             memcpy(rw, r.rays, n * sizeof *rw);
-            const double t0 = bench_thread_seconds();
+            const double t0 = prt__thread_seconds();
             f[s](blob.data, &sh, rw, h[s], n);
-            t[s][k] = bench_thread_seconds() - t0;
+            t[s][k] = prt__thread_seconds() - t0;
         }
     size_t differ = 0;
     for (size_t i = 0; i < n; i++) differ += memcmp(&h[0][i], &h[1][i], sizeof(prt_hit)) != 0;

@@ -7,6 +7,7 @@
  * (prt_occluded_packet, rtcOccluded16 for Embree), timed on its own (Wald 2006 §4.6).
  * DIR holds one mesh per frame (.ply, .ply.gz, .obj; name order), every frame with the same
  * faces; SCENE is an animated generator kind (twist, marbles, toys). */
+#include "bench.h"
 #include "cli.h"
 #include "cgrid/cgrid.h"
 #include "embree_animate.h"
@@ -21,7 +22,6 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
-#include <time.h>
 
 #define MAX_SPECS 8
 
@@ -238,25 +238,6 @@ static double shadow_image(const tracer *t, const render_camera *cam, uint32_t p
     return prt__now() - t0;
 }
 
-/* CPU time of the calling thread: with --threads 1 every phase runs on it, and this time,
- * unlike the wall clock, does not grow while other processes hold the cores. */
-static double thread_cpu(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, size_t n) {
-    if (!n) return NAN;
-    qsort(v, n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 static bool parse_size(const char *s, uint32_t *w, uint32_t *h) {
     char *e;
     unsigned long a = strtoul(s, &e, 10);
@@ -449,7 +430,7 @@ int cmd_animate(int argc, char **argv) {
         frame_vertices(&an, f, cur->vertices);
         for (int i = 0; i < nser && !rc; i++) {
             series *r = &ser[i];
-            double t0 = prt__now(), c0 = thread_cpu();
+            double t0 = prt__now(), c0 = prt__thread_seconds();
             if (i >= nspecs) {
                 s = f == 0 ? bench_embree_anim_create(cur, threads, &r->embree) : bench_embree_anim_update(r->embree, cur->vertices);
             } else if (f > 0 && r->updates) {
@@ -461,11 +442,11 @@ int cmd_animate(int argc, char **argv) {
                 if (!s && f == 0) {
                     /* Probe update once: a representation without it says UNSUPPORTED. */
                     r->updates = prt_accel_update(r->accel, cur->vertices) == PRT_OK;
-                    if (r->updates) t0 = prt__now(), c0 = thread_cpu(); /* time the update, not build + update */
+                    if (r->updates) t0 = prt__now(), c0 = prt__thread_seconds(); /* time the update, not build + update */
                 }
             }
             r->rebuild[f] = prt__now() - t0;
-            r->rebuild_cpu[f] = thread_cpu() - c0;
+            r->rebuild_cpu[f] = prt__thread_seconds() - c0;
             if (s) {
                 rc = cli_fail("animate", r->label, s);
                 break;
@@ -475,20 +456,20 @@ int cmd_animate(int argc, char **argv) {
                 tracer t = {r->accel, r->embree, r->prims, r->t, r->occluded};
                 double tt[64], tc[64];
                 for (int k = 0; k < repeat; k++) {
-                    double c1 = thread_cpu();
+                    double c1 = prt__thread_seconds();
                     tt[k] = trace_image(&t, &rcam, packet, threads);
-                    tc[k] = thread_cpu() - c1;
+                    tc[k] = prt__thread_seconds() - c1;
                 }
-                r->trace[f] = median(tt, (size_t)repeat);
-                r->trace_cpu[f] = median(tc, (size_t)repeat);
+                r->trace[f] = bench_median(tt, (size_t)repeat);
+                r->trace_cpu[f] = bench_median(tc, (size_t)repeat);
                 if (shadows) {
                     for (int k = 0; k < repeat; k++) {
-                        double c1 = thread_cpu();
+                        double c1 = prt__thread_seconds();
                         tt[k] = shadow_image(&t, &rcam, packet, threads, light);
-                        tc[k] = thread_cpu() - c1;
+                        tc[k] = prt__thread_seconds() - c1;
                     }
-                    r->shadow[f] = median(tt, (size_t)repeat);
-                    r->shadow_cpu[f] = median(tc, (size_t)repeat);
+                    r->shadow[f] = bench_median(tt, (size_t)repeat);
+                    r->shadow_cpu[f] = bench_median(tc, (size_t)repeat);
                     for (size_t p = 0; p < (size_t)W * H; p++) {
                         r->shadowed += r->occluded[p];
                         r->lit += r->t[p] < INFINITY && !r->occluded[p];
@@ -554,9 +535,9 @@ int cmd_animate(int argc, char **argv) {
         }
         for (int i = 0; i < nser; i++) {
             series *r = &ser[i];
-            double rb = median(r->rebuild + first, n), tr = median(r->trace + first, n);
-            double rbc = median(r->rebuild_cpu + first, n), trc = median(r->trace_cpu + first, n);
-            double sh = shadows ? median(r->shadow + first, n) : 0, shc = shadows ? median(r->shadow_cpu + first, n) : 0;
+            double rb = bench_median(r->rebuild + first, n), tr = bench_median(r->trace + first, n);
+            double rbc = bench_median(r->rebuild_cpu + first, n), trc = bench_median(r->trace_cpu + first, n);
+            double sh = shadows ? bench_median(r->shadow + first, n) : 0, shc = shadows ? bench_median(r->shadow_cpu + first, n) : 0;
             double shaded = r->shadowed + r->lit ? 100.0 * (double)r->shadowed / (double)(r->shadowed + r->lit) : 0;
             double same_shd = r->compared ? 100.0 * (double)r->shadow_agree / (double)r->compared : 100.0;
             double agree = r->compared ? 100.0 * (double)r->agree / (double)r->compared : 100.0;

@@ -36,6 +36,9 @@ void prt__clear_error(void);
 
 /* Monotonic wall clock in seconds. */
 double prt__now(void);
+/* CPU seconds of the calling thread: unlike the wall clock, it does not grow while other
+ * processes hold the core (timings on a shared machine, per-phase build costs). */
+double prt__thread_seconds(void);
 
 /* Number of threads to use for a request of n (0 = all cores). */
 int prt__threads(int n);

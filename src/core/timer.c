@@ -1,4 +1,4 @@
-/* Wall clock and thread-count helpers. */
+/* Wall clock, thread CPU clock and thread-count helpers. */
 #include "core/common.h"
 
 #include <omp.h>
@@ -7,6 +7,12 @@
 double prt__now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+double prt__thread_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 

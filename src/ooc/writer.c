@@ -9,7 +9,6 @@
 #include <lz4hc.h>
 #include <math.h>
 #include <stdio.h>
-#include <time.h>
 #include <zlib.h>
 
 /* LZ4HC level 4 by default: level 9's ratio (Mandelbulb 10M: 72.4% of raw against 72.2%)
@@ -57,12 +56,6 @@ struct ooc_writer {
 
 void ooc_writer_set_level(ooc_writer *w, int lz4hc) { w->lz4hc = lz4hc < 0 ? 0 : lz4hc ? lz4hc : LZ4HC_LEVEL; }
 
-static double thread_cpu(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 double ooc_writer_compress_seconds(const ooc_writer *w) { return w->compress_seconds; }
 
 static prt_status new_block(ooc_writer *w, uint32_t kind, uint32_t *id) {
@@ -99,11 +92,11 @@ static prt_status emit(ooc_writer *w, const void *p, size_t n) {
 
 /* Compress a finished block and append it. */
 static prt_status flush_block(ooc_writer *w, uint32_t id, const uint8_t *raw, uint32_t size) {
-    double c0 = thread_cpu();
+    double c0 = prt__thread_seconds();
     int bound = LZ4_compressBound(OOC_BLOCK);
     int z = w->lz4hc ? LZ4_compress_HC((const char *)raw, w->zbuf, (int)size, bound, w->lz4hc)
                      : LZ4_compress_default((const char *)raw, w->zbuf, (int)size, bound);
-    w->compress_seconds += thread_cpu() - c0;
+    w->compress_seconds += prt__thread_seconds() - c0;
     ooc_block_entry *e = &w->table[id];
     const void *stored = raw;
     e->raw = size;
