@@ -306,9 +306,7 @@ static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32
         uint8_t *data = NULL;
         /* Every layout's leaf is a run of at most the largest binary leaf's triangles
          * (wide8 merges leaves up to that size). */
-        uint32_t max_leaf = 1;
-        for (size_t i = 0; i < tree->node_count; i++) max_leaf = PRT_MAX(max_leaf, tree->nodes[i].count);
-        s = c->shared_remap ? c->shared_remap(em, max_leaf, &data, &b->shared.size)
+        s = c->shared_remap ? c->shared_remap(em, bvh_tree_max_leaf(tree), &data, &b->shared.size)
                             : c->shared_build(em, &data, &b->shared.size);
         b->shared.data = data;
     }

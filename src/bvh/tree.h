@@ -81,6 +81,8 @@ void bvh_tree_refit(bvh_tree *tree, const prt_mesh *m);
 /* Build over n prims (permuted in place). On success *out owns its arrays. */
 prt_status bvh_build(bvh_prim *prims, size_t n, const bvh_build_params *p, bvh_tree *out);
 void bvh_tree_free(bvh_tree *t);
+/* The most primitives any leaf of t holds (at least 1). */
+uint32_t bvh_tree_max_leaf(const bvh_tree *t);
 
 /* --- shared by the builder files ------------------------------------------------- */
 

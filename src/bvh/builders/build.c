@@ -182,6 +182,12 @@ void bvh_tree_free(bvh_tree *t) {
     memset(t, 0, sizeof *t);
 }
 
+uint32_t bvh_tree_max_leaf(const bvh_tree *t) {
+    uint32_t m = 1;
+    for (size_t i = 0; i < t->node_count; i++) m = PRT_MAX(m, t->nodes[i].count);
+    return m;
+}
+
 size_t bvh_partition(bvh_prim *p, size_t n, int axis, float pos) {
     size_t i = 0, j = n;
     while (i < j) {

@@ -259,8 +259,7 @@ static prt_status pack(const bvh_tree *t, const wide8_leaves *c, float node_fixe
     if (nn > (size_t)UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "wide8: %zu binary nodes exceed 32-bit node indices", nn);
     /* Leaves merge up to the largest leaf the builder made. */
-    uint32_t max_leaf = 1;
-    for (size_t i = 0; i < nn; i++) max_leaf = PRT_MAX(max_leaf, t->nodes[i].count);
+    const uint32_t max_leaf = bvh_tree_max_leaf(t);
     const size_t head = c->bytes(c->ctx, 0), per = c->bytes(c->ctx, (uint32_t)c->block) - head;
     const size_t grain = head ? gcd_size(head, per) : per;
     if (c->align % 4 || grain % 4 || grain > UINT32_MAX)
