@@ -69,6 +69,10 @@ void render_camera_ray(const render_camera *c, float px, float py, prt_ray *r) {
     r->dir[0] = d.x, r->dir[1] = d.y, r->dir[2] = d.z, r->tfar = INFINITY;
 }
 
+void render_camera_rays(const render_camera *c, const float *px, const float *py, uint32_t n, prt_ray *r) {
+    for (uint32_t i = 0; i < n; i++) render_camera_ray(c, px[i], py[i], &r[i]);
+}
+
 float render_camera_pixel_size(const render_camera *c, float d) {
     return d * 2.0f * c->half_h / (float)c->height;
 }

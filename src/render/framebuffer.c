@@ -91,12 +91,25 @@ static inline uint8_t encode_linear(float v) {
     return (uint8_t)(v * 255.0f + 0.5f);
 }
 
-void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
-                                prt_image *img) {
+bool render_shade_is_srgb(prt_shade shade) {
     /* Normal and ao show quantities, not light: sRGB encoding would bend the familiar
      * 0.5 + 0.5 n colours and squeeze the occlusion range into the top grey levels. */
-    const bool srgb = !(shade == PRT_SHADE_NORMAL || shade == PRT_SHADE_AO);
-    pthread_once(&g_srgb_once, make_srgb_tables);
+    return !(shade == PRT_SHADE_NORMAL || shade == PRT_SHADE_AO);
+}
+
+void render_encode_init(void) { pthread_once(&g_srgb_once, make_srgb_tables); }
+
+void render_encode(const float *v, size_t n, bool srgb, uint8_t *out) {
+    if (srgb)
+        for (size_t i = 0; i < n; i++) out[i] = encode_srgb(v[i]);
+    else
+        for (size_t i = 0; i < n; i++) out[i] = encode_linear(v[i]);
+}
+
+void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
+                                prt_image *img) {
+    const bool srgb = render_shade_is_srgb(shade);
+    render_encode_init();
     long rows = (long)fb->height;
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (long y = 0; y < rows; y++)

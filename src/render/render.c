@@ -13,7 +13,9 @@
 typedef struct tile_job {
     const render_scene *scene;
     const render_camera *cam;
-    render_framebuffer *fb;
+    render_framebuffer *fb; /* gi: the float buffers that the filter and the composition read */
+    prt_image *img;         /* the other modes: tiles are encoded straight into the image */
+    bool srgb;              /* img's encoding */
     uint32_t spp;
     uint64_t seed;
 } tile_job;
@@ -21,16 +23,15 @@ typedef struct tile_job {
 /* `shadows` mode for a tile's n camera hits: the shadow rays of every pixel that needs one
  * traced together (prt_occluded_packet: cgrid's frustums, Wald 2006 §4.6; with levels of
  * detail prt_occluded_lod_packet: ooc's 4x4 shadow packets from the light, Afra §6.1),
- * pixels taken in the order given (4x4 blocks for LOD); the answers are those of one query
- * per ray, so the image is the same as pixel by pixel. lods: the LOD hits, or NULL. */
+ * in the tile's slot order (4x4 blocks for LOD); the answers are those of one query per
+ * ray, so the image is the same as pixel by pixel. lods: the LOD hits, or NULL. */
 static void shade_shadows_packet(const render_scene *s, const prt_ray *rays, const prt_hit *hits,
-                                 const prt_lod_hit *lods, const uint32_t *order, uint32_t n, render_sample *smp,
-                                 render_surface *surf, bool *hit, uint64_t *cast) {
+                                 const prt_lod_hit *lods, uint32_t n, render_sample *smp, render_surface *surf,
+                                 bool *hit, uint64_t *cast) {
     prt_ray shadow[TILE * TILE];
     float cosine[TILE * TILE];
     uint32_t pixel[TILE * TILE], m = 0;
-    for (uint32_t q = 0; q < n; q++) {
-        const uint32_t i = order ? order[q] : q;
+    for (uint32_t i = 0; i < n; i++) {
         cosine[i] = 0.0f;
         hit[i] = lods ? render_surface_lod(s, &rays[i], &lods[i], &surf[i], cast)
                       : render_surface_at(s, &rays[i], &hits[i], &surf[i], cast);
@@ -68,90 +69,114 @@ static void tile_at(long t, uint32_t tiles_x, uint32_t tiles_y, uint32_t *tx, ui
     *tx = bx * BLOCK + in % width, *ty = band * BLOCK + in / width;
 }
 
-/* Render tile (tx, ty) into the framebuffer; returns the rays it cast. */
+/* The sums of a pixel's samples that only gi keeps: the filter's guides and the albedo. */
+typedef struct guide_sums {
+    float indirect[3], normal[3], position[3], albedo[3], hits;
+} guide_sums;
+
+/* Render tile (tx, ty) into the framebuffer (gi) or the image; returns the rays it cast. */
 static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
     const render_camera *cam = j->cam;
-    uint32_t x0 = tx * TILE, y0 = ty * TILE;
-    uint32_t w = PRT_MIN(TILE, cam->width - x0), h = PRT_MIN(TILE, cam->height - y0), n = w * h;
+    const render_scene *sc = j->scene;
+    const uint32_t x0 = tx * TILE, y0 = ty * TILE;
+    const uint32_t w = PRT_MIN(TILE, cam->width - x0), h = PRT_MIN(TILE, cam->height - y0), n = w * h;
+    /* Every per-pixel array is in slot order: with LOD the tile by 4x4 pixel blocks, the
+     * packets of prt_intersect_lod_packet (Afra §6.1), else row by row; slot q is pixel
+     * (sx[q], sy[q]) of the tile. Casting, shading and summing in that order needs no
+     * copies between the pixel and the packet order. */
+    uint8_t sx[TILE * TILE], sy[TILE * TILE];
+    uint32_t m = 0;
+    const uint32_t step = sc->lod ? 4 : TILE;
+    for (uint32_t by = 0; by < h; by += step)
+        for (uint32_t bx = 0; bx < w; bx += step)
+            for (uint32_t y = by; y < by + step && y < h; y++)
+                for (uint32_t x = bx; x < bx + step && x < w; x++) sx[m] = (uint8_t)x, sy[m] = (uint8_t)y, m++;
+    /* Random streams only for modes that draw from them (jitter, ao and gi directions). */
+    const bool random = j->spp > 1 || sc->shade == PRT_SHADE_AO || sc->shade == PRT_SHADE_GI;
+    prt_rng rng[TILE * TILE];
+    for (uint32_t q = 0; random && q < n; q++) rng[q] = render_pixel_rng(j->seed, x0 + sx[q], y0 + sy[q]);
+    const bool guides = j->fb->indirect != NULL;
+    guide_sums gs[TILE * TILE];
+    if (guides) memset(gs, 0, n * sizeof *gs);
+    float direct[TILE * TILE][3]; /* the first sample starts each sum (below) */
     prt_ray rays[TILE * TILE];
     prt_hit hits[TILE * TILE];
     prt_lod_hit lods[TILE * TILE];
-    prt_rng rng[TILE * TILE];
-    float direct[TILE * TILE][3] = {{0}}, indirect[TILE * TILE][3] = {{0}};
-    float normal[TILE * TILE][3] = {{0}}, position[TILE * TILE][3] = {{0}},
-                        albedo[TILE * TILE][3] = {{0}}, hit_count[TILE * TILE] = {0};
+    render_sample smps[TILE * TILE];
+    render_surface surfs[TILE * TILE];
+    bool hit_of[TILE * TILE];
     uint64_t cast = 0;
-    for (uint32_t i = 0; i < n; i++) rng[i] = render_pixel_rng(j->seed, x0 + i % w, y0 + i / w);
     for (uint32_t s = 0; s < j->spp; s++) {
-        for (uint32_t i = 0; i < n; i++) {
+        float fx[TILE * TILE], fy[TILE * TILE];
+        for (uint32_t q = 0; q < n; q++) {
             /* One sample looks through the pixel centre (so spp 1 gives the benchmark's primary
              * rays); more are spread uniformly over the pixel, which also antialiases. */
             float jx = 0.5f, jy = 0.5f;
-            if (j->spp > 1) jx = prt_rng_float(&rng[i]), jy = prt_rng_float(&rng[i]);
-            render_camera_ray(cam, (float)(x0 + i % w) + jx, (float)(y0 + i / w) + jy, &rays[i]);
+            if (j->spp > 1) jx = prt_rng_float(&rng[q]), jy = prt_rng_float(&rng[q]);
+            fx[q] = (float)(x0 + sx[q]) + jx, fy[q] = (float)(y0 + sy[q]) + jy;
         }
-        /* With LOD, 4x4 packets (Afra §6.1): the tile's rays regrouped by 4x4 pixel blocks. */
-        uint32_t order[TILE * TILE];
-        if (j->scene->lod) {
-            prt_ray q[TILE * TILE];
-            prt_lod_hit qh[TILE * TILE];
-            uint32_t m = 0;
-            for (uint32_t by = 0; by < h; by += 4)
-                for (uint32_t bx = 0; bx < w; bx += 4)
-                    for (uint32_t y = by; y < by + 4 && y < h; y++)
-                        for (uint32_t x = bx; x < bx + 4 && x < w; x++) order[m++] = y * w + x;
-            for (uint32_t i = 0; i < n; i++) q[i] = rays[order[i]];
-            prt_intersect_lod_packet(j->scene->accel, q, qh, n, j->scene->lod_primary);
-            for (uint32_t i = 0; i < n; i++) lods[order[i]] = qh[i], hits[order[i]] = qh[i].hit;
+        render_camera_rays(cam, fx, fy, n, rays);
+        /* The LOD query shrinks rays[q].tfar to the hit; shading reads only org and dir. */
+        if (sc->lod) {
+            prt_intersect_lod_packet(sc->accel, rays, lods, n, sc->lod_primary);
         } else {
             prt_packet p = {rays, hits, n, w};
-            prt_intersect_packet(j->scene->accel, &p);
+            prt_intersect_packet(sc->accel, &p);
         }
         cast += n;
-        render_sample smps[TILE * TILE];
-        render_surface surfs[TILE * TILE];
-        bool hit_of[TILE * TILE];
-        if (j->scene->shade == PRT_SHADE_SHADOWS) {
-            const bool lod = j->scene->lod;
-            shade_shadows_packet(j->scene, rays, hits, lod ? lods : NULL, lod ? order : NULL, n, smps, surfs, hit_of,
-                                 &cast);
+        if (sc->shade == PRT_SHADE_SHADOWS) {
+            shade_shadows_packet(sc, rays, hits, sc->lod ? lods : NULL, n, smps, surfs, hit_of, &cast);
         } else {
-            for (uint32_t i = 0; i < n; i++)
-                hit_of[i] = render_shade(j->scene, &rays[i], &hits[i], j->scene->lod ? &lods[i] : NULL, &rng[i],
-                                         &smps[i], &surfs[i], &cast);
+            for (uint32_t q = 0; q < n; q++)
+                hit_of[q] = render_shade(sc, &rays[q], sc->lod ? &lods[q].hit : &hits[q], sc->lod ? &lods[q] : NULL,
+                                         &rng[q], &smps[q], &surfs[q], &cast);
         }
-        for (uint32_t i = 0; i < n; i++) {
-            const render_sample *smp = &smps[i];
-            const render_surface *surf = &surfs[i];
-            direct[i][0] += smp->direct.x, direct[i][1] += smp->direct.y,
-                direct[i][2] += smp->direct.z;
-            indirect[i][0] += smp->indirect.x, indirect[i][1] += smp->indirect.y,
-                indirect[i][2] += smp->indirect.z;
-            if (hit_of[i]) {
-                normal[i][0] += surf->n.x, normal[i][1] += surf->n.y, normal[i][2] += surf->n.z;
-                position[i][0] += surf->p.x, position[i][1] += surf->p.y, position[i][2] += surf->p.z;
-                albedo[i][0] += surf->albedo.x, albedo[i][1] += surf->albedo.y,
-                    albedo[i][2] += surf->albedo.z;
-                hit_count[i] += 1.0f;
+        for (uint32_t q = 0; q < n; q++) {
+            const render_sample *smp = &smps[q];
+            /* 0 + x for the first sample, as sums that started at 0 (-0 becomes +0). */
+            if (s == 0)
+                direct[q][0] = 0.0f + smp->direct.x, direct[q][1] = 0.0f + smp->direct.y,
+                direct[q][2] = 0.0f + smp->direct.z;
+            else
+                direct[q][0] += smp->direct.x, direct[q][1] += smp->direct.y, direct[q][2] += smp->direct.z;
+            if (!guides) continue;
+            guide_sums *g = &gs[q];
+            const render_surface *surf = &surfs[q];
+            g->indirect[0] += smp->indirect.x, g->indirect[1] += smp->indirect.y, g->indirect[2] += smp->indirect.z;
+            if (hit_of[q]) {
+                g->normal[0] += surf->n.x, g->normal[1] += surf->n.y, g->normal[2] += surf->n.z;
+                g->position[0] += surf->p.x, g->position[1] += surf->p.y, g->position[2] += surf->p.z;
+                g->albedo[0] += surf->albedo.x, g->albedo[1] += surf->albedo.y, g->albedo[2] += surf->albedo.z;
+                g->hits += 1.0f;
             }
         }
     }
+    const float inv = 1.0f / (float)j->spp;
+    if (j->img) {
+        /* The pixel values render_framebuffer_resolve would read, encoded row by row. */
+        float out[TILE * TILE * 3];
+        for (uint32_t q = 0; q < n; q++)
+            for (int k = 0; k < 3; k++) out[3 * (sy[q] * w + sx[q]) + k] = direct[q][k] * inv;
+        for (uint32_t y = 0; y < h; y++)
+            render_encode(out + 3 * y * w, 3 * w, j->srgb, j->img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
+        return cast;
+    }
     render_framebuffer *fb = j->fb;
-    float inv = 1.0f / (float)j->spp;
-    for (uint32_t i = 0; i < n; i++) {
-        size_t px = (size_t)(y0 + i / w) * cam->width + x0 + i % w;
-        for (int k = 0; k < 3; k++) fb->direct[3 * px + k] = direct[i][k] * inv;
-        if (!fb->indirect) continue;
+    for (uint32_t q = 0; q < n; q++) {
+        const size_t px = (size_t)(y0 + sy[q]) * cam->width + x0 + sx[q];
+        for (int k = 0; k < 3; k++) fb->direct[3 * px + k] = direct[q][k] * inv;
+        if (!guides) continue;
         /* The filter's guides: the mean over the samples that hit (position and normal of a
          * silhouette pixel blend its surfaces, as its colour does). */
-        float hinv = hit_count[i] > 0.0f ? 1.0f / hit_count[i] : 0.0f;
+        const guide_sums *g = &gs[q];
+        float hinv = g->hits > 0.0f ? 1.0f / g->hits : 0.0f;
         for (int k = 0; k < 3; k++) {
-            fb->indirect[3 * px + k] = indirect[i][k] * inv;
-            fb->normal[3 * px + k] = normal[i][k] * hinv;
-            fb->position[3 * px + k] = position[i][k] * hinv;
-            if (fb->albedo) fb->albedo[3 * px + k] = albedo[i][k] * hinv;
+            fb->indirect[3 * px + k] = g->indirect[k] * inv;
+            fb->normal[3 * px + k] = g->normal[k] * hinv;
+            fb->position[3 * px + k] = g->position[k] * hinv;
+            if (fb->albedo) fb->albedo[3 * px + k] = g->albedo[k] * hinv;
         }
-        fb->coverage[px] = hit_count[i] * inv;
+        fb->coverage[px] = g->hits * inv;
     }
     return cast;
 }
@@ -254,17 +279,19 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
         scene.lod_secondary = sqrtf(2.0f / (float)spp);
     }
 
-    render_framebuffer fb;
-    if ((st = render_framebuffer_init(&fb, w, h, o.shade == PRT_SHADE_GI,
-                                      o.shade == PRT_SHADE_GI && scene.colored)) ||
-        (st = size_image(img, w, h))) {
+    /* Only gi needs float buffers (its filter and composition); the other modes encode
+     * each tile into the image as it is rendered. */
+    const bool gi = o.shade == PRT_SHADE_GI;
+    render_framebuffer fb = {0};
+    if ((gi && (st = render_framebuffer_init(&fb, w, h, true, scene.colored))) || (st = size_image(img, w, h))) {
         render_framebuffer_free(&fb);
         prt_image_free(img);
         return st;
     }
 
     int threads = prt__threads(o.threads);
-    tile_job job = {&scene, &cam, &fb, spp, o.seed};
+    render_encode_init();
+    tile_job job = {&scene, &cam, &fb, gi ? NULL : img, render_shade_is_srgb(o.shade), spp, o.seed};
     uint32_t tiles_x = (w + TILE - 1) / TILE, tiles_y = (h + TILE - 1) / TILE;
     long tiles = (long)tiles_x * tiles_y, done = 0;
     uint64_t rays = 0;
@@ -287,12 +314,12 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
                 o.progress(o.progress_user, (float)d / (float)tiles);
         }
     }
-    if (o.shade == PRT_SHADE_GI && o.denoise && (st = render_denoise(&fb, &cam, threads))) {
+    if (gi && o.denoise && (st = render_denoise(&fb, &cam, threads))) {
         render_framebuffer_free(&fb);
         prt_image_free(img);
         return st;
     }
-    render_framebuffer_resolve(&fb, o.shade, threads, img);
+    if (gi) render_framebuffer_resolve(&fb, o.shade, threads, img);
     render_framebuffer_free(&fb);
     if (o.progress) o.progress(o.progress_user, 1.0f);
     img->rays = rays;

@@ -27,6 +27,9 @@ prt_status render_camera_setup(const prt_camera *c, uint32_t width, uint32_t hei
  * centre is (x + 0.5, y + 0.5)); dir normalised, tnear 0, tfar +inf. */
 void render_camera_ray(const render_camera *c, float px, float py, prt_ray *r);
 
+/* render_camera_ray for n image points (px[i], py[i]) into r[i]: the same rays, bit for bit. */
+void render_camera_rays(const render_camera *c, const float *px, const float *py, uint32_t n, prt_ray *r);
+
 /* World size of one pixel at distance d from the eye (for the filter's position weights). */
 float render_camera_pixel_size(const render_camera *c, float d);
 
@@ -154,6 +157,14 @@ void render_framebuffer_free(render_framebuffer *fb);
  * quantise into img (already sized). */
 void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
                                 prt_image *img);
+
+/* The pixel encoding of a mode: sRGB, or linear for normal and ao. */
+bool render_shade_is_srgb(prt_shade shade);
+/* Build the sRGB tables once (before render_encode, from any thread). */
+void render_encode_init(void);
+/* Encode and quantise n channel values v into out, as render_framebuffer_resolve does
+ * (modes without gi write their tiles straight to the image with it). */
+void render_encode(const float *v, size_t n, bool srgb, uint8_t *out);
 
 /* ---- denoise.c ------------------------------------------------------------------------ */
 
