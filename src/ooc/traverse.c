@@ -986,6 +986,129 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
 /* Packets walked together by a call (the renderer passes a tile of 64 rays: 4 packets). */
 #define GROUP 4
 
+static inline void vf8_store(float *p, vf8 v) { memcpy(p, &v, sizeof v); }
+static inline vi8 vi8_load(const int32_t *p) {
+    vi8 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+static inline void vi8_store(int32_t *p, vi8 v) { memcpy(p, &v, sizeof v); }
+static inline vi8 vi8_select(vi8 m, vi8 a, vi8 b) { return (m & a) | (~m & b); }
+
+/* The set-up of a packet of cnt <= PK rays, lane by lane in 8-wide vectors: each lane does
+ * prt__rayx_init's and clip_root's arithmetic in the same order, so every value has the same
+ * bits as one ray at a time (the divisions, 6 a ray, and the clipping were most of the
+ * set-up as scalar code). Fills ps's rays and hits, and returns the rays the packet takes
+ * (clipped to the root cell: tmin, tmax, axis, org and inv; 0 in the other lanes), *alone
+ * the rays it leaves to single queries and sign their direction signs. */
+static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t cnt, packet_state *ps,
+                             uint32_t *alone, int sign[3], float org[3][PK], float inv[3][PK], float tmin[PK],
+                             float tmax[PK], int32_t axis[PK]) {
+    float o[3][PK] __attribute__((aligned(32))), d[3][PK] __attribute__((aligned(32)));
+    float tn[PK] __attribute__((aligned(32))), tf[PK] __attribute__((aligned(32)));
+    for (uint32_t i = 0; i < PK; i++) {
+        const prt_ray *r = &rays[i < cnt ? i : 0]; /* lanes past cnt copy ray 0: in no mask */
+        for (int k = 0; k < 3; k++) o[k][i] = r->org[k], d[k][i] = r->dir[k];
+        tn[i] = r->tnear, tf[i] = r->tfar;
+    }
+    float iv[3][PK] __attribute__((aligned(32))), shear[3][PK] __attribute__((aligned(32)));
+    int32_t kxyz[3][PK] __attribute__((aligned(32)));
+    uint32_t pos[3] = {0, 0, 0}, neg[3] = {0, 0, 0}, inside = 0;
+    const vf8 one = vf8_set1(1.0f), zero = vf8_set1(0.0f), inf = vf8_set1(INFINITY);
+    const vi8 iz = {0}, i1 = iz + 1, i2 = iz + 2;
+    for (int h = 0; h < PK; h += 8) {
+        vf8 dv[3], ov[3], ivv[3], ad[3];
+        for (int k = 0; k < 3; k++) {
+            dv[k] = vf8_load(&d[k][h]), ov[k] = vf8_load(&o[k][h]);
+            ivv[k] = one / dv[k];
+            vf8_store(&iv[k][h], ivv[k]);
+            /* The packet's signs: a component whose reciprocal overflows counts as zero. */
+            const vi8 fin = (ivv[k] != inf) & (ivv[k] != -inf);
+            pos[k] |= (uint32_t)vi8_mask(fin & (dv[k] > zero)) << h;
+            neg[k] |= (uint32_t)vi8_mask(fin & (dv[k] < zero)) << h;
+            ad[k] = (vf8)((vi8)dv[k] & (iz + 0x7fffffff)); /* fabsf */
+        }
+        /* prt__rayx_init's dominant axis kz, and kx, ky swapped when dir[kz] < 0. */
+        const vi8 A = ad[0] > ad[1], B = ad[0] > ad[2], C = ad[1] > ad[2];
+        const vi8 z0 = A & B, z1 = ~A & C;
+        const vf8 dz = vf8_select(z0, dv[0], vf8_select(z1, dv[1], dv[2]));
+        const vf8 dx0 = vf8_select(z0, dv[1], vf8_select(z1, dv[2], dv[0]));
+        const vf8 dy0 = vf8_select(z0, dv[2], vf8_select(z1, dv[0], dv[1]));
+        const vi8 kz = vi8_select(z0, iz, vi8_select(z1, i1, i2));
+        const vi8 kx0 = vi8_select(z0, i1, vi8_select(z1, i2, iz)), ky0 = vi8_select(z0, i2, vi8_select(z1, iz, i1));
+        const vi8 flip = dz < zero;
+        const vf8 dx = vf8_select(flip, dy0, dx0), dy = vf8_select(flip, dx0, dy0);
+        vi8_store(&kxyz[0][h], vi8_select(flip, ky0, kx0));
+        vi8_store(&kxyz[1][h], vi8_select(flip, kx0, ky0));
+        vi8_store(&kxyz[2][h], kz);
+        vf8_store(&shear[0][h], dx / dz), vf8_store(&shear[1][h], dy / dz), vf8_store(&shear[2][h], one / dz);
+        /* clip_root (its parallel case only meets rays left alone). */
+        vf8 t_min = vf8_load(&tn[h]), t_max = vf8_load(&tf[h]), best = -inf;
+        vi8 ax = iz;
+        for (int k = 0; k < 3; k++) {
+            const vf8 t0 = (vf8_set1(a->h.bounds[k]) - ov[k]) * ivv[k];
+            const vf8 t1 = (vf8_set1(a->h.bounds[3 + k]) - ov[k]) * ivv[k];
+            const vi8 sw = t0 > t1;
+            const vf8 near = vf8_select(sw, t1, t0), far = vf8_select(sw, t0, t1);
+            const vi8 better = near > best;
+            best = vf8_select(better, near, best), ax = vi8_select(better, iz + k, ax);
+            t_min = vf8_select(t_min > near, t_min, near);
+            const vf8 f = far * vf8_select(far >= zero, vf8_set1(PRT_BOX_FAR_SCALE), vf8_set1(PRT_BOX_FAR_SCALE_NEG));
+            t_max = vf8_select(t_max < f, t_max, f);
+        }
+        inside |= (uint32_t)vi8_mask(t_min <= t_max) << h;
+        vf8_store(&tmin[h], t_min), vf8_store(&tmax[h], t_max), vi8_store(&axis[h], ax);
+    }
+    for (uint32_t i = 0; i < cnt; i++) {
+        prt__rayx *x = &ps->rx[i];
+        for (int k = 0; k < 3; k++) {
+            x->org[k] = o[k][i], x->dir[k] = d[k][i], x->inv[k] = iv[k][i];
+            x->neg[k] = iv[k][i] < 0.0f;
+        }
+        x->tnear = tn[i];
+        x->kx = kxyz[0][i], x->ky = kxyz[1][i], x->kz = kxyz[2][i];
+        x->sx = shear[0][i], x->sy = shear[1][i], x->sz = shear[2][i];
+        ps->hit[i].t = tf[i], ps->hit[i].prim = PRT_INVALID, ps->hit[i].u = ps->hit[i].v = 0.0f;
+        ps->tcolor[i] = 0, ps->radius[i] = 0.0f;
+        ps->tn[i][0] = ps->tn[i][1] = ps->tn[i][2] = 0.0f;
+    }
+    /* Rays the packet cannot take: zero direction components, or signs that differ from the
+     * first ray's, are traced alone. Nearly always every ray has the same signs. */
+    const uint32_t all = (1u << cnt) - 1;
+    uint32_t single = 0;
+    if (((pos[0] | neg[0]) & (pos[1] | neg[1]) & (pos[2] | neg[2]) & all) == all &&
+        ((pos[0] & all) == all || (neg[0] & all) == all) && ((pos[1] & all) == all || (neg[1] & all) == all) &&
+        ((pos[2] & all) == all || (neg[2] & all) == all)) {
+        for (int k = 0; k < 3; k++) sign[k] = pos[k] & 1 ? 1 : -1;
+    } else {
+        sign[0] = sign[1] = sign[2] = 0;
+        for (uint32_t i = 0; i < cnt; i++) {
+            bool lone = false;
+            for (int k = 0; k < 3; k++) {
+                const int sg = pos[k] >> i & 1 ? 1 : neg[k] >> i & 1 ? -1 : 0;
+                if (sg == 0 || (sign[k] && sg != sign[k])) lone = true;
+                else if (!sign[k] && !lone) sign[k] = sg;
+            }
+            if (lone) single |= 1u << i;
+        }
+    }
+    *alone = single;
+    const uint32_t mask = inside & all & ~single;
+    /* The lanes outside the packet hold 0, as they always did. */
+    for (int h = 0; h < PK; h += 8) {
+        const vi8 bit = {1, 2, 4, 8, 16, 32, 64, 128};
+        const vi8 in = ((iz + (int32_t)(mask >> h)) & bit) != iz;
+        for (int k = 0; k < 3; k++) {
+            vf8_store(&org[k][h], vf8_select(in, vf8_load(&o[k][h]), zero));
+            vf8_store(&inv[k][h], vf8_select(in, vf8_load(&iv[k][h]), zero));
+        }
+        vf8_store(&tmin[h], vf8_select(in, vf8_load(&tmin[h]), zero));
+        vf8_store(&tmax[h], vf8_select(in, vf8_load(&tmax[h]), zero));
+        vi8_store(&axis[h], vi8_select(in, vi8_load(&axis[h]), iz));
+    }
+    return mask;
+}
+
 /* Packets of 16 rays, walked by packet_walks16 (simd, GROUP packets in turns) or
  * packet_walk (the reference, one by one). With occluded (any-hit, SIMD only): occluded[i]
  * is set for a ray blocked by a triangle or stopped at a voxel, and out is not written. */
@@ -1002,53 +1125,29 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
         for (uint32_t g = 0; g < ngroups; g++) {
             const uint32_t base = base0 + g * PK;
             const uint32_t cnt = cnts[g] = PRT_MIN(n - base, (uint32_t)PK);
-            float tmin[PK] = {0}, tmax[PK] = {0};
-            int8_t axis_in[PK] = {0};
-            uint32_t mask = 0;
-            int sign[3] = {0, 0, 0};
-            for (uint32_t i = 0; i < cnt; i++) {
-                const prt_ray *r = &rays[base + i];
-                prt__rayx_init(&ps[g].rx[i], r);
-                ps[g].hit[i].t = r->tfar, ps[g].hit[i].prim = PRT_INVALID, ps[g].hit[i].u = ps[g].hit[i].v = 0.0f;
-                ps[g].tcolor[i] = 0, ps[g].radius[i] = 0.0f;
-                ps[g].tn[i][0] = ps[g].tn[i][1] = ps[g].tn[i][2] = 0.0f;
-                /* Rays the packet cannot take: zero direction components, or signs that differ
-                 * from the first ray's, are traced alone. */
-                bool alone = false;
-                for (int k = 0; k < 3; k++) {
-                    /* A component so small that its reciprocal overflows counts as zero. */
-                    int sg = isinf(ps[g].rx[i].inv[k]) ? 0 : r->dir[k] > 0.0f ? 1 : r->dir[k] < 0.0f ? -1 : 0;
-                    if (sg == 0 || (sign[k] && sg != sign[k])) alone = true;
-                    else if (!sign[k] && !alone) sign[k] = sg;
-                }
-                if (alone) {
-                    single[g] |= 1u << i;
-                    continue;
-                }
-                int ax;
-                if (clip_root(a, &ps[g].rx[i], r->tnear, r->tfar, &tmin[i], &tmax[i], &ax)) mask |= 1u << i;
-                axis_in[i] = (int8_t)ax;
-            }
+            float org[3][PK] __attribute__((aligned(32))), inv[3][PK] __attribute__((aligned(32)));
+            float tmin[PK] __attribute__((aligned(32))), tmax[PK] __attribute__((aligned(32)));
+            int32_t ax[PK] __attribute__((aligned(32)));
+            int sign[3];
+            const uint32_t mask = packet_setup(a, &rays[base], cnt, &ps[g], &single[g], sign, org, inv, tmin, tmax, ax);
             if (!mask) continue;
             const walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
             if (!simd) {
+                int8_t axis_in[PK];
+                for (int i = 0; i < PK; i++) axis_in[i] = (int8_t)ax[i];
                 walker ws = w;
                 packet_walk(&ws, &ps[g], mask, tmin, tmax, axis_in);
                 continue;
             }
-            pk[g] = (packet16){.tri = 0, .done = 0, .any = occluded != NULL};
-            int32_t ax[PK];
+            /* Field by field: assigning a whole packet16 cleared its 512 bytes with rep stos. */
+            packet16 *p = &pk[g];
             for (int k = 0; k < 3; k++) {
-                float o[PK] = {0}, v[PK] = {0};
-                for (uint32_t m = mask; m; m &= m - 1) {
-                    int i = __builtin_ctz(m);
-                    o[i] = ps[g].rx[i].org[k], v[i] = ps[g].rx[i].inv[k];
-                }
-                pk[g].org[k] = vf16_load(o), pk[g].inv[k] = vf16_load(v);
-                pk[g].front[k] = sign[k] > 0 ? 0 : 1;
+                p->org[k] = vf16_load(org[k]), p->inv[k] = vf16_load(inv[k]);
+                p->front[k] = sign[k] > 0 ? 0 : 1;
             }
-            for (int i = 0; i < PK; i++) ax[i] = axis_in[i];
-            pwalk16_init(&walks[g], &w, &ps[g], &pk[g], stacks[g], mask, vf16_load(tmin), vf16_load(tmax),
+            vf16_store(p->hit_t, vf16_set1(0.0f));
+            p->tri = 0, p->done = 0, p->any = occluded != NULL;
+            pwalk16_init(&walks[g], &w, &ps[g], p, stacks[g], mask, vf16_load(tmin), vf16_load(tmax),
                          vi16_load(ax));
             live |= 1u << g;
         }
