@@ -279,6 +279,32 @@ TEST(test_lod_packets_answer_as_single_rays) {
 
 /* Opened from disk, LOD queries see nothing loaded at first; the fetchers load what they
  * ask for between frames, and after enough frames the answers are the exact ones. */
+/* A voxel sample's normal and colour as Table 1 defines them (q / 31 divided at run time, the
+ * normal's components placed through an array): ooc_sample_unpack's lookups and selects
+ * must give these bits for every axis, sign and colour. */
+TEST(test_sample_unpack_gives_the_divided_values) {
+    volatile float d31 = 31.0f;
+    for (int j = 0; j < 64; j++) CHECK(ooc_q31[j] == (float)(j < 32 ? j : j - 64) / d31);
+    size_t wrong = 0;
+    uint32_t x = 12345;
+    for (int i = 0; i < 200000; i++) {
+        x = x * 1664525u + 1013904223u;
+        const uint32_t s = i < 64 ? (uint32_t)i << 15 | 0x2a5u * (uint32_t)i : x;
+        float n[3], c[3], rn[3], rc[3], v[3];
+        ooc_sample_unpack(s, n, c);
+        for (int k = 0; k < 3; k++) rc[k] = (float)((s >> (5 * k)) & 31) / d31;
+        int a = (int)((s >> 16) & 3), u = (int)((s >> 18) & 63), w = (int)((s >> 24) & 63);
+        if (a > 2) a = 1;
+        v[a] = (s >> 15) & 1 ? -1.0f : 1.0f;
+        v[(a + 1) % 3] = (float)(u >= 32 ? u - 64 : u) / d31;
+        v[(a + 2) % 3] = (float)(w >= 32 ? w - 64 : w) / d31;
+        const float l = 1.0f / sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        for (int k = 0; k < 3; k++) rn[k] = v[k] * l;
+        wrong += memcmp(n, rn, sizeof n) != 0 || memcmp(c, rc, sizeof c) != 0;
+    }
+    CHECK_MSG(wrong == 0, "%zu samples unpack differently", wrong);
+}
+
 TEST(test_fetchers_load_requested_blocks_between_frames) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("sphere", 100000, 5, &m));
@@ -411,6 +437,7 @@ int main(void) {
     RUN(test_flat_axis_aligned_scenes_from_inside);
     RUN(test_lod_queries_stop_at_voxels_that_contain_the_surface);
     RUN(test_lod_packets_answer_as_single_rays);
+    RUN(test_sample_unpack_gives_the_divided_values);
     RUN(test_fetchers_load_requested_blocks_between_frames);
     RUN(test_progressive_lod_render_converges_to_the_exact_image);
     RUN(test_bad_input_is_an_error);

@@ -46,18 +46,24 @@ uint32_t ooc_sample_pack(const float n[3], const float rgb[3], bool single) {
     return s | (uint32_t)single << 31;
 }
 
+/* q / 31 for the 6-bit two's complement q = j (j < 32) or j - 64: folded by the compiler,
+ * correctly rounded as the division at run time, so a lookup gives the same bits. */
+#define Q31(j) ((float)((j) < 32 ? (j) : (j) - 64) / 31.0f)
+#define Q31x8(j) Q31(j), Q31(j + 1), Q31(j + 2), Q31(j + 3), Q31(j + 4), Q31(j + 5), Q31(j + 6), Q31(j + 7)
+const float ooc_q31[64] = {Q31x8(0), Q31x8(8), Q31x8(16), Q31x8(24), Q31x8(32), Q31x8(40), Q31x8(48), Q31x8(56)};
+#undef Q31x8
+#undef Q31
+
 void ooc_sample_unpack(uint32_t s, float n[3], float rgb[3]) {
-    for (int k = 0; k < 3; k++) rgb[k] = (float)((s >> (5 * k)) & 31) / 31.0f;
+    for (int k = 0; k < 3; k++) rgb[k] = ooc_q31[(s >> (5 * k)) & 31];
     int a = (int)((s >> 16) & 3);
     if (a > 2) a = 1; /* only a corrupt sample has axis 3 */
-    int u = (int)((s >> 18) & 63), v = (int)((s >> 24) & 63);
-    u = u >= 32 ? u - 64 : u, v = v >= 32 ? v - 64 : v;
-    float x[3];
-    x[a] = (s >> 15) & 1 ? -1.0f : 1.0f;
-    x[(a + 1) % 3] = (float)u / 31.0f;
-    x[(a + 2) % 3] = (float)v / 31.0f;
-    float l = 1.0f / sqrtf(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-    for (int k = 0; k < 3; k++) n[k] = x[k] * l;
+    /* x[a] = w, x[(a + 1) % 3] = u, x[(a + 2) % 3] = v, by selects: through an array
+     * indexed by a, the loads waited for the stores. */
+    const float w = (s >> 15) & 1 ? -1.0f : 1.0f, u = ooc_q31[(s >> 18) & 63], v = ooc_q31[(s >> 24) & 63];
+    const float x0 = a == 0 ? w : a == 1 ? v : u, x1 = a == 0 ? u : a == 1 ? w : v, x2 = a == 0 ? v : a == 1 ? u : w;
+    float l = 1.0f / sqrtf(x0 * x0 + x1 * x1 + x2 * x2);
+    n[0] = x0 * l, n[1] = x1 * l, n[2] = x2 * l;
 }
 
 static float face_area(const float b[6], int axis) {

@@ -76,6 +76,9 @@ typedef struct ooc_tri {
  * on a 1-sample voxel. A 6-sample voxel stores -x, +x, -y, +y, -z, +z. */
 uint32_t ooc_sample_pack(const float n[3], const float rgb[3], bool single);
 void ooc_sample_unpack(uint32_t s, float n[3], float rgb[3]);
+/* ooc_q31[j] = q / 31 for the 6-bit two's complement q of j (j for a 5-bit colour
+ * channel), bit for bit the division. */
+extern const float ooc_q31[64];
 
 /* --- The build tree ------------------------------------------------------------------- */
 

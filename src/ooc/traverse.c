@@ -1171,10 +1171,15 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
                     ooc_intersect_lod(acc, r, C, false, o);
                     continue;
                 }
-                memset(o, 0, sizeof *o);
-                o->hit.t = INFINITY, o->hit.prim = PRT_INVALID;
+                /* Every field written once (a memset first cost as much as the rest). */
                 const prt__hitx *h = &ps[g].hit[i];
-                if (h->prim == PRT_INVALID) continue;
+                o->hit.geom = 0;
+                if (h->prim == PRT_INVALID) {
+                    o->hit.t = INFINITY, o->hit.u = o->hit.v = 0.0f, o->hit.prim = PRT_INVALID;
+                    for (int k = 0; k < 3; k++) o->normal[k] = o->color[k] = 0.0f;
+                    o->voxel_radius = 0.0f;
+                    continue;
+                }
                 o->hit.t = h->t, o->hit.u = h->u, o->hit.v = h->v, o->hit.prim = h->prim;
                 r->tfar = h->t;
                 if (h->prim == PRT_VOXEL_HIT) {
@@ -1185,8 +1190,9 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
                     float l = sqrtf(tn[0] * tn[0] + tn[1] * tn[1] + tn[2] * tn[2]);
                     for (int k = 0; k < 3; k++) {
                         o->normal[k] = l > 0.0f ? tn[k] / l : 0.0f;
-                        o->color[k] = (float)((ps[g].tcolor[i] >> (5 * k)) & 31) / 31.0f;
+                        o->color[k] = ooc_q31[(ps[g].tcolor[i] >> (5 * k)) & 31];
                     }
+                    o->voxel_radius = 0.0f;
                 }
             }
         }
