@@ -99,6 +99,8 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
     guide_sums gs[TILE * TILE];
     if (guides) memset(gs, 0, n * sizeof *gs);
     float direct[TILE * TILE][3]; /* the first sample starts each sum (below) */
+    const float inv = 1.0f / (float)j->spp;
+    float mean[TILE * TILE * 3]; /* the pixels' direct light, row by row */
     prt_ray rays[TILE * TILE];
     prt_hit hits[TILE * TILE];
     prt_lod_hit lods[TILE * TILE];
@@ -133,12 +135,18 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
         }
         for (uint32_t q = 0; q < n; q++) {
             const render_sample *smp = &smps[q];
-            /* 0 + x for the first sample, as sums that started at 0 (-0 becomes +0). */
-            if (s == 0)
-                direct[q][0] = 0.0f + smp->direct.x, direct[q][1] = 0.0f + smp->direct.y,
-                direct[q][2] = 0.0f + smp->direct.z;
-            else
-                direct[q][0] += smp->direct.x, direct[q][1] += smp->direct.y, direct[q][2] += smp->direct.z;
+            /* 0 + x for the first sample, as sums that started at 0 (-0 becomes +0); the last
+             * sample writes the mean, in pixel order (rereading the sums as a vector waited on
+             * their three stores). */
+            const float d0 = (s ? direct[q][0] : 0.0f) + smp->direct.x,
+                        d1 = (s ? direct[q][1] : 0.0f) + smp->direct.y,
+                        d2 = (s ? direct[q][2] : 0.0f) + smp->direct.z;
+            if (s + 1 < j->spp) {
+                direct[q][0] = d0, direct[q][1] = d1, direct[q][2] = d2;
+            } else {
+                float *m = &mean[3 * (sy[q] * w + sx[q])];
+                m[0] = d0 * inv, m[1] = d1 * inv, m[2] = d2 * inv;
+            }
             if (!guides) continue;
             guide_sums *g = &gs[q];
             const render_surface *surf = &surfs[q];
@@ -151,21 +159,17 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             }
         }
     }
-    const float inv = 1.0f / (float)j->spp;
     if (j->img) {
         /* The pixel values render_framebuffer_resolve would read, encoded row by row. */
-        float out[TILE * TILE * 3];
-        for (uint32_t q = 0; q < n; q++)
-            for (int k = 0; k < 3; k++) out[3 * (sy[q] * w + sx[q]) + k] = direct[q][k] * inv;
         for (uint32_t y = 0; y < h; y++)
-            render_encode(out + 3 * y * w, 3 * w, j->srgb, j->img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
+            render_encode(mean + 3 * y * w, 3 * w, j->srgb, j->img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
         return cast;
     }
     render_framebuffer *fb = j->fb;
-    for (uint32_t q = 0; q < n; q++) {
+    for (uint32_t y = 0; y < h; y++)
+        memcpy(fb->direct + 3 * ((size_t)(y0 + y) * cam->width + x0), mean + 3 * y * w, 3 * w * sizeof(float));
+    for (uint32_t q = 0; guides && q < n; q++) {
         const size_t px = (size_t)(y0 + sy[q]) * cam->width + x0 + sx[q];
-        for (int k = 0; k < 3; k++) fb->direct[3 * px + k] = direct[q][k] * inv;
-        if (!guides) continue;
         /* The filter's guides: the mean over the samples that hit (position and normal of a
          * silhouette pixel blend its surfaces, as its colour does). */
         const guide_sums *g = &gs[q];
