@@ -995,6 +995,24 @@ static inline vi8 vi8_load(const int32_t *p) {
 static inline void vi8_store(int32_t *p, vi8 v) { memcpy(p, &v, sizeof v); }
 static inline vi8 vi8_select(vi8 m, vi8 a, vi8 b) { return (m & a) | (~m & b); }
 
+#if defined(__AVX__)
+/* m[j][l] becomes m[l][j]. */
+static inline void transpose8(__m256 m[8]) {
+    __m256 t[8], u[8];
+    for (int i = 0; i < 8; i += 2) t[i] = _mm256_unpacklo_ps(m[i], m[i + 1]), t[i + 1] = _mm256_unpackhi_ps(m[i], m[i + 1]);
+    for (int i = 0; i < 8; i += 4) {
+        u[i] = _mm256_shuffle_ps(t[i], t[i + 2], 0x44), u[i + 1] = _mm256_shuffle_ps(t[i], t[i + 2], 0xEE);
+        u[i + 2] = _mm256_shuffle_ps(t[i + 1], t[i + 3], 0x44), u[i + 3] = _mm256_shuffle_ps(t[i + 1], t[i + 3], 0xEE);
+    }
+    for (int i = 0; i < 4; i++)
+        m[i] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x20), m[i + 4] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x31);
+}
+/* The stores of transpose8's rows land on prt__rayx's fields in order. */
+_Static_assert(offsetof(prt__rayx, inv) == 24 && offsetof(prt__rayx, kx) == 40 && offsetof(prt__rayx, sz) == 60 &&
+                   offsetof(prt__rayx, neg) == 64,
+               "prt__rayx layout");
+#endif
+
 /* The set-up of a packet of cnt <= PK rays, lane by lane in 8-wide vectors: each lane does
  * prt__rayx_init's and clip_root's arithmetic in the same order, so every value has the same
  * bits as one ray at a time (the divisions, 6 a ray, and the clipping were most of the
@@ -1006,7 +1024,21 @@ static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t c
                              float tmax[PK], int32_t axis[PK]) {
     float o[3][PK] __attribute__((aligned(32))), d[3][PK] __attribute__((aligned(32)));
     float tn[PK] __attribute__((aligned(32))), tf[PK] __attribute__((aligned(32)));
-    for (uint32_t i = 0; i < PK; i++) {
+#if defined(__AVX__)
+    /* A ray is 8 floats (org, tnear, dir, tfar): 8 rays are an 8x8 transpose away from 8
+     * lanes of each (rather than 64 loads and stores one by one). */
+    const bool full = cnt == PK;
+    for (int h = 0; full && h < PK; h += 8) {
+        __m256 m[8];
+        for (int l = 0; l < 8; l++) m[l] = _mm256_loadu_ps(rays[h + l].org);
+        transpose8(m);
+        for (int k = 0; k < 3; k++) _mm256_store_ps(&o[k][h], m[k]), _mm256_store_ps(&d[k][h], m[4 + k]);
+        _mm256_store_ps(&tn[h], m[3]), _mm256_store_ps(&tf[h], m[7]);
+    }
+#else
+    const bool full = false;
+#endif
+    for (uint32_t i = 0; !full && i < PK; i++) {
         const prt_ray *r = &rays[i < cnt ? i : 0]; /* lanes past cnt copy ray 0: in no mask */
         for (int k = 0; k < 3; k++) o[k][i] = r->org[k], d[k][i] = r->dir[k];
         tn[i] = r->tnear, tf[i] = r->tfar;
@@ -1038,10 +1070,23 @@ static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t c
         const vi8 kx0 = vi8_select(z0, i1, vi8_select(z1, i2, iz)), ky0 = vi8_select(z0, i2, vi8_select(z1, iz, i1));
         const vi8 flip = dz < zero;
         const vf8 dx = vf8_select(flip, dy0, dx0), dy = vf8_select(flip, dx0, dy0);
-        vi8_store(&kxyz[0][h], vi8_select(flip, ky0, kx0));
-        vi8_store(&kxyz[1][h], vi8_select(flip, kx0, ky0));
-        vi8_store(&kxyz[2][h], kz);
-        vf8_store(&shear[0][h], dx / dz), vf8_store(&shear[1][h], dy / dz), vf8_store(&shear[2][h], one / dz);
+        const vi8 kx = vi8_select(flip, ky0, kx0), ky = vi8_select(flip, kx0, ky0);
+        const vf8 sx = dx / dz, sy = dy / dz, sz = one / dz;
+#if defined(__AVX__)
+        if (full) {
+            /* prt__rayx's first 16 fields, 8 lanes each, transposed into two 32-byte rows a ray. */
+            __m256 m[8] = {(__m256)ov[0], (__m256)ov[1], (__m256)ov[2], (__m256)dv[0],
+                           (__m256)dv[1], (__m256)dv[2], (__m256)ivv[0], (__m256)ivv[1]};
+            transpose8(m);
+            for (int l = 0; l < 8; l++) _mm256_storeu_ps(ps->rx[h + l].org, m[l]);
+            __m256 n[8] = {(__m256)ivv[2], _mm256_load_ps(&tn[h]), (__m256)kx, (__m256)ky,
+                           (__m256)kz, (__m256)sx, (__m256)sy, (__m256)sz};
+            transpose8(n);
+            for (int l = 0; l < 8; l++) _mm256_storeu_ps(&ps->rx[h + l].inv[2], n[l]);
+        }
+#endif
+        vi8_store(&kxyz[0][h], kx), vi8_store(&kxyz[1][h], ky), vi8_store(&kxyz[2][h], kz);
+        vf8_store(&shear[0][h], sx), vf8_store(&shear[1][h], sy), vf8_store(&shear[2][h], sz);
         /* clip_root (its parallel case only meets rays left alone). */
         vf8 t_min = vf8_load(&tn[h]), t_max = vf8_load(&tf[h]), best = -inf;
         vi8 ax = iz;
@@ -1059,18 +1104,17 @@ static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t c
         inside |= (uint32_t)vi8_mask(t_min <= t_max) << h;
         vf8_store(&tmin[h], t_min), vf8_store(&tmax[h], t_max), vi8_store(&axis[h], ax);
     }
+    /* The hit's shading fields (sample, radius, tn, tcolor) are written with the hit. */
     for (uint32_t i = 0; i < cnt; i++) {
         prt__rayx *x = &ps->rx[i];
-        for (int k = 0; k < 3; k++) {
-            x->org[k] = o[k][i], x->dir[k] = d[k][i], x->inv[k] = iv[k][i];
-            x->neg[k] = iv[k][i] < 0.0f;
+        for (int k = 0; !full && k < 3; k++) x->org[k] = o[k][i], x->dir[k] = d[k][i], x->inv[k] = iv[k][i];
+        if (!full) {
+            x->tnear = tn[i];
+            x->kx = kxyz[0][i], x->ky = kxyz[1][i], x->kz = kxyz[2][i];
+            x->sx = shear[0][i], x->sy = shear[1][i], x->sz = shear[2][i];
         }
-        x->tnear = tn[i];
-        x->kx = kxyz[0][i], x->ky = kxyz[1][i], x->kz = kxyz[2][i];
-        x->sx = shear[0][i], x->sy = shear[1][i], x->sz = shear[2][i];
+        for (int k = 0; k < 3; k++) x->neg[k] = iv[k][i] < 0.0f;
         ps->hit[i].t = tf[i], ps->hit[i].prim = PRT_INVALID, ps->hit[i].u = ps->hit[i].v = 0.0f;
-        ps->tcolor[i] = 0, ps->radius[i] = 0.0f;
-        ps->tn[i][0] = ps->tn[i][1] = ps->tn[i][2] = 0.0f;
     }
     /* Rays the packet cannot take: zero direction components, or signs that differ from the
      * first ray's, are traced alone. Nearly always every ray has the same signs. */
