@@ -277,8 +277,6 @@ TEST(test_lod_packets_answer_as_single_rays) {
     prt_mesh_free(m);
 }
 
-/* Opened from disk, LOD queries see nothing loaded at first; the fetchers load what they
- * ask for between frames, and after enough frames the answers are the exact ones. */
 /* A voxel sample's normal and colour as Table 1 defines them (q / 31 divided at run time, the
  * normal's components placed through an array): ooc_sample_unpack's lookups and selects
  * must give these bits for every axis, sign and colour. */
@@ -305,6 +303,8 @@ TEST(test_sample_unpack_gives_the_divided_values) {
     CHECK_MSG(wrong == 0, "%zu samples unpack differently", wrong);
 }
 
+/* Opened from disk, LOD queries see nothing loaded at first; the fetchers load what they
+ * ask for between frames, and after enough frames the answers are the exact ones. */
 TEST(test_fetchers_load_requested_blocks_between_frames) {
     prt_mesh *m;
     CHECK_OK(prt_mesh_generate("sphere", 100000, 5, &m));

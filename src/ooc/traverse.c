@@ -1153,6 +1153,87 @@ static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t c
     return mask;
 }
 
+#if defined(__AVX2__)
+/* q / 31 for 8 integers, each lane as the division (so as ooc_q31). */
+static inline __m256 q31x8(__m256i q) { return _mm256_div_ps(_mm256_cvtepi32_ps(q), _mm256_set1_ps(31.0f)); }
+
+/* The answers of rays h..h+7 of a packet (ps), 8 lanes at a time and without a branch per
+ * ray: a miss, a voxel's sample unpacked as ooc_sample_unpack does, or a triangle's normal
+ * and colour; the same operations a lane, so the same bits as the loop one ray at a time
+ * (below), which the ray-by-ray branches on the kind of hit made slow. A hit shrinks its
+ * ray's tfar. The caller answers the rays left alone afterwards, over these. */
+static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lod_hit *out) {
+    float t[8], tx[3][8], rad[8];
+    int32_t prim[8], smp[8], col[8];
+    for (int l = 0; l < 8; l++) {
+        const prt__hitx *x = &ps->hit[h + l];
+        t[l] = x->t, prim[l] = (int32_t)x->prim;
+        /* A hit's shading fields are set with it; others may be stale, and are not used. */
+        smp[l] = (int32_t)ps->sample[h + l], rad[l] = ps->radius[h + l], col[l] = ps->tcolor[h + l];
+        for (int k = 0; k < 3; k++) tx[k][l] = ps->tn[h + l][k];
+    }
+    const __m256i pr = _mm256_loadu_si256((const __m256i *)prim);
+    const __m256 vox = _mm256_castsi256_ps(_mm256_cmpeq_epi32(pr, _mm256_set1_epi32((int32_t)PRT_VOXEL_HIT)));
+    const __m256 miss = _mm256_castsi256_ps(_mm256_cmpeq_epi32(pr, _mm256_set1_epi32((int32_t)PRT_INVALID)));
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+    const __m256i m5 = _mm256_set1_epi32(31), m6 = _mm256_set1_epi32(63), s32 = _mm256_set1_epi32(32);
+    /* The colour: the sample's 5:5:5 for a voxel, the triangle's otherwise. */
+    const __m256i c = _mm256_blendv_epi8(_mm256_loadu_si256((const __m256i *)col), _mm256_loadu_si256((const __m256i *)smp),
+                                         _mm256_castps_si256(vox));
+    __m256 rgb[3];
+    for (int k = 0; k < 3; k++) rgb[k] = q31x8(_mm256_and_si256(_mm256_srli_epi32(c, 5 * k), m5));
+    /* The voxel's normal: w on axis a, u and v on the next two. */
+    const __m256i s = _mm256_loadu_si256((const __m256i *)smp);
+    const __m256i ax = _mm256_and_si256(_mm256_srli_epi32(s, 16), _mm256_set1_epi32(3));
+    const __m256 a0 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(ax, _mm256_setzero_si256()));
+    const __m256 a2 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(ax, _mm256_set1_epi32(2))); /* axis 3 (corrupt) is 1 */
+    const __m256 w = _mm256_blendv_ps(one, _mm256_set1_ps(-1.0f),
+                                      _mm256_castsi256_ps(_mm256_slli_epi32(s, 16))); /* bit 15 to the sign */
+    const __m256 u = q31x8(_mm256_sub_epi32(_mm256_xor_si256(_mm256_and_si256(_mm256_srli_epi32(s, 18), m6), s32), s32));
+    const __m256 v = q31x8(_mm256_sub_epi32(_mm256_xor_si256(_mm256_and_si256(_mm256_srli_epi32(s, 24), m6), s32), s32));
+    /* a == 0: (w, u, v); 1: (v, w, u); 2: (u, v, w). */
+    const __m256 x0 = _mm256_blendv_ps(_mm256_blendv_ps(v, u, a2), w, a0);
+    const __m256 x1 = _mm256_blendv_ps(_mm256_blendv_ps(w, v, a2), u, a0);
+    const __m256 x2 = _mm256_blendv_ps(_mm256_blendv_ps(u, w, a2), v, a0);
+    const __m256 il = _mm256_div_ps(one, _mm256_sqrt_ps(_mm256_add_ps(
+                                             _mm256_add_ps(_mm256_mul_ps(x0, x0), _mm256_mul_ps(x1, x1)), _mm256_mul_ps(x2, x2))));
+    const __m256 vn[3] = {_mm256_mul_ps(x0, il), _mm256_mul_ps(x1, il), _mm256_mul_ps(x2, il)};
+    /* The triangle's normal: its cross product over its length (0 when that is 0). Lanes of
+     * voxels and misses take 1s, so that no stale value costs a slow path. */
+    __m256 tv[3];
+    for (int k = 0; k < 3; k++) tv[k] = _mm256_blendv_ps(_mm256_loadu_ps(tx[k]), one, _mm256_or_ps(vox, miss));
+    const __m256 len = _mm256_sqrt_ps(
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(tv[0], tv[0]), _mm256_mul_ps(tv[1], tv[1])), _mm256_mul_ps(tv[2], tv[2])));
+    const __m256 pos = _mm256_cmp_ps(len, zero, _CMP_GT_OQ);
+    __m256 nrm[3];
+    for (int k = 0; k < 3; k++)
+        nrm[k] = _mm256_andnot_ps(miss, _mm256_blendv_ps(_mm256_and_ps(pos, _mm256_div_ps(tv[k], len)), vn[k], vox));
+    for (int k = 0; k < 3; k++) rgb[k] = _mm256_andnot_ps(miss, rgb[k]);
+    const __m256 radius = _mm256_and_ps(vox, _mm256_loadu_ps(rad));
+    const __m256 tt = _mm256_blendv_ps(_mm256_loadu_ps(t), _mm256_set1_ps(INFINITY), miss);
+    /* Rows of 8 fields a ray: t, u, v, prim, geom, normal; then colour and radius. */
+    __m256 m[8], q[8];
+    float uu[8], vv[8];
+    for (int l = 0; l < 8; l++) uu[l] = ps->hit[h + l].u, vv[l] = ps->hit[h + l].v;
+    m[0] = tt, m[1] = _mm256_andnot_ps(miss, _mm256_loadu_ps(uu)), m[2] = _mm256_andnot_ps(miss, _mm256_loadu_ps(vv));
+    m[3] = _mm256_castsi256_ps(pr), m[4] = zero;
+    m[5] = nrm[0], m[6] = nrm[1], m[7] = nrm[2];
+    q[0] = rgb[0], q[1] = rgb[1], q[2] = rgb[2], q[3] = radius, q[4] = q[5] = q[6] = q[7] = zero;
+    transpose8(m), transpose8(q);
+    for (int l = 0; l < 8; l++) {
+        _mm256_storeu_ps(&out[l].hit.t, m[l]);
+        _mm_storeu_ps(out[l].color, _mm256_castps256_ps128(q[l]));
+    }
+    for (uint32_t hit = ~(uint32_t)_mm256_movemask_ps(miss) & 0xff; hit; hit &= hit - 1) {
+        const int l = __builtin_ctz(hit);
+        rays[l].tfar = t[l];
+    }
+}
+_Static_assert(offsetof(prt_lod_hit, normal) == 20 && offsetof(prt_lod_hit, color) == 32 &&
+                   offsetof(prt_lod_hit, voxel_radius) == 44 && sizeof(prt_lod_hit) == 48,
+               "prt_lod_hit layout");
+#endif
+
 /* Packets of 16 rays, walked by packet_walks16 (simd, GROUP packets in turns) or
  * packet_walk (the reference, one by one). With occluded (any-hit, SIMD only): occluded[i]
  * is set for a ray blocked by a triangle or stopped at a voxel, and out is not written. */
@@ -1208,6 +1289,16 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
                     occluded[base + i] = ps[g].hit[i].prim != PRT_INVALID;
                 }
             }
+#if defined(__AVX2__)
+            if (!occluded && cnt == PK) {
+                for (int h = 0; h < PK; h += 8) packet_answers8(&ps[g], h, &rays[base + h], &out[base + h]);
+                for (uint32_t m = single[g]; m; m &= m - 1) {
+                    const uint32_t i = (uint32_t)__builtin_ctz(m);
+                    ooc_intersect_lod(acc, &rays[base + i], C, false, &out[base + i]);
+                }
+                continue;
+            }
+#endif
             for (uint32_t i = 0; !occluded && i < cnt; i++) {
                 prt_ray *r = &rays[base + i];
                 prt_lod_hit *o = &out[base + i];
