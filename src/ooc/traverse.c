@@ -1163,27 +1163,34 @@ static inline __m256 q31x8(__m256i q) { return _mm256_div_ps(_mm256_cvtepi32_ps(
  * (below), which the ray-by-ray branches on the kind of hit made slow. A hit shrinks its
  * ray's tfar. The caller answers the rays left alone afterwards, over these. */
 static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lod_hit *out) {
-    float t[8], tx[3][8], rad[8];
-    int32_t prim[8], smp[8], col[8];
-    for (int l = 0; l < 8; l++) {
-        const prt__hitx *x = &ps->hit[h + l];
-        t[l] = x->t, prim[l] = (int32_t)x->prim;
-        /* A hit's shading fields are set with it; others may be stale, and are not used. */
-        smp[l] = (int32_t)ps->sample[h + l], rad[l] = ps->radius[h + l], col[l] = ps->tcolor[h + l];
-        for (int k = 0; k < 3; k++) tx[k][l] = ps->tn[h + l][k];
-    }
-    const __m256i pr = _mm256_loadu_si256((const __m256i *)prim);
+    /* The 8 hits (t, u, v, prim) are 4 rows of two: transposed 4x4 in each half, then put
+     * in lane order (vectors loaded from scalar stores wait, as the stores cannot forward). */
+    __m256 hr[4];
+    for (int i = 0; i < 4; i++) hr[i] = _mm256_loadu_ps(&ps->hit[h + 2 * i].t);
+    const __m256 lo01 = _mm256_unpacklo_ps(hr[0], hr[1]), hi01 = _mm256_unpackhi_ps(hr[0], hr[1]);
+    const __m256 lo23 = _mm256_unpacklo_ps(hr[2], hr[3]), hi23 = _mm256_unpackhi_ps(hr[2], hr[3]);
+    const __m256i order = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7);
+    const __m256 ht = _mm256_permutevar8x32_ps(_mm256_shuffle_ps(lo01, lo23, 0x44), order);
+    const __m256 hu = _mm256_permutevar8x32_ps(_mm256_shuffle_ps(lo01, lo23, 0xEE), order);
+    const __m256 hv = _mm256_permutevar8x32_ps(_mm256_shuffle_ps(hi01, hi23, 0x44), order);
+    const __m256i pr = _mm256_castps_si256(_mm256_permutevar8x32_ps(_mm256_shuffle_ps(hi01, hi23, 0xEE), order));
+    /* A hit's shading fields are set with it; the other lanes' may be stale, and are not used. */
+    const __m256i smpv = _mm256_loadu_si256((const __m256i *)&ps->sample[h]);
+    const __m256i colv = _mm256_cvtepu16_epi32(_mm_loadu_si128((const __m128i *)&ps->tcolor[h]));
+    const __m256 radv = _mm256_loadu_ps(&ps->radius[h]);
+    const __m256i by3 = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+    __m256 tnv[3];
+    for (int k = 0; k < 3; k++) tnv[k] = _mm256_i32gather_ps(&ps->tn[h][k], by3, 4);
     const __m256 vox = _mm256_castsi256_ps(_mm256_cmpeq_epi32(pr, _mm256_set1_epi32((int32_t)PRT_VOXEL_HIT)));
     const __m256 miss = _mm256_castsi256_ps(_mm256_cmpeq_epi32(pr, _mm256_set1_epi32((int32_t)PRT_INVALID)));
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
     const __m256i m5 = _mm256_set1_epi32(31), m6 = _mm256_set1_epi32(63), s32 = _mm256_set1_epi32(32);
     /* The colour: the sample's 5:5:5 for a voxel, the triangle's otherwise. */
-    const __m256i c = _mm256_blendv_epi8(_mm256_loadu_si256((const __m256i *)col), _mm256_loadu_si256((const __m256i *)smp),
-                                         _mm256_castps_si256(vox));
+    const __m256i c = _mm256_blendv_epi8(colv, smpv, _mm256_castps_si256(vox));
     __m256 rgb[3];
     for (int k = 0; k < 3; k++) rgb[k] = q31x8(_mm256_and_si256(_mm256_srli_epi32(c, 5 * k), m5));
     /* The voxel's normal: w on axis a, u and v on the next two. */
-    const __m256i s = _mm256_loadu_si256((const __m256i *)smp);
+    const __m256i s = smpv;
     const __m256i ax = _mm256_and_si256(_mm256_srli_epi32(s, 16), _mm256_set1_epi32(3));
     const __m256 a0 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(ax, _mm256_setzero_si256()));
     const __m256 a2 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(ax, _mm256_set1_epi32(2))); /* axis 3 (corrupt) is 1 */
@@ -1201,7 +1208,7 @@ static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lo
     /* The triangle's normal: its cross product over its length (0 when that is 0). Lanes of
      * voxels and misses take 1s, so that no stale value costs a slow path. */
     __m256 tv[3];
-    for (int k = 0; k < 3; k++) tv[k] = _mm256_blendv_ps(_mm256_loadu_ps(tx[k]), one, _mm256_or_ps(vox, miss));
+    for (int k = 0; k < 3; k++) tv[k] = _mm256_blendv_ps(tnv[k], one, _mm256_or_ps(vox, miss));
     const __m256 len = _mm256_sqrt_ps(
         _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(tv[0], tv[0]), _mm256_mul_ps(tv[1], tv[1])), _mm256_mul_ps(tv[2], tv[2])));
     const __m256 pos = _mm256_cmp_ps(len, zero, _CMP_GT_OQ);
@@ -1209,13 +1216,11 @@ static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lo
     for (int k = 0; k < 3; k++)
         nrm[k] = _mm256_andnot_ps(miss, _mm256_blendv_ps(_mm256_and_ps(pos, _mm256_div_ps(tv[k], len)), vn[k], vox));
     for (int k = 0; k < 3; k++) rgb[k] = _mm256_andnot_ps(miss, rgb[k]);
-    const __m256 radius = _mm256_and_ps(vox, _mm256_loadu_ps(rad));
-    const __m256 tt = _mm256_blendv_ps(_mm256_loadu_ps(t), _mm256_set1_ps(INFINITY), miss);
+    const __m256 radius = _mm256_and_ps(vox, radv);
+    const __m256 tt = _mm256_blendv_ps(ht, _mm256_set1_ps(INFINITY), miss);
     /* Rows of 8 fields a ray: t, u, v, prim, geom, normal; then colour and radius. */
     __m256 m[8], q[8];
-    float uu[8], vv[8];
-    for (int l = 0; l < 8; l++) uu[l] = ps->hit[h + l].u, vv[l] = ps->hit[h + l].v;
-    m[0] = tt, m[1] = _mm256_andnot_ps(miss, _mm256_loadu_ps(uu)), m[2] = _mm256_andnot_ps(miss, _mm256_loadu_ps(vv));
+    m[0] = tt, m[1] = _mm256_andnot_ps(miss, hu), m[2] = _mm256_andnot_ps(miss, hv);
     m[3] = _mm256_castsi256_ps(pr), m[4] = zero;
     m[5] = nrm[0], m[6] = nrm[1], m[7] = nrm[2];
     q[0] = rgb[0], q[1] = rgb[1], q[2] = rgb[2], q[3] = radius, q[4] = q[5] = q[6] = q[7] = zero;
@@ -1226,7 +1231,7 @@ static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lo
     }
     for (uint32_t hit = ~(uint32_t)_mm256_movemask_ps(miss) & 0xff; hit; hit &= hit - 1) {
         const int l = __builtin_ctz(hit);
-        rays[l].tfar = t[l];
+        rays[l].tfar = ps->hit[h + l].t;
     }
 }
 _Static_assert(offsetof(prt_lod_hit, normal) == 20 && offsetof(prt_lod_hit, color) == 32 &&
