@@ -137,19 +137,54 @@ PRT_INLINE void bpv_decode4(const uint64_t w[3][4], const float lo[3], const flo
 #endif
 }
 
+/* bpv_decode4 for two blocks at once (w[v][0..3] the first block's words, w[v][4..7] the
+ * second's), into the SOA form of the 8-wide test: each lane gets bpv_decode4's bits. */
+PRT_INLINE void bpv_decode8(const uint64_t w[3][8], const float lo[3], const float step[3], const int comp[3], vi8 pad,
+                            float p[72]) {
+    const vf8 nan = vf8_set1(NAN);
+#if defined(__AVX2__)
+    /* A component of both blocks' words is under 2^21: the second block's shifted into the
+     * upper half of each 64-bit lane, then the halves put in lane order. */
+    const __m256i mask = _mm256_set1_epi64x(BPV_MASK), order = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+    for (int v = 0; v < 3; v++) {
+        __m256i wa, wb;
+        memcpy(&wa, w[v], sizeof wa), memcpy(&wb, w[v] + 4, sizeof wb);
+        for (int k = 0; k < 3; k++) {
+            const __m128i sh = _mm_cvtsi32_si128(BPV_BITS * comp[k]);
+            const __m256i qa = _mm256_and_si256(_mm256_srl_epi64(wa, sh), mask);
+            const __m256i qb = _mm256_and_si256(_mm256_srl_epi64(wb, sh), mask);
+            const __m256i q = _mm256_permutevar8x32_epi32(_mm256_or_si256(qa, _mm256_slli_epi64(qb, 32)), order);
+            vf8 x = vf8_set1(lo[k]) + (vf8)_mm256_cvtepi32_ps(q) * vf8_set1(step[k]);
+            if (v < 2 && k == 2) x = vf8_select(pad, nan, x); /* bpv_decode4 says why */
+            memcpy(p + 8 * (3 * v + k), &x, sizeof x);
+        }
+    }
+#else
+    for (int v = 0; v < 3; v++)
+        for (int l = 0; l < 8; l++)
+            for (int k = 0; k < 3; k++)
+                p[8 * (3 * v + k) + l] = pad[l] && v < 2 && k == 2
+                                             ? NAN
+                                             : bpv_decode(lo[k], step[k], (uint32_t)(w[v][l] >> (BPV_BITS * comp[k])) & BPV_MASK);
+    (void)nan;
+#endif
+}
+
 /* Per-ray constants of the Indexed BitPack codecs' leaves (idx8/idx16/idx32-bitpack-soa4):
  * the buffer's grid in the watertight test's axis order kx, ky, kz (bpv_decode4's comp),
  * the origin in that order too. */
 typedef struct bpv_ray {
-    prt__rayx4t r4;
+    prt__rayx4t r4;          /* for the 4-wide test, or */
+    prt__rayx8t r8;          /* for the 8-wide one (idx8-bitpack-soa4: two blocks at a time) */
     const uint8_t *vertices; /* the u64 entries */
     float lo[3], step[3];    /* of components comp[0], comp[1], comp[2] */
     int comp[3];             /* kx, ky, kz */
     const bvh_shared *sh;
 } bpv_ray;
 
-PRT_INLINE void bpv_ray_init(bpv_ray *c, const prt__rayx *r, const bvh_shared *sh) {
-    prt__rayx4t_init_renamed(&c->r4, r);
+PRT_INLINE void bpv_ray_init(bpv_ray *c, const prt__rayx *r, const bvh_shared *sh, int lanes) {
+    if (lanes == 8) prt__rayx8t_init_renamed(&c->r8, r);
+    else prt__rayx4t_init_renamed(&c->r4, r);
     bpv_header hd;
     memcpy(&hd, sh->data, sizeof hd);
     c->comp[0] = r->kx, c->comp[1] = r->ky, c->comp[2] = r->kz;

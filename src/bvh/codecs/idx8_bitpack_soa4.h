@@ -64,16 +64,18 @@ static inline bool idx8_bitpack_soa4_leaf_valid(const uint8_t *leaf, uint32_t n,
 /* --- traversal ------------------------------------------------------------------------ */
 
 PRT_INLINE void idx8_bitpack_soa4_ray_init(idx8_bitpack_soa4_ray *c, const prt__rayx *r, const bvh_shared *sh) {
-    bpv_ray_init(c, r, sh);
+    bpv_ray_init(c, r, sh, 8);
 }
 
-/* Decode a block's 12 vertices into the SOA form the SIMD kernel reads, axes renamed
- * (bitpack_vertices.h), padding lanes NaN (vertex_window.h). */
-PRT_INLINE void idx8bp_gather(const uint8_t *block, const uint8_t *base, const idx8_bitpack_soa4_ray *c, float p[36]) {
-    uint64_t w[3][4];
+/* Blocks a and b decoded into lanes 0-3 and 4-7 of the 8-wide test; lanes in `off` (a
+ * leaf's odd last block given twice) are padding. */
+PRT_INLINE void idx8bp_gather8(const uint8_t *a, const uint8_t *b, vi8 off, const uint8_t *base,
+                               const idx8_bitpack_soa4_ray *c, float p[72]) {
+    uint64_t w[3][8];
     for (int v = 0; v < 3; v++)
-        for (int l = 0; l < 4; l++) memcpy(&w[v][l], base + 8 * (size_t)block[4 * v + l], 8);
-    bpv_decode4((const uint64_t(*)[4])w, c->lo, c->step, c->comp, vw_padding(block), p);
+        for (int l = 0; l < 4; l++)
+            memcpy(&w[v][l], base + 8 * (size_t)a[4 * v + l], 8), memcpy(&w[v][4 + l], base + 8 * (size_t)b[4 * v + l], 8);
+    bpv_decode8((const uint64_t(*)[8])w, c->lo, c->step, c->comp, vw_padding8(a, b) | off, p);
 }
 
 PRT_INLINE void idx8_bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r,
@@ -84,13 +86,17 @@ PRT_INLINE void idx8_bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, con
     memcpy(&id0, leaf + 4, 4);
     const uint8_t *base = c->vertices + 8 * (size_t)first;
     leaf += IDX8BP_HEAD_BYTES;
-    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX8BP_BLOCK_BYTES) {
-        float p[36];
-        idx8bp_gather(leaf, base, c, p);
-        vf4 t, u, v;
-        int mask = prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, vf4_set1(h->t), &t, &u, &v);
-        if (!mask) continue;
-        bvh_take_block4_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
+    /* Blocks two at a time in the 8-wide test (a leaf of up to 8 triangles: one test, no
+     * loop), an odd last block with four padding lanes; the hit is taken as block after
+     * block would take it (nearest, then the smallest id). */
+    const uint32_t blocks = (n + 3) / 4;
+    for (uint32_t b = 0; b < blocks; b += 2, leaf += 2 * IDX8BP_BLOCK_BYTES) {
+        const bool odd = b + 1 == blocks;
+        float p[72];
+        idx8bp_gather8(leaf, odd ? leaf : leaf + IDX8BP_BLOCK_BYTES, odd ? vw_upper_half : (vi8){0}, base, c, p);
+        vf8 t, u, v;
+        int mask = prt__tri8_hit(&prt__rayx_renamed, &c->r8, p, vf8_set1(h->t), &t, &u, &v);
+        if (mask) bvh_take_block8_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
     }
 }
 
@@ -101,12 +107,13 @@ PRT_INLINE bool idx8_bitpack_soa4_occluded(const uint8_t *leaf, uint32_t n, cons
     memcpy(&first, leaf, 4);
     const uint8_t *base = c->vertices + 8 * (size_t)first;
     leaf += IDX8BP_HEAD_BYTES;
-    const vf4 tf = vf4_set1(tfar);
-    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX8BP_BLOCK_BYTES) {
-        float p[36];
-        idx8bp_gather(leaf, base, c, p);
-        vf4 t, u, v;
-        if (prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, tf, &t, &u, &v)) return true;
+    const uint32_t blocks = (n + 3) / 4;
+    for (uint32_t b = 0; b < blocks; b += 2, leaf += 2 * IDX8BP_BLOCK_BYTES) {
+        const bool odd = b + 1 == blocks;
+        float p[72];
+        idx8bp_gather8(leaf, odd ? leaf : leaf + IDX8BP_BLOCK_BYTES, odd ? vw_upper_half : (vi8){0}, base, c, p);
+        vf8 t, u, v;
+        if (prt__tri8_hit(&prt__rayx_renamed, &c->r8, p, vf8_set1(tfar), &t, &u, &v)) return true;
     }
     return false;
 }

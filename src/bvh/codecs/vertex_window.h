@@ -113,4 +113,21 @@ static inline vi4 vw_padding(const uint8_t *block) {
 #endif
 }
 
+/* vw_padding of blocks a and b as 8 lanes (a's, then b's). */
+static inline vi8 vw_padding8(const uint8_t *a, const uint8_t *b) {
+#if defined(__AVX2__)
+    uint32_t a0, a1, b0, b1;
+    memcpy(&a0, a, 4), memcpy(&a1, a + 4, 4), memcpy(&b0, b, 4), memcpy(&b1, b + 4, 4);
+    const __m128i i0 = _mm_cvtsi64_si128((long long)((uint64_t)b0 << 32 | a0));
+    const __m128i i1 = _mm_cvtsi64_si128((long long)((uint64_t)b1 << 32 | a1));
+    return (vi8)_mm256_cvtepi8_epi32(_mm_cmpeq_epi8(i0, i1));
+#else
+    const vi4 x = vw_padding(a), y = vw_padding(b);
+    return (vi8){x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3]};
+#endif
+}
+
+/* Lanes 4-7: the padding half of a lone block in an 8-lane test. */
+static const vi8 vw_upper_half = {0, 0, 0, 0, -1, -1, -1, -1};
+
 #endif
