@@ -100,6 +100,16 @@ static inline double bpv_buffer_error(const bvh_shared *sh) {
     return hd.vertex_error;
 }
 
+/* The decodes below without SIMD: w[v * lanes + l] is vertex v of lane l. */
+static inline void bpv_decode_lanes(const uint64_t *w, int lanes, const float lo[3], const float step[3],
+                                    const int comp[3], const int32_t *pad, float *p) {
+    for (int v = 0; v < 3; v++)
+        for (int l = 0; l < lanes; l++)
+            for (int k = 0; k < 3; k++)
+                p[lanes * (3 * v + k) + l] =
+                    pad[l] && v < 2 && k == 2 ? NAN : bpv_decode(lo[k], step[k], (uint32_t)(w[v * lanes + l] >> (BPV_BITS * comp[k])) & BPV_MASK);
+}
+
 /* Decode the 12 words of a block of four triangles (w[v][lane]: vertex v of each) into the
  * SOA form the 4-wide kernel reads, row k of each vertex holding component comp[k] (the
  * caller's order: the watertight test's axes kx, ky, kz, so that its inputs sit at fixed
@@ -127,12 +137,9 @@ PRT_INLINE void bpv_decode4(const uint64_t w[3][4], const float lo[3], const flo
         }
     }
 #else
-    for (int v = 0; v < 3; v++)
-        for (int l = 0; l < 4; l++)
-            for (int k = 0; k < 3; k++)
-                p[4 * (3 * v + k) + l] = pad[l] && v < 2 && k == 2
-                                             ? NAN
-                                             : bpv_decode(lo[k], step[k], (uint32_t)(w[v][l] >> (BPV_BITS * comp[k])) & BPV_MASK);
+    int32_t pads[4];
+    memcpy(pads, &pad, sizeof pads);
+    bpv_decode_lanes(&w[0][0], 4, lo, step, comp, pads, p);
     (void)nan;
 #endif
 }
@@ -160,12 +167,9 @@ PRT_INLINE void bpv_decode8(const uint64_t w[3][8], const float lo[3], const flo
         }
     }
 #else
-    for (int v = 0; v < 3; v++)
-        for (int l = 0; l < 8; l++)
-            for (int k = 0; k < 3; k++)
-                p[8 * (3 * v + k) + l] = pad[l] && v < 2 && k == 2
-                                             ? NAN
-                                             : bpv_decode(lo[k], step[k], (uint32_t)(w[v][l] >> (BPV_BITS * comp[k])) & BPV_MASK);
+    int32_t pads[8];
+    memcpy(pads, &pad, sizeof pads);
+    bpv_decode_lanes(&w[0][0], 8, lo, step, comp, pads, p);
     (void)nan;
 #endif
 }

@@ -67,10 +67,12 @@ PRT_INLINE void idx8_bitpack_soa4_ray_init(idx8_bitpack_soa4_ray *c, const prt__
     bpv_ray_init(c, r, sh, 8);
 }
 
-/* Blocks a and b decoded into lanes 0-3 and 4-7 of the 8-wide test; lanes in `off` (a
- * leaf's odd last block given twice) are padding. */
-PRT_INLINE void idx8bp_gather8(const uint8_t *a, const uint8_t *b, vi8 off, const uint8_t *base,
-                               const idx8_bitpack_soa4_ray *c, float p[72]) {
+/* The block at a and the next decoded into lanes 0-3 and 4-7 of the 8-wide test; for a
+ * leaf's odd last block (`odd`) lanes 4-7 are padding. */
+PRT_INLINE void idx8bp_gather8(const uint8_t *a, bool odd, const uint8_t *base, const idx8_bitpack_soa4_ray *c,
+                               float p[72]) {
+    const uint8_t *b = odd ? a : a + IDX8BP_BLOCK_BYTES;
+    const vi8 off = odd ? vw_upper_half : (vi8){0};
     uint64_t w[3][8];
     for (int v = 0; v < 3; v++)
         for (int l = 0; l < 4; l++)
@@ -91,9 +93,8 @@ PRT_INLINE void idx8_bitpack_soa4_intersect(const uint8_t *leaf, uint32_t n, con
      * block would take it (nearest, then the smallest id). */
     const uint32_t blocks = (n + 3) / 4;
     for (uint32_t b = 0; b < blocks; b += 2, leaf += 2 * IDX8BP_BLOCK_BYTES) {
-        const bool odd = b + 1 == blocks;
         float p[72];
-        idx8bp_gather8(leaf, odd ? leaf : leaf + IDX8BP_BLOCK_BYTES, odd ? vw_upper_half : (vi8){0}, base, c, p);
+        idx8bp_gather8(leaf, b + 1 == blocks, base, c, p);
         vf8 t, u, v;
         int mask = prt__tri8_hit(&prt__rayx_renamed, &c->r8, p, vf8_set1(h->t), &t, &u, &v);
         if (mask) bvh_take_block8_seq(h, t, u, v, mask, id0 + 4 * b, c->sh);
@@ -109,9 +110,8 @@ PRT_INLINE bool idx8_bitpack_soa4_occluded(const uint8_t *leaf, uint32_t n, cons
     leaf += IDX8BP_HEAD_BYTES;
     const uint32_t blocks = (n + 3) / 4;
     for (uint32_t b = 0; b < blocks; b += 2, leaf += 2 * IDX8BP_BLOCK_BYTES) {
-        const bool odd = b + 1 == blocks;
         float p[72];
-        idx8bp_gather8(leaf, odd ? leaf : leaf + IDX8BP_BLOCK_BYTES, odd ? vw_upper_half : (vi8){0}, base, c, p);
+        idx8bp_gather8(leaf, b + 1 == blocks, base, c, p);
         vf8 t, u, v;
         if (prt__tri8_hit(&prt__rayx_renamed, &c->r8, p, vf8_set1(tfar), &t, &u, &v)) return true;
     }
