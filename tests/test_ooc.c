@@ -199,7 +199,7 @@ TEST(test_lod_packets_answer_as_single_rays) {
     prt_camera_default(lo, hi, &cam);
     prt_ray *rnd = rays_random(m, N, 5);
     const float errors[] = {0.0f, 1e-3f, 1e-2f, 1e9f};
-    size_t differ = 0, voxels = 0, differ_ref = 0, triangles = 0, occ_differ = 0, occ_count[2] = {0, 0};
+    size_t differ = 0, voxels = 0, differ_ref = 0, differ_short = 0, triangles = 0, occ_differ = 0, occ_count[2] = {0, 0};
     prt_ray *cam_rays = malloc(N * sizeof *cam_rays);
     uint8_t *occ = malloc(N);
     const float light[3] = {hi[0] + (hi[0] - lo[0]), hi[1] + (hi[1] - lo[1]), lo[2] - 0.5f * (hi[2] - lo[2])};
@@ -243,6 +243,15 @@ TEST(test_lod_packets_answer_as_single_rays) {
                 triangles += hp[i].hit.prim < PRT_VOXEL_HIT;
                 if (memcmp(&hp[i], &href[i], sizeof hp[i]) || memcmp(&r1[i], &r2[i], sizeof r1[i])) differ_ref++;
             }
+            /* The rays from the 6th on, in packets that straddle the 4x4 blocks, the last of
+             * 7 rays in the middle of the image (the set-up's lane-by-lane path for short
+             * packets), answer as in the whole call. */
+            const int from = 5, count = 16 * 124 + 7;
+            memcpy(r2, rays + from, count * sizeof *r2);
+            prt_intersect_lod_packet(a, r2, href, count, errors[e]);
+            for (int i = 0; i < count; i++)
+                if (memcmp(&hp[from + i], &href[i], sizeof hp[i]) || memcmp(&r1[from + i], &r2[i], sizeof r1[i]))
+                    differ_short++;
             prt_occluded_lod_packet(a, rays, occ, N, errors[e]);
             for (int i = 0; i < N; i++) {
                 const bool want = prt_occluded_lod(a, &rays[i], errors[e]);
@@ -268,6 +277,7 @@ TEST(test_lod_packets_answer_as_single_rays) {
     CHECK_MSG(differ == 0, "%zu packet answers differ from single rays", differ);
     CHECK_MSG(voxels > 1000, "only %zu voxel answers: the LOD bound was not exercised", voxels);
     CHECK_MSG(differ_ref == 0, "%zu SIMD packet answers differ from the scalar packets'", differ_ref);
+    CHECK_MSG(differ_short == 0, "%zu answers of a shifted call ending in a partial packet differ", differ_short);
     CHECK_MSG(triangles > 1000, "only %zu triangle answers: the leaf test was not exercised", triangles);
     CHECK_MSG(occ_differ == 0, "%zu shadow packet answers differ from single rays", occ_differ);
     CHECK_MSG(occ_count[0] > 1000 && occ_count[1] > 1000, "occluded %zu, open %zu: both answers must be exercised",
