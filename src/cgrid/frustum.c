@@ -91,25 +91,6 @@ _Static_assert(sizeof(prt_ray) == 32 && offsetof(prt_ray, tnear) == 12 && offset
                    offsetof(prt_ray, tfar) == 28,
                "the transpose reads a prt_ray as org xyz, tnear, dir xyz, tfar");
 
-/* In place: c[k][l] = (input c[l])[k], an 8x8 transpose in three rounds of shuffles. */
-static inline void transpose8(vf8 c[8]) {
-    vf8 t[8], u[8];
-    for (int i = 0; i < 8; i += 2) {
-        t[i] = __builtin_shufflevector(c[i], c[i + 1], 0, 8, 1, 9, 4, 12, 5, 13);
-        t[i + 1] = __builtin_shufflevector(c[i], c[i + 1], 2, 10, 3, 11, 6, 14, 7, 15);
-    }
-    for (int i = 0; i < 8; i += 4) {
-        u[i] = __builtin_shufflevector(t[i], t[i + 2], 0, 1, 8, 9, 4, 5, 12, 13);
-        u[i + 1] = __builtin_shufflevector(t[i], t[i + 2], 2, 3, 10, 11, 6, 7, 14, 15);
-        u[i + 2] = __builtin_shufflevector(t[i + 1], t[i + 3], 0, 1, 8, 9, 4, 5, 12, 13);
-        u[i + 3] = __builtin_shufflevector(t[i + 1], t[i + 3], 2, 3, 10, 11, 6, 7, 14, 15);
-    }
-    for (int i = 0; i < 4; i++) {
-        c[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
-        c[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
-    }
-}
-
 /* Trace rays idx[0..n) of the packet: frustum set through slices, the rest by DDA. */
 static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const uint32_t *idx, uint32_t n) {
     const cg_grid *g = &c->g;
@@ -156,7 +137,7 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             /* A prt_ray is 8 floats: load 8 rays and transpose (org xyz, tnear, dir xyz, tfar). */
             vf8 c[8];
             for (uint32_t l = 0; l < 8; l++) c[l] = vf8_load((const float *)&rays[idx[i0 + l < n ? i0 + l : i0]]);
-            transpose8(c);
+            vf8_transpose8(c);
             const vf8 o[3] = {c[0], c[1], c[2]}, d[3] = {c[4], c[5], c[6]};
             const vf8 tn = c[3], tf = c[7];
             vf8 og[3], dg[3];

@@ -42,6 +42,30 @@ typedef int32_t vi8 __attribute__((vector_size(32)));
 
 static inline vf8 vf8_set1(float x) { return (vf8){x, x, x, x, x, x, x, x}; }
 static inline vf8 vf8_load(const float *p) { vf8 v; memcpy(&v, p, sizeof v); return v; }
+static inline void vf8_store(float *p, vf8 v) { memcpy(p, &v, sizeof v); }
+static inline vi8 vi8_load(const int32_t *p) { vi8 v; memcpy(&v, p, sizeof v); return v; }
+static inline void vi8_store(int32_t *p, vi8 v) { memcpy(p, &v, sizeof v); }
+static inline vi8 vi8_select(vi8 m, vi8 a, vi8 b) { return (m & a) | (~m & b); }
+
+/* In place: c[k][l] = (input c[l])[k], an 8x8 transpose in three rounds of shuffles (rows
+ * of 8 floats to columns: AoS records to SoA lanes and back). */
+static inline void vf8_transpose8(vf8 c[8]) {
+    vf8 t[8], u[8];
+    for (int i = 0; i < 8; i += 2) {
+        t[i] = __builtin_shufflevector(c[i], c[i + 1], 0, 8, 1, 9, 4, 12, 5, 13);
+        t[i + 1] = __builtin_shufflevector(c[i], c[i + 1], 2, 10, 3, 11, 6, 14, 7, 15);
+    }
+    for (int i = 0; i < 8; i += 4) {
+        u[i] = __builtin_shufflevector(t[i], t[i + 2], 0, 1, 8, 9, 4, 5, 12, 13);
+        u[i + 1] = __builtin_shufflevector(t[i], t[i + 2], 2, 3, 10, 11, 6, 7, 14, 15);
+        u[i + 2] = __builtin_shufflevector(t[i + 1], t[i + 3], 0, 1, 8, 9, 4, 5, 12, 13);
+        u[i + 3] = __builtin_shufflevector(t[i + 1], t[i + 3], 2, 3, 10, 11, 6, 7, 14, 15);
+    }
+    for (int i = 0; i < 4; i++) {
+        c[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+        c[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+    }
+}
 
 #if defined(__AVX__)
 static inline vf8 vf8_min(vf8 a, vf8 b) { return (vf8)_mm256_min_ps((__m256)a, (__m256)b); }

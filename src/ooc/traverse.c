@@ -986,28 +986,8 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
 /* Packets walked together by a call (the renderer passes a tile of 64 rays: 4 packets). */
 #define GROUP 4
 
-static inline void vf8_store(float *p, vf8 v) { memcpy(p, &v, sizeof v); }
-static inline vi8 vi8_load(const int32_t *p) {
-    vi8 v;
-    memcpy(&v, p, sizeof v);
-    return v;
-}
-static inline void vi8_store(int32_t *p, vi8 v) { memcpy(p, &v, sizeof v); }
-static inline vi8 vi8_select(vi8 m, vi8 a, vi8 b) { return (m & a) | (~m & b); }
-
 #if defined(__AVX__)
-/* m[j][l] becomes m[l][j]. */
-static inline void transpose8(__m256 m[8]) {
-    __m256 t[8], u[8];
-    for (int i = 0; i < 8; i += 2) t[i] = _mm256_unpacklo_ps(m[i], m[i + 1]), t[i + 1] = _mm256_unpackhi_ps(m[i], m[i + 1]);
-    for (int i = 0; i < 8; i += 4) {
-        u[i] = _mm256_shuffle_ps(t[i], t[i + 2], 0x44), u[i + 1] = _mm256_shuffle_ps(t[i], t[i + 2], 0xEE);
-        u[i + 2] = _mm256_shuffle_ps(t[i + 1], t[i + 3], 0x44), u[i + 3] = _mm256_shuffle_ps(t[i + 1], t[i + 3], 0xEE);
-    }
-    for (int i = 0; i < 4; i++)
-        m[i] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x20), m[i + 4] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x31);
-}
-/* The stores of transpose8's rows land on prt__rayx's fields in order. */
+/* The stores of vf8_transpose8's rows land on prt__rayx's fields in order. */
 _Static_assert(offsetof(prt__rayx, inv) == 24 && offsetof(prt__rayx, kx) == 40 && offsetof(prt__rayx, sz) == 60 &&
                    offsetof(prt__rayx, neg) == 64,
                "prt__rayx layout");
@@ -1029,11 +1009,11 @@ static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t c
      * lanes of each (rather than 64 loads and stores one by one). */
     const bool full = cnt == PK;
     for (int h = 0; full && h < PK; h += 8) {
-        __m256 m[8];
-        for (int l = 0; l < 8; l++) m[l] = _mm256_loadu_ps(rays[h + l].org);
-        transpose8(m);
-        for (int k = 0; k < 3; k++) _mm256_store_ps(&o[k][h], m[k]), _mm256_store_ps(&d[k][h], m[4 + k]);
-        _mm256_store_ps(&tn[h], m[3]), _mm256_store_ps(&tf[h], m[7]);
+        vf8 m[8];
+        for (int l = 0; l < 8; l++) m[l] = vf8_load(rays[h + l].org);
+        vf8_transpose8(m);
+        for (int k = 0; k < 3; k++) vf8_store(&o[k][h], m[k]), vf8_store(&d[k][h], m[4 + k]);
+        vf8_store(&tn[h], m[3]), vf8_store(&tf[h], m[7]);
     }
 #else
     const bool full = false;
@@ -1075,14 +1055,12 @@ static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t c
 #if defined(__AVX__)
         if (full) {
             /* prt__rayx's first 16 fields, 8 lanes each, transposed into two 32-byte rows a ray. */
-            __m256 m[8] = {(__m256)ov[0], (__m256)ov[1], (__m256)ov[2], (__m256)dv[0],
-                           (__m256)dv[1], (__m256)dv[2], (__m256)ivv[0], (__m256)ivv[1]};
-            transpose8(m);
-            for (int l = 0; l < 8; l++) _mm256_storeu_ps(ps->rx[h + l].org, m[l]);
-            __m256 n[8] = {(__m256)ivv[2], _mm256_load_ps(&tn[h]), (__m256)kx, (__m256)ky,
-                           (__m256)kz, (__m256)sx, (__m256)sy, (__m256)sz};
-            transpose8(n);
-            for (int l = 0; l < 8; l++) _mm256_storeu_ps(&ps->rx[h + l].inv[2], n[l]);
+            vf8 m[8] = {ov[0], ov[1], ov[2], dv[0], dv[1], dv[2], ivv[0], ivv[1]};
+            vf8_transpose8(m);
+            for (int l = 0; l < 8; l++) vf8_store(ps->rx[h + l].org, m[l]);
+            vf8 n[8] = {ivv[2], vf8_load(&tn[h]), (vf8)kx, (vf8)ky, (vf8)kz, sx, sy, sz};
+            vf8_transpose8(n);
+            for (int l = 0; l < 8; l++) vf8_store(&ps->rx[h + l].inv[2], n[l]);
         }
 #endif
         vi8_store(&kxyz[0][h], kx), vi8_store(&kxyz[1][h], ky), vi8_store(&kxyz[2][h], kz);
@@ -1219,15 +1197,13 @@ static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lo
     const __m256 radius = _mm256_and_ps(vox, radv);
     const __m256 tt = _mm256_blendv_ps(ht, _mm256_set1_ps(INFINITY), miss);
     /* Rows of 8 fields a ray: t, u, v, prim, geom, normal; then colour and radius. */
-    __m256 m[8], q[8];
-    m[0] = tt, m[1] = _mm256_andnot_ps(miss, hu), m[2] = _mm256_andnot_ps(miss, hv);
-    m[3] = _mm256_castsi256_ps(pr), m[4] = zero;
-    m[5] = nrm[0], m[6] = nrm[1], m[7] = nrm[2];
-    q[0] = rgb[0], q[1] = rgb[1], q[2] = rgb[2], q[3] = radius, q[4] = q[5] = q[6] = q[7] = zero;
-    transpose8(m), transpose8(q);
+    vf8 m[8] = {(vf8)tt, (vf8)_mm256_andnot_ps(miss, hu), (vf8)_mm256_andnot_ps(miss, hv), (vf8)_mm256_castsi256_ps(pr),
+                (vf8)zero, (vf8)nrm[0], (vf8)nrm[1], (vf8)nrm[2]};
+    vf8 q[8] = {(vf8)rgb[0], (vf8)rgb[1], (vf8)rgb[2], (vf8)radius, (vf8)zero, (vf8)zero, (vf8)zero, (vf8)zero};
+    vf8_transpose8(m), vf8_transpose8(q);
     for (int l = 0; l < 8; l++) {
-        _mm256_storeu_ps(&out[l].hit.t, m[l]);
-        _mm_storeu_ps(out[l].color, _mm256_castps256_ps128(q[l]));
+        vf8_store(&out[l].hit.t, m[l]);
+        _mm_storeu_ps(out[l].color, _mm256_castps256_ps128((__m256)q[l]));
     }
     for (uint32_t hit = ~(uint32_t)_mm256_movemask_ps(miss) & 0xff; hit; hit &= hit - 1) {
         const int l = __builtin_ctz(hit);
