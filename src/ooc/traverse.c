@@ -111,6 +111,27 @@ static bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *chi
     return true;
 }
 
+/* lod_node for the packet walk: where the voxel lies (*vox) instead of a copy, with the same
+ * outcome in every case (a voxel past the block's end leaves the one before). */
+static inline bool lod_node16(const walker *w, uint32_t off, float *radius, uint32_t *child_block,
+                              const uint8_t **vox, int *nvox, float *vox_radius) {
+    if (off + 16 > w->size) return false;
+    uint32_t w3;
+    memcpy(radius, w->blk + off + 8, 4);
+    memcpy(&w3, w->blk + off + 12, 4);
+    uint32_t vo = off + 4 * (w3 >> 26);
+    if (vo + 4 <= w->size) {
+        uint32_t s0;
+        memcpy(&s0, w->blk + vo, 4);
+        *nvox = (s0 >> 31) ? 1 : 6;
+        if (vo + 4u * (uint32_t)*nvox > w->size) *nvox = 0;
+        else *vox = w->blk + vo;
+        *vox_radius = *radius;
+    }
+    *child_block = w3 & ((1u << 26) - 1);
+    return true;
+}
+
 /* A leaf's triangle list in triangle block p: its offset and count (a count over 255 is
  * stored as the list's first entry), and the block's triangle and vertex counts. False
  * when the list does not fit the block's list section. */
@@ -645,12 +666,15 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
  * them with prt__tri8_hit (bit for bit prt__tri_hit), the closest (t, then mesh id) kept as
  * the one-by-one loop would keep it. */
 
+/* A LOD walk holds every block it enters until the frame ends (the cache evicts no block
+ * touched in the frame), so the walk keeps where its voxel lies in the block rather than
+ * a copy of its samples: one pointer to save on a push, a pop and a yield. */
 typedef struct pentry16 {
     vf16 tmin, tmax;
     vi16 axis;
     uint32_t block, off, mask;
     int depth, nvox;
-    uint32_t vox[6];
+    const uint8_t *vox;
     float vox_radius;
 } pentry16;
 
@@ -665,8 +689,10 @@ typedef struct packet16 {
 
 /* The rays of mask that stop at the current voxel. */
 static uint32_t voxel_hits16(packet_state *ps, packet16 *pk, uint32_t mask, vf16 tmin, vi16 axis, int nvox,
-                             const uint32_t *vox, float vox_radius) {
+                             const uint8_t *vox_at, float vox_radius) {
     if (!nvox || !mask) return 0;
+    uint32_t vox[6];
+    memcpy(vox, vox_at, 4u * (uint32_t)nvox);
     float tm[PK];
     int32_t ax[PK];
     vf16_store(tm, tmin), vi16_store(ax, axis);
@@ -800,7 +826,7 @@ typedef struct pwalk16 {
     int sp;
     uint32_t block, off, mask;
     int nvox, depth;
-    uint32_t vox[6];
+    const uint8_t *vox;
     float vox_radius;
     const uint8_t *leaf_p; /* the triangle block of the leaf at off once its triangles are asked for */
     uint32_t leaf_size;
@@ -813,7 +839,7 @@ static void pwalk16_init(pwalk16 *s, const walker *w, packet_state *ps, packet16
     s->w = *w, s->ps = ps, s->pk = pk, s->stack = stack, s->sp = 0;
     s->block = w->a->h.root_block, s->off = w->a->h.root_offset, s->mask = mask;
     s->nvox = 0, s->depth = 0, s->vox_radius = 0.0f;
-    memset(s->vox, 0, sizeof s->vox);
+    s->vox = NULL;
     s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
     s->leaf_p = NULL, s->leaf_size = 0;
 }
@@ -833,7 +859,7 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
     int sp;
     uint32_t block, off, mask;
     int nvox, depth;
-    uint32_t vox[6];
+    const uint8_t *vox;
     float vox_radius;
     vf16 tmin, tmax;
     vi16 axis_in;
@@ -842,7 +868,7 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
     do {                                                                                                            \
         s = &walks[g], w = &s->w, ps = s->ps, pk = s->pk, stack = s->stack, sp = s->sp;                            \
         block = s->block, off = s->off, mask = s->mask, nvox = s->nvox, depth = s->depth;                          \
-        memcpy(vox, s->vox, sizeof vox);                                                                            \
+        vox = s->vox;                                                                                               \
         vox_radius = s->vox_radius, tmin = s->tmin, tmax = s->tmax, axis_in = s->axis_in;                          \
     } while (0)
     LOAD_WALK();
@@ -890,7 +916,7 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
             }
             if (w0 & OOC_LOD) {
                 float radius;
-                if (!lod_node(w, off, &radius, &child_block, vox, &nvox, &vox_radius)) {
+                if (!lod_node16(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
                 }
@@ -903,13 +929,17 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
                 }
                 base = 0;
             }
+            /* The front and back child by selects, not arrays indexed by the ray's side (which
+             * went through the stack on every step). */
             uint32_t kid[2];
             bool has[2];
             inner_children(w0, base, kid, has);
-            const int front = pk->front[axis], back = 1 - front;
+            const bool front1 = pk->front[axis] != 0;
+            const uint32_t kid_front = front1 ? kid[1] : kid[0], kid_back = front1 ? kid[0] : kid[1];
+            const bool has_front = front1 ? has[1] : has[0], has_back = front1 ? has[0] : has[1];
             const vf16 t = vf16_mul(vf16_sub(vf16_set1(split), pk->org[axis]), pk->inv[axis]);
-            uint32_t fmask = has[front] ? mask & ~vi16_mask(vf16_lt(t, tmin)) : 0;
-            uint32_t bmask = has[back] ? mask & ~vi16_mask(vf16_gt(t, tmax)) : 0;
+            uint32_t fmask = has_front ? mask & ~vi16_mask(vf16_lt(t, tmin)) : 0;
+            uint32_t bmask = has_back ? mask & ~vi16_mask(vf16_gt(t, tmax)) : 0;
             depth++;
             if (bmask) {
                 /* Rays that cross the plane inside their segment enter the back part
@@ -918,20 +948,19 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
                 const vf16 back_tmin = vf16_max(tmin, t);
                 if (fmask) {
                     pentry16 *e = &stack[sp++];
-                    e->block = child_block, e->off = kid[back], e->mask = bmask, e->depth = depth;
-                    e->nvox = nvox, e->vox_radius = vox_radius;
-                    memcpy(e->vox, vox, sizeof vox);
+                    e->block = child_block, e->off = kid_back, e->mask = bmask, e->depth = depth;
+                    e->nvox = nvox, e->vox_radius = vox_radius, e->vox = vox;
                     e->tmin = back_tmin, e->tmax = tmax, e->axis = back_axis;
                 } else {
                     axis_in = back_axis, tmin = back_tmin;
                     mask = bmask;
-                    off = kid[back];
+                    off = kid_back;
                 }
             }
             if (fmask) {
                 tmax = vf16_min(tmax, t);
                 mask = fmask;
-                off = kid[front];
+                off = kid_front;
             } else if (!bmask) {
                 pop = true;
                 break;
@@ -966,15 +995,14 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
             mask = m2;
             tmin = e->tmin, tmax = e->tmax, axis_in = e->axis;
             block = e->block, off = e->off, depth = e->depth, nvox = e->nvox, vox_radius = e->vox_radius;
-            memcpy(vox, e->vox, sizeof vox);
+            vox = e->vox;
             break;
         }
         continue;
     yield:
         if (!(live & (live - 1))) continue; /* alone: its state is where it stopped */
         s->sp = sp, s->block = block, s->off = off, s->mask = mask;
-        s->nvox = nvox, s->depth = depth, s->vox_radius = vox_radius;
-        memcpy(s->vox, vox, sizeof vox);
+        s->nvox = nvox, s->depth = depth, s->vox_radius = vox_radius, s->vox = vox;
         s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
     next: /* the next live walk after g, round and round */
         g = __builtin_ctz(live & ~((2u << g) - 1) ? live & ~((2u << g) - 1) : live);
