@@ -25,7 +25,7 @@ typedef struct entry {
     int axis; /* entry axis */
     int depth;
     int nvox;
-    uint32_t vox[6];
+    const uint8_t *vox; /* the last LOD voxel, where it lies in its block (see walk) */
 } entry;
 
 typedef struct walker {
@@ -111,8 +111,8 @@ static bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *chi
     return true;
 }
 
-/* lod_node for the packet walk: where the voxel lies (*vox) instead of a copy, with the same
- * outcome in every case (a voxel past the block's end leaves the one before). */
+/* lod_node for the walks of LOD queries: where the voxel lies (*vox) instead of a copy, with
+ * the same outcome in every case (a voxel past the block's end leaves the one before). */
 static inline bool lod_node16(const walker *w, uint32_t off, float *radius, uint32_t *child_block,
                               const uint8_t **vox, int *nvox, float *vox_radius) {
     if (off + 16 > w->size) return false;
@@ -233,8 +233,11 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
     entry stack[OOC_MAX_DEPTH + 2];
     int sp = 0;
     uint32_t block = a->h.root_block, off = a->h.root_offset;
+    /* The last LOD voxel above the ray, as where it lies in its block rather than a copy of
+     * its 24 bytes on every LOD node, push and pop: a LOD walk holds every block it enters
+     * until the frame ends, and an exact walk never reads it. */
     int nvox = 0;
-    uint32_t vox[6] = {0};
+    const uint8_t *vox = NULL;
     float vox_radius = 0.0f;
     bool found = false;
     int depth = 0;
@@ -243,7 +246,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
     do {                                                                                                                    \
         if (nvox && tmin < hit->t) {                                                                                        \
             hit->t = MAXF(tmin, r->tnear), hit->prim = PRT_VOXEL_HIT, hit->u = hit->v = 0.0f;                             \
-            *sample = vox[nvox == 6 ? 2 * axis_in + (rx.dir[axis_in] < 0.0f) : 0];                                          \
+            memcpy(sample, vox + 4 * (nvox == 6 ? 2 * axis_in + (rx.dir[axis_in] < 0.0f) : 0), 4);                          \
             *voxel_radius = vox_radius;                                                                                     \
             finish(w);                                                                                                      \
             return true;                                                                                                    \
@@ -279,7 +282,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             }
             if (w0 & OOC_LOD) {
                 float radius;
-                if (!lod_node(w, off, &radius, &child_block, vox, &nvox, &vox_radius)) {
+                if (!lod_node16(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
                 }
@@ -301,38 +304,40 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                 front_only = true;
                 if (rx.org[axis] == split) front_only = false, t = tmin, t_back = tmin, t_front = tmax, front = 0;
             }
-            const int back = 1 - front;
+            /* The front and back child by selects, not arrays indexed by the ray's side
+             * (which go through the stack on every step). */
+            const uint32_t kid_front = front ? kid[1] : kid[0], kid_back = front ? kid[0] : kid[1];
+            const bool has_front = front ? has[1] : has[0], has_back = front ? has[0] : has[1];
             depth++;
             /* Strict comparisons: a plane crossed exactly at the segment's end visits both
              * sides, so a cell of zero thickness (an empty-space cut on each side of a flat
              * group of triangles) is not stepped over. */
             if (front_only) {
-                if (!has[front]) {
+                if (!has_front) {
                     pop = true;
                     break;
                 }
-                off = kid[front];
+                off = kid_front;
             } else if (t < tmin) {
-                if (!has[back]) {
+                if (!has_back) {
                     pop = true;
                     break;
                 }
-                off = kid[back]; /* entered before the plane: the entry face is the cell's */
+                off = kid_back; /* entered before the plane: the entry face is the cell's */
             } else {
-                if (has[back]) {
+                if (has_back) {
                     /* The back part is entered through the plane (§6.1's entry axis), unless
                      * the plane is crossed exactly where the segment starts. */
                     entry *e = &stack[sp++];
-                    e->block = child_block, e->off = kid[back], e->tmin = t_back, e->tmax = tmax;
+                    e->block = child_block, e->off = kid_back, e->tmin = t_back, e->tmax = tmax;
                     e->axis = t_back > tmin ? axis : axis_in;
-                    e->nvox = nvox, e->depth = depth;
-                    memcpy(e->vox, vox, sizeof vox);
+                    e->nvox = nvox, e->depth = depth, e->vox = vox;
                 }
-                if (!has[front]) {
+                if (!has_front) {
                     pop = true;
                     break;
                 }
-                off = kid[front];
+                off = kid_front;
                 tmax = t_front;
             }
             if (child_block != block) {
@@ -356,8 +361,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             entry *e = &stack[--sp];
             if (found && hit->t < e->tmin) continue;
             block = e->block, off = e->off, tmin = e->tmin, tmax = e->tmax, axis_in = e->axis;
-            nvox = e->nvox;
-            memcpy(vox, e->vox, sizeof vox);
+            nvox = e->nvox, vox = e->vox;
             depth = e->depth;
             break;
         }
