@@ -25,7 +25,7 @@ typedef struct entry {
     int axis; /* entry axis */
     int depth;
     int nvox;
-    const uint8_t *vox; /* the last LOD voxel, where it lies in its block (see walk) */
+    const uint8_t *vox; /* the last LOD voxel, where it lies in its block (lod_node) */
 } entry;
 
 typedef struct walker {
@@ -70,9 +70,6 @@ static void finish(walker *w) {
     w->held = UINT32_MAX;
 }
 
-/* A LOD node at off of the current block: its radius, child block and voxel (copied into
- * vox / *nvox / *vox_radius when it lies inside the block). False when the node itself
- * does not fit the block. */
 /* An inner node's split axis and plane (w0, w1 its two words): false, counted as a
  * failure, for a corrupt axis or a path deeper than any the builder writes. */
 static inline bool inner_plane(const walker *w, uint32_t w0, uint32_t w1, int depth, int *axis, float *split) {
@@ -92,29 +89,13 @@ static inline void inner_children(uint32_t w0, uint32_t base, uint32_t kid[2], b
     has[0] = (w0 & OOC_LEFT) != 0, has[1] = (w0 & OOC_RIGHT) != 0;
 }
 
-static bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *child_block, uint32_t vox[6], int *nvox,
-                     float *vox_radius) {
-    if (off + 16 > w->size) return false;
-    uint32_t w3;
-    memcpy(radius, w->blk + off + 8, 4);
-    memcpy(&w3, w->blk + off + 12, 4);
-    uint32_t vo = off + 4 * (w3 >> 26);
-    if (vo + 4 <= w->size) {
-        uint32_t s0;
-        memcpy(&s0, w->blk + vo, 4);
-        *nvox = (s0 >> 31) ? 1 : 6;
-        if (vo + 4u * (uint32_t)*nvox > w->size) *nvox = 0;
-        else memcpy(vox, w->blk + vo, 4u * (uint32_t)*nvox);
-        *vox_radius = *radius;
-    }
-    *child_block = w3 & ((1u << 26) - 1);
-    return true;
-}
-
-/* lod_node for the walks of LOD queries: where the voxel lies (*vox) instead of a copy, with
- * the same outcome in every case (a voxel past the block's end leaves the one before). */
-static inline bool lod_node16(const walker *w, uint32_t off, float *radius, uint32_t *child_block,
-                              const uint8_t **vox, int *nvox, float *vox_radius) {
+/* A LOD node at off of the current block: its radius, child block and voxel (*vox where it
+ * lies in the block, *nvox samples, *vox_radius), the voxel only when it lies inside the
+ * block (else the one before stays). False when the node itself does not fit the block.
+ * Walks keep where the voxel lies rather than a copy of its samples: a LOD walk holds every
+ * block it enters until the frame ends, and an exact walk never reads the voxel. */
+static inline bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *child_block, const uint8_t **vox,
+                            int *nvox, float *vox_radius) {
     if (off + 16 > w->size) return false;
     uint32_t w3;
     memcpy(radius, w->blk + off + 8, 4);
@@ -233,9 +214,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
     entry stack[OOC_MAX_DEPTH + 2];
     int sp = 0;
     uint32_t block = a->h.root_block, off = a->h.root_offset;
-    /* The last LOD voxel above the ray, as where it lies in its block rather than a copy of
-     * its 24 bytes on every LOD node, push and pop: a LOD walk holds every block it enters
-     * until the frame ends, and an exact walk never reads it. */
+    /* The last LOD voxel above the ray (lod_node). */
     int nvox = 0;
     const uint8_t *vox = NULL;
     float vox_radius = 0.0f;
@@ -282,7 +261,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             }
             if (w0 & OOC_LOD) {
                 float radius;
-                if (!lod_node16(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
+                if (!lod_node(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
                 }
@@ -426,7 +405,7 @@ typedef struct pentry {
     uint32_t block, off;
     uint32_t mask;
     int depth, nvox;
-    uint32_t vox[6];
+    const uint8_t *vox;
     float vox_radius;
     float tmin[PK], tmax[PK];
     int8_t axis[PK];
@@ -443,19 +422,19 @@ typedef struct packet_state {
 
 /* Ray i stops at the current voxel if it enters it (at tmin, through axis a) before its
  * hit so far; true when it does. */
-static inline bool voxel_hit(packet_state *ps, int i, float tmin, int a, int nvox, const uint32_t *vox,
+static inline bool voxel_hit(packet_state *ps, int i, float tmin, int a, int nvox, const uint8_t *vox,
                              float vox_radius) {
     float t = MAXF(tmin, ps->rx[i].tnear);
     if (!(t < ps->hit[i].t)) return false;
     ps->hit[i].t = t, ps->hit[i].prim = PRT_VOXEL_HIT, ps->hit[i].u = ps->hit[i].v = 0.0f;
-    ps->sample[i] = vox[nvox == 6 ? 2 * a + (ps->rx[i].dir[a] < 0.0f) : 0];
+    memcpy(&ps->sample[i], vox + 4 * (nvox == 6 ? 2 * a + (ps->rx[i].dir[a] < 0.0f) : 0), 4);
     ps->radius[i] = vox_radius;
     return true;
 }
 
 /* The rays of mask that stop at the current voxel (entering at tmin, through axis). */
 static uint32_t voxel_hits(packet_state *ps, uint32_t mask, const float *tmin, const int8_t *axis, int nvox,
-                           const uint32_t *vox, float vox_radius) {
+                           const uint8_t *vox, float vox_radius) {
     if (!nvox) return 0;
     uint32_t stopped = 0;
     for (uint32_t m = mask; m; m &= m - 1) {
@@ -513,7 +492,7 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
     int sp = 0;
     uint32_t block = w->a->h.root_block, off = w->a->h.root_offset;
     int nvox = 0, depth = 0;
-    uint32_t vox[6] = {0};
+    const uint8_t *vox = NULL; /* the last LOD voxel (lod_node) */
     float vox_radius = 0.0f;
     for (;;) {
         bool pop = false;
@@ -547,7 +526,7 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
             }
             if (w0 & OOC_LOD) {
                 float radius;
-                if (!lod_node(w, off, &radius, &child_block, vox, &nvox, &vox_radius)) {
+                if (!lod_node(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
                 }
@@ -585,8 +564,7 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
             if (bmask && fmask) {
                 pentry *e = &stack[sp++];
                 e->block = child_block, e->off = kid[back], e->mask = bmask, e->depth = depth;
-                e->nvox = nvox, e->vox_radius = vox_radius;
-                memcpy(e->vox, vox, sizeof vox);
+                e->nvox = nvox, e->vox_radius = vox_radius, e->vox = vox;
                 for (uint32_t m = bmask; m; m &= m - 1) {
                     int i = __builtin_ctz(m);
                     e->tmin[i] = MAXF(tmin[i], t[i]), e->tmax[i] = tmax[i];
@@ -649,7 +627,7 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
             if (!m2) continue;
             mask = m2;
             block = e->block, off = e->off, depth = e->depth, nvox = e->nvox, vox_radius = e->vox_radius;
-            memcpy(vox, e->vox, sizeof vox);
+            vox = e->vox;
             break;
         }
     }
@@ -670,9 +648,8 @@ static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin,
  * them with prt__tri8_hit (bit for bit prt__tri_hit), the closest (t, then mesh id) kept as
  * the one-by-one loop would keep it. */
 
-/* A LOD walk holds every block it enters until the frame ends (the cache evicts no block
- * touched in the frame), so the walk keeps where its voxel lies in the block rather than
- * a copy of its samples: one pointer to save on a push, a pop and a yield. */
+/* The walk keeps where its voxel lies in the block (lod_node): one pointer to save on a
+ * push, a pop and a yield. */
 typedef struct pentry16 {
     vf16 tmin, tmax;
     vi16 axis;
@@ -693,10 +670,8 @@ typedef struct packet16 {
 
 /* The rays of mask that stop at the current voxel. */
 static uint32_t voxel_hits16(packet_state *ps, packet16 *pk, uint32_t mask, vf16 tmin, vi16 axis, int nvox,
-                             const uint8_t *vox_at, float vox_radius) {
+                             const uint8_t *vox, float vox_radius) {
     if (!nvox || !mask) return 0;
-    uint32_t vox[6];
-    memcpy(vox, vox_at, 4u * (uint32_t)nvox);
     float tm[PK];
     int32_t ax[PK];
     vf16_store(tm, tmin), vi16_store(ax, axis);
@@ -920,7 +895,7 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
             }
             if (w0 & OOC_LOD) {
                 float radius;
-                if (!lod_node16(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
+                if (!lod_node(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
                     pop = true;
                     break;
                 }
