@@ -63,8 +63,9 @@ const char *prt_last_error(void);
 /* Replace the allocator used for every allocation packrt makes (default: malloc/free).
  * Call before any other packrt function; passing NULL for both restores the default.
  * alloc must return memory aligned to at least 16 bytes or NULL, and must be thread-safe:
- * builders and generators allocate from worker threads. This is the library's one
- * documented piece of global mutable state. */
+ * builders and generators allocate from worker threads. Blocks of 2 MiB and more are
+ * asked for 2 MiB larger, so that they start on a 2 MiB boundary (transparent huge pages).
+ * This is the library's one documented piece of global mutable state. */
 void prt_set_allocator(void *(*alloc)(size_t size), void (*dealloc)(void *ptr));
 
 /* Bytes currently allocated through packrt, and the peak since the last

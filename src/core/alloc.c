@@ -5,6 +5,7 @@
 
 #include <stdatomic.h>
 #include <stdlib.h>
+#include <sys/mman.h>
 
 #define HEADER 64
 
@@ -32,12 +33,23 @@ static void count_add(size_t n) {
     }
 }
 
+/* Blocks of 2 MiB and more start on a 2 MiB boundary and ask for transparent huge pages
+ * (MADV_HUGEPAGE, as Embree does for its BVH): builders and loaders fill hundreds of MB
+ * front to back, and with 4 KiB pages a page fault per 4 KiB took a third to a half of a
+ * build (docs/results/foundation.md, "Huge pages"). Only the block's whole 2 MiB pages are
+ * named, so none holds more memory than asked for; a hint, whichever allocator gave it. */
+#define HUGE_PAGE ((size_t)2 << 20)
+
 void *prt__alloc(size_t size) {
     if (size == 0) size = 1;
-    if (size > SIZE_MAX - 2 * HEADER) return NULL;
-    uint8_t *raw = g_alloc(size + 2 * HEADER);
+    const size_t align = size >= HUGE_PAGE ? HUGE_PAGE : HEADER;
+    if (size > SIZE_MAX - HEADER - align) return NULL;
+    uint8_t *raw = g_alloc(size + HEADER + align);
     if (!raw) return NULL;
-    uint8_t *p = (uint8_t *)(((uintptr_t)raw + 2 * HEADER - 1) & ~(uintptr_t)(HEADER - 1));
+    uint8_t *p = (uint8_t *)(((uintptr_t)raw + HEADER + align - 1) & ~(uintptr_t)(align - 1));
+#if defined(MADV_HUGEPAGE)
+    if (align == HUGE_PAGE) (void)madvise(p, size & ~(HUGE_PAGE - 1), MADV_HUGEPAGE);
+#endif
     ((size_t *)(p - HEADER))[0] = size;
     ((void **)(p - HEADER))[1] = raw;
     count_add(size);

@@ -5,17 +5,6 @@
 #include "mesh/stream_arrays.h"
 
 #include <stdio.h>
-#include <sys/mman.h>
-
-/* The parsers write these arrays once, front to back. With 4 KiB pages that costs a
- * page fault per 4 KiB, measured at a third of a 1 GB binary PLY load; asking for 2 MiB
- * pages cuts the faults 512-fold. Only a hint, harmless whichever allocator gave us the
- * block; small arrays are left alone. */
-static void advise_huge_pages(void *p, size_t bytes) {
-    const uintptr_t page = 4096, huge = (uintptr_t)2 << 20;
-    uintptr_t a = ((uintptr_t)p + page - 1) & ~(page - 1), e = ((uintptr_t)p + bytes) & ~(page - 1);
-    if (bytes >= 4 * huge && e > a) madvise((void *)a, e - a, MADV_HUGEPAGE);
-}
 
 static prt_status grow(const char *name, void **p, size_t *cap, size_t need, size_t expect,
                        size_t elem, const char *what) {
@@ -26,7 +15,6 @@ static prt_status grow(const char *name, void **p, size_t *cap, size_t need, siz
     if (!bytes) return prt__fail(PRT_ERROR_NOMEM, "%s: %zu %s do not fit in memory", name, n, what);
     void *q = prt__realloc(*p, bytes);
     if (!q) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for %zu %s", name, n, what);
-    advise_huge_pages(q, bytes);
     *p = q;
     *cap = n;
     return PRT_OK;

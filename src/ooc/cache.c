@@ -4,7 +4,6 @@
 #include <errno.h>
 #include <lz4.h>
 #include <stdlib.h>
-#include <sys/mman.h>
 #include <time.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -60,21 +59,6 @@ static bool load_block(ooc_cache *c, uint32_t b, uint8_t *dst) {
     atomic_fetch_add(&c->bytes_raw, e->raw);
     atomic_fetch_add(&c->decode_ns, now_ns() - t0);
     return true;
-}
-
-/* Ask for 2 MB pages under the slots (transparent huge pages, where the system gives them
- * on request): a LOD frame walks its working set, up to the whole cache, block after
- * block, and with 4 KB pages nearly every block it enters misses the TLB (a 688 MB working
- * set is 170,000 pages). Only advice: the memory came from the allocation hooks, so only
- * whole 2 MB pages inside it are named, and a refusal changes nothing. */
-static void advise_huge_pages(void *p, size_t n) {
-#if defined(MADV_HUGEPAGE)
-    const uintptr_t huge = (uintptr_t)2 << 20;
-    uintptr_t lo = ((uintptr_t)p + huge - 1) & ~(huge - 1), hi = ((uintptr_t)p + n) & ~(huge - 1);
-    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
-#else
-    (void)p, (void)n;
-#endif
 }
 
 static uint8_t *slot_ptr(const ooc_cache *c, uint32_t s) { return c->slot_mem + (size_t)s * OOC_BLOCK; }
@@ -314,7 +298,6 @@ prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_bl
     }
     for (uint32_t s = 0; s < nslots; s++) atomic_store(&c->slots[s].block, NO_BLOCK);
     c->want_fetchers = fetchers;
-    advise_huge_pages(c->slot_mem, (size_t)nslots * OOC_BLOCK);
     return PRT_OK;
 }
 
