@@ -32,6 +32,14 @@ typedef struct bvh_kernels {
     struct bvh_kernels (*for_blob)(const uint8_t *blob);
 } bvh_kernels;
 
+/* A node as the generic walks see it (bvh/walk.c: closest points and all crossings): a box
+ * that holds every triangle below it as its codec decodes them, and where it lies. */
+typedef struct bvh_child {
+    float box[6];   /* lo xyz, hi xyz; conservative: no decoded vertex below lies outside */
+    uint64_t ref;   /* layout-defined: an inner node, or the byte offset of a leaf in the blob */
+    uint32_t count; /* 0: an inner node; else a leaf, the count its kernels hand the codec */
+} bvh_child;
+
 typedef struct bvh_layout {
     const char *name;
     const char *description;
@@ -42,6 +50,12 @@ typedef struct bvh_layout {
      * codec's leaf_valid: PRT_ERROR_CORRUPT. */
     prt_status (*validate)(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh);
     bvh_kernels kernels[BVH_CODEC_COUNT];
+    /* The tree for the generic walks, which decode nodes rather than trace them: the root
+     * (a leaf when the tree is one leaf), whose box may be taken from bounds (the accel's
+     * lo xyz, hi xyz) where the blob keeps none; and the up to 8 children of an inner node,
+     * returned in out with their count. Both only read a validated blob. */
+    bvh_child (*root)(const uint8_t *blob, const bvh_codec *c, const float bounds[6]);
+    uint32_t (*children)(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]);
 } bvh_layout;
 
 /* X(id, name) */
@@ -59,6 +73,18 @@ extern const bvh_layout bvh_layout_wide8_filled;
 #define BVH_ORDER_COUNT 4
 extern const bvh_layout *const bvh_aabb_orders[BVH_ORDER_COUNT];
 extern const char *const bvh_order_names[BVH_ORDER_COUNT];
+
+/* What the generic walks need of a BVH accel (bvh_accel.c). */
+typedef struct bvh_view {
+    const bvh_layout *layout;
+    const bvh_codec *codec;
+    const uint8_t *blob;
+    const bvh_shared *shared;
+} bvh_view;
+
+/* The view of a BVH accel; false when a is another family's. */
+struct prt_accel;
+bool bvh_accel_view(const struct prt_accel *a, bvh_view *out);
 
 /* Leaf counts a loaded file may claim (the spec's leaf option is at most 16). */
 #define BVH_MAX_LEAF 16

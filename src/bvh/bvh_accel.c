@@ -532,6 +532,13 @@ static prt_status bvh_update(prt_accel *a, const float *vertices) {
     return PRT_OK;
 }
 
+bool bvh_accel_view(const prt_accel *a, bvh_view *out) {
+    if (!a || a->ops != &prt__bvh_ops) return false;
+    const bvh_accel *b = (const bvh_accel *)a;
+    *out = (bvh_view){b->layout, &bvh_codecs[b->codec], b->blob.data, &b->shared};
+    return true;
+}
+
 const prt_accel_ops prt__bvh_ops = {
     .name = "bvh",
     .build = bvh_build_accel,

@@ -98,7 +98,17 @@ typedef struct bvh_codec {
     /* Strip codecs (Rouwé §3.10): leaves hold strip entries, not triangles; the BVH family
      * rewrites the tree for them (bvh/strip_leaves.h) and keeps their shared data itself. */
     bool strips;
+    /* The triangles of a leaf of count entries (as the layout's kernels hand them to this
+     * codec), exactly as its kernels test them: 9 floats each in v (the decoded vertices, in
+     * the order the kernel's watertight test takes them) and in ids what the kernel reports as
+     * hit.prim for each (leaf-order ids for seq_ids codecs, strip triangle numbers for strip
+     * codecs); padding is skipped. Returns the number written, at most BVH_DECODE_MAX. For the
+     * generic walks (bvh/walk.c), which answer point and all-hits queries. */
+    uint32_t (*decode)(const uint8_t *leaf, uint32_t count, const bvh_shared *sh, float *v, uint32_t *ids);
 } bvh_codec;
+
+/* Most triangles one leaf decodes to (bvh_codec.decode). */
+#define BVH_DECODE_MAX 64
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];
 
