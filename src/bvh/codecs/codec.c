@@ -12,7 +12,7 @@ const bvh_codec bvh_codecs[BVH_CODEC_COUNT] = {
 #define X(id, nm, desc)                                                                              \
     [BVH_CODEC_##id] = {nm, desc, id##_block, id##_align, id##_leaf_bytes, id##_encode_fn, id##_shared_build,        \
                         id##_leaf_valid, id##_seq_ids, id##_shared_remap, id##_vertex_error, id##_leaf_error,         \
-                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack},
+                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack, NULL},
     BVH_CODECS(X)
 #undef X
 };

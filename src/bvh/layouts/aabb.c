@@ -160,4 +160,6 @@ const bvh_layout bvh_layout_aabb = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };

@@ -217,4 +217,6 @@ const bvh_layout bvh_layout_aabb_compressed = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };

@@ -175,6 +175,8 @@ static const bvh_layout aabb_df_tl = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };
 
 static const bvh_layout aabb_bf = {
@@ -185,6 +187,8 @@ static const bvh_layout aabb_bf = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };
 
 static const bvh_layout aabb_bf_tl = {
@@ -195,6 +199,8 @@ static const bvh_layout aabb_bf_tl = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };
 
 const bvh_layout *const bvh_aabb_orders[BVH_ORDER_COUNT] = {&bvh_layout_aabb, &aabb_df_tl, &aabb_bf, &aabb_bf_tl};

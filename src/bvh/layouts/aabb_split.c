@@ -27,4 +27,6 @@ const bvh_layout bvh_layout_aabb_split = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };

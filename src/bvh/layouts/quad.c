@@ -189,4 +189,6 @@ const bvh_layout bvh_layout_quad = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };

@@ -257,4 +257,6 @@ const bvh_layout bvh_layout_skd = {
         BVH_CODECS(X)
 #undef X
     },
+    NULL, /* root: the generic walks' view, bvh/walk.c */
+    NULL, /* children */
 };

@@ -63,7 +63,7 @@ static prt_status wide8_validate(const bvh_blob *b, const bvh_codec *c, const bv
         "power-of-two grid, one 8-lane box test",                                                                  \
         {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4, \
          [BVH_CODEC_idx32_soa4] = 8},                                                                              \
-        encode, wide8_validate, {BVH_CODECS(WIDE8_KERNELS)},                                                      \
+        encode, wide8_validate, {BVH_CODECS(WIDE8_KERNELS)}, NULL, NULL,                                          \
     }
 #define WIDE8_KERNELS(id, nm, desc)                                                                                \
     [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id, wide8_for_blob_##id},
