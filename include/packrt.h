@@ -327,6 +327,72 @@ prt_status prt_accel_load(const char *path, prt_accel **out);
 prt_status prt_accel_load_memory(const void *data, size_t size, prt_accel **out);
 
 /* ---------------------------------------------------------------------------------
+ * Mesh queries beyond the closest hit (docs/queries.md): every crossing along a ray,
+ * inside/outside, closest points and signed distance.
+ *
+ * They are answered by representations that can enumerate their triangles near a ray or a
+ * point: every BVH layout and codec (lossy ones answer for the triangles they decode, within
+ * prt_stats.vertex_error of the mesh's). The others return PRT_ERROR_UNSUPPORTED with a
+ * message naming one that can. Every function here is thread-safe on a built or loaded
+ * accel, like the ray queries; `threads` is 0 for all cores. prim values and barycentrics
+ * are as in prt_hit (mesh triangle ids, u weighting vertex 1 and v vertex 2).
+ * --------------------------------------------------------------------------------- */
+
+/* Every crossing of the surface by r with t in [r->tnear, r->tfar], nearest first. A ray
+ * through an edge or a vertex shared by several triangles counts the crossing once: ties on
+ * an edge function are broken as if the ray were moved an infinitesimal step aside (the
+ * same step for every triangle), so a ray entering a closed mesh through an edge or a
+ * vertex has one crossing there, and one that grazes it zero or two. *count receives the
+ * number of crossings; the nearest min(*count, max) are written to hits (NULL when max is
+ * 0: count only), so *count > max says the list was truncated. Ties at equal t are in
+ * order of prim. Errors: PRT_ERROR_ARGUMENT (NULL a, r or count, or hits NULL with max > 0),
+ * PRT_ERROR_UNSUPPORTED (representation), PRT_ERROR_NOMEM. */
+prt_status prt_intersect_all(const prt_accel *a, const prt_ray *r, prt_hit *hits, uint32_t max, uint32_t *count);
+
+/* prt_intersect_all for n rays on threads. counts[i] receives ray i's crossing count. With
+ * hits NULL only the counts are computed (offsets may be NULL); otherwise ray i writes its
+ * nearest crossings to hits[offsets[i] .. offsets[i + 1]) (offsets: n + 1 ascending
+ * entries, e.g. the prefix sums of a first, counting call) and counts[i] > offsets[i + 1] -
+ * offsets[i] says it was truncated. */
+prt_status prt_intersect_all_stream(const prt_accel *a, const prt_ray *rays, size_t n, uint32_t *counts,
+                                    const uint64_t *offsets, prt_hit *hits, int threads);
+
+/* The nearest point of the surface to a point, within max_distance (+inf: any). */
+typedef struct prt_closest {
+    float point[3]; /* the nearest surface point */
+    float distance; /* its distance; +inf when no triangle lies within max_distance */
+    float u, v;     /* its barycentrics on triangle prim */
+    uint32_t prim;  /* the triangle (the smallest id among equally near ones); PRT_INVALID when none */
+} prt_closest;
+
+/* Closest points of n points (3 floats each) on threads. A point that is not finite gets
+ * prim = PRT_INVALID and distance +inf. Errors: PRT_ERROR_ARGUMENT, PRT_ERROR_UNSUPPORTED. */
+prt_status prt_closest_points(const prt_accel *a, const float *points, size_t n, float max_distance, prt_closest *out,
+                              int threads);
+
+/* Results of prt_contains (bits). */
+#define PRT_INSIDE 1u     /* the point is inside the mesh */
+#define PRT_BY_WINDING 2u /* the crossing parities along the rays disagreed (an open or self-
+                           * intersecting mesh), so the generalized winding number decided */
+
+/* Inside/outside of n points on threads: the parity of the crossings along several ray
+ * directions from each point, which is exact for closed meshes; when the directions
+ * disagree, the generalized winding number (Jacobson et al. 2013) decides: inside when it is
+ * at least 0.5. result[i] is a combination of PRT_INSIDE and PRT_BY_WINDING. A point that is
+ * not finite is outside. */
+prt_status prt_contains(const prt_accel *a, const float *points, size_t n, uint8_t *result, int threads);
+
+/* Generalized winding number of the surface at n points (Jacobson et al. 2013: the sum of
+ * the triangles' signed solid angles over 4 pi): 1 inside a closed outward-wound mesh, 0
+ * outside, fractional near holes. */
+prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n, float *winding, int threads);
+
+/* Signed distance of n points: the closest point's distance, negative inside (prt_contains'
+ * answer), +inf (or -inf) when nothing lies within max_distance. */
+prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n, float max_distance, float *distance,
+                               int threads);
+
+/* ---------------------------------------------------------------------------------
  * Out-of-core accels and levels of detail ("ooc": Áfra 2012; docs/ooc.md)
  *
  * An "ooc" accel is a block file: a kd-tree with LOD voxels in 64 KB LZ4-compressed
