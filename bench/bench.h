@@ -190,6 +190,10 @@ void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, ui
  * bytes_other = 0. build_seconds = rtcCommitScene. */
 void bench_embree_stats(const bench_embree *e, prt_stats *s);
 
+/* Closest points through rtcPointQuery with a closest-point callback (Embree's tutorial's
+ * way), answered as prt_closest_points answers, on the calling thread. */
+void bench_embree_closest_points(const bench_embree *e, const float *points, size_t n, prt_closest *out);
+
 /* e as a backend: single rays with rtcIntersect1 / rtcOccluded1, streams as chunks of
  * rtcIntersect1M / rtcOccluded1M (coherent flag for tiles) over OpenMP threads. */
 bench_backend bench_backend_embree(bench_embree *e, const char *name);
@@ -373,6 +377,18 @@ int bench_matrix(FILE *f, const prt_mesh *m, const bench_matrix_options *o);
 void bench_machine_string(char *buf, size_t size);
 /* 1-minute load average from /proc/loadavg, -1 when unknown. */
 double bench_load_average(void);
+
+/* `packrt bench --queries` (bench/queries.c): closest points and containment on each spec
+ * against Embree (rtcPointQuery; trimesh's re-casting containment), a Markdown report. */
+typedef struct bench_queries_options {
+    const char *const *specs;
+    size_t spec_count;
+    size_t points; /* per point set */
+    int reps;
+    uint64_t seed;
+    bool vs_embree;
+} bench_queries_options;
+int bench_queries(FILE *f, const prt_mesh *m, const bench_queries_options *o);
 
 #ifdef __cplusplus
 }

@@ -4,6 +4,7 @@
 #include "bench.h"
 
 #include "core/common.h"
+#include "geom/closest.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -298,4 +299,50 @@ bench_backend bench_backend_embree(bench_embree *e, const char *name) {
     bench_backend b = {name ? name : "embree", e, em_load, em_reset, em_single, em_stream,
                        em_results, em_unload, em_stats};
     return b;
+}
+
+/* Closest points the way Embree's closest_point tutorial finds them: rtcPointQuery walks the
+ * BVH by the query sphere and calls back for every triangle it reaches; the callback takes
+ * the triangle's closest point and shrinks the sphere. The callback computes in double with
+ * the same function as packrt (geom/closest.h), so the two differ only in their walks. */
+typedef struct em_closest {
+    const bench_embree *e;
+    double d2, u, v;
+    uint32_t prim;
+} em_closest;
+
+static bool em_closest_cb(struct RTCPointQueryFunctionArguments *args) {
+    em_closest *c = args->userPtr;
+    const bench_embree *e = c->e;
+    const uint32_t *t = e->indices + 3 * (size_t)args->primID;
+    double v[3][3];
+    for (int k = 0; k < 3; k++)
+        for (int x = 0; x < 3; x++) v[k][x] = e->vertices[4 * (size_t)t[k] + x];
+    const double p[3] = {args->query->x, args->query->y, args->query->z};
+    double u, w;
+    const double d2 = prt__closest_on_triangle(p, v[0], v[1], v[2], &u, &w);
+    if (d2 > c->d2 || (d2 == c->d2 && args->primID > c->prim)) return false;
+    c->d2 = d2, c->u = u, c->v = w, c->prim = args->primID;
+    args->query->radius = (float)sqrt(d2) * 1.0000002f; /* never below the true distance */
+    return true;
+}
+
+void bench_embree_closest_points(const bench_embree *e, const float *points, size_t n, prt_closest *out) {
+    for (size_t i = 0; i < n; i++) {
+        const float *p = points + 3 * i;
+        struct RTCPointQuery q = {p[0], p[1], p[2], 0.0f, INFINITY};
+        struct RTCPointQueryContext ctx;
+        rtcInitPointQueryContext(&ctx);
+        em_closest c = {e, INFINITY, 0, 0, PRT_INVALID};
+        rtcPointQuery(e->scene, &q, &ctx, em_closest_cb, &c);
+        out[i] = (prt_closest){{0, 0, 0}, INFINITY, 0, 0, PRT_INVALID};
+        if (c.prim == PRT_INVALID) continue;
+        const uint32_t *t = e->indices + 3 * (size_t)c.prim;
+        for (int x = 0; x < 3; x++) {
+            const double a = e->vertices[4 * (size_t)t[0] + x], b = e->vertices[4 * (size_t)t[1] + x];
+            const double d = e->vertices[4 * (size_t)t[2] + x];
+            out[i].point[x] = (float)(a + c.u * (b - a) + c.v * (d - a));
+        }
+        out[i].distance = (float)sqrt(c.d2), out[i].u = (float)c.u, out[i].v = (float)c.v, out[i].prim = c.prim;
+    }
 }

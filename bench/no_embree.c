@@ -20,6 +20,10 @@ prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *op
 
 void bench_embree_free(bench_embree *e) { (void)e; }
 
+void bench_embree_closest_points(const bench_embree *e, const float *points, size_t n, prt_closest *out) {
+    (void)e, (void)points, (void)n, (void)out;
+}
+
 /* Unreachable without a bench_embree; defined so callers link. */
 void bench_embree_intersect(const bench_embree *e, prt_ray *r, prt_hit *h) {
     (void)e, (void)r;

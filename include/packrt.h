@@ -503,6 +503,10 @@ prt_status prt_hits_write(const char *path, const prt_hit *hits, size_t count);
  * prim = PRT_INVALID. */
 prt_status prt_hits_write_occluded(const char *path, const uint8_t *occluded, size_t count);
 
+/* Read or write a .points file (PRTPNTS1: the mesh queries' input, 3 floats a point). */
+prt_status prt_points_read(const char *path, float **points, size_t *count);
+prt_status prt_points_write(const char *path, const float *points, size_t count);
+
 /* Free memory that packrt returned (ray and hit arrays). */
 void prt_free(void *p);
 

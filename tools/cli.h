@@ -16,6 +16,8 @@ int cmd_gen(int argc, char **argv);
 int cmd_list(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_animate(int argc, char **argv);
+int cmd_query(int argc, char **argv);
+int cmd_sdf(int argc, char **argv);
 
 /* Print "packrt NAME: <what>: <status>: <detail>" to stderr and return 1. */
 int cli_fail(const char *cmd, const char *what, prt_status s);

@@ -34,6 +34,8 @@ static void usage(FILE *f) {
             "  --no-cold            skip the cold-cache figure (each sample flushes the caches)\n"
             "  --flush-mb N         cache flush buffer in MiB (default: twice the last-level cache)\n"
             "  --json               print the DESIGN section 7 JSON object instead of the table\n"
+            "  --queries            closest points and containment instead (docs/results/queries.md): the -r\n"
+            "                       specs (default: four) against Embree's rtcPointQuery and trimesh's way\n"
             "  --matrix             Rouwe's tables instead: every representation (or the -r ones) on\n"
             "                       1024 random rays, one thread, warm and cold, bytes per triangle,\n"
             "                       and the splitter, leaf-size and node-order tables, as markdown\n"
@@ -51,7 +53,7 @@ typedef struct bench_cli {
     size_t rays, tris;
     uint32_t width, height;
     uint64_t seed;
-    bool json, cold, matrix;
+    bool json, cold, matrix, queries;
     size_t cold_rays;
     size_t flush_bytes;
     double offset; /* secondary ray origins off the surface, in mesh diagonals */
@@ -93,6 +95,8 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
             c->json = true;
         } else if (!strcmp(a, "--matrix")) {
             c->matrix = true;
+        } else if (!strcmp(a, "--queries")) {
+            c->queries = true;
         } else if (!strcmp(a, "--no-cold")) {
             c->cold = false;
         } else if (a[0] == '-' && a[1] && !v) {
@@ -269,6 +273,24 @@ int cmd_bench(int argc, char **argv) {
     } else {
         if ((s = prt_mesh_load(c.path, &mesh))) return cli_fail("bench", c.path, s);
         snprintf(mesh_name, sizeof mesh_name, "%s", c.path);
+    }
+
+    if (c.queries) {
+        if (!mesh) {
+            prt_accel_free(file_accel);
+            return cli_usage("bench", "--queries builds every representation: it needs a mesh, not a .prt file");
+        }
+        static const char *const default_specs[] = {"wide8:idx8-soa4", "wide8:float3-soa8", "quad:float3-soa4",
+                                                    "wide8:idx8-bitpack-soa4,ids=none"};
+        bench_queries_options qo = {.specs = c.spec_count ? c.specs : default_specs,
+                                    .spec_count = c.spec_count ? (size_t)c.spec_count : 4,
+                                    .points = c.rays < 65536 ? c.rays : 16384,
+                                    .reps = c.reps,
+                                    .seed = c.seed,
+                                    .vs_embree = c.vs_embree};
+        rc = bench_queries(stdout, mesh, &qo);
+        prt_mesh_free(mesh);
+        return rc;
     }
 
     if (c.matrix) {

@@ -10,7 +10,9 @@ static const struct {
 } g_commands[] = {
     {"info", cmd_info, "info MESH|FILE.prt                 triangles, vertices, bounds, connectivity, memory per representation"},
     {"build", cmd_build, "build MESH -r SPEC -o out.prt       preprocess and save"},
-    {"cast", cmd_cast, "cast FILE -r SPEC --rays in.rays -o out.hits [--occluded] [--threads N]"},
+    {"cast", cmd_cast, "cast FILE -r SPEC --rays in.rays -o out.hits [--occluded|--all [--max N]] [--threads N]"},
+    {"query", cmd_query, "query MESH|FILE.prt --points in.points -o out.dist [--signed|--contains|--winding]"},
+    {"sdf", cmd_sdf, "sdf MESH|FILE.prt --res N -o field.raw     signed distance field on a grid"},
     {"render", cmd_render, "render MESH|FILE.prt [-r SPEC] -o img.png [--shade MODE] [--size WxH] [--spp N] [--compare A,B]"},
     {"animate", cmd_animate, "animate DIR|SCENE [-r SPEC] [-o frames/] [--bench] [--vs embree] [--json]   animated meshes, frame by frame"},
     {"bench", cmd_bench, "bench [MESH] [-r SPEC|all] [--workload W] [--vs embree] [--json]"},

@@ -9,6 +9,8 @@
 #include "core/spec.h"
 #include "io/prt_file.h"
 
+struct prt__query;
+
 typedef struct prt_accel_ops {
     const char *name; /* family name, for messages */
     /* Build from a validated mesh; spec options not read are reported by the caller. */
@@ -45,6 +47,10 @@ typedef struct prt_accel_ops {
     void (*frame)(prt_accel *a, prt_cache_info *info);
     /* Failures met by queries so far (prt_accel_check); NULL: none possible. */
     prt_status (*check)(const prt_accel *a);
+    /* The mesh queries' walk (api/query.h): hand q->leaf the triangles of every part q does
+     * not cull. NULL: the family answers no such query (prt_intersect_all and the others
+     * say so). */
+    void (*query)(const prt_accel *a, struct prt__query *q);
 } prt_accel_ops;
 
 struct prt_accel {

@@ -86,6 +86,10 @@ typedef struct bvh_view {
 struct prt_accel;
 bool bvh_accel_view(const struct prt_accel *a, bvh_view *out);
 
+/* The mesh queries' walk of a BVH (bvh/walk.c, api/query.h); bounds: the accel's. */
+struct prt__query;
+void bvh_walk(const bvh_view *w, const float bounds[6], struct prt__query *q);
+
 /* Leaf counts a loaded file may claim (the spec's leaf option is at most 16). */
 #define BVH_MAX_LEAF 16
 

@@ -539,6 +539,13 @@ bool bvh_accel_view(const prt_accel *a, bvh_view *out) {
     return true;
 }
 
+/* The mesh queries: every layout and codec is seen through the generic walk. */
+static void bvh_query(const prt_accel *a, struct prt__query *q) {
+    bvh_view w;
+    bvh_accel_view(a, &w);
+    bvh_walk(&w, a->bounds, q);
+}
+
 const prt_accel_ops prt__bvh_ops = {
     .name = "bvh",
     .build = bvh_build_accel,
@@ -550,6 +557,7 @@ const prt_accel_ops prt__bvh_ops = {
     .load = bvh_load,
     .destroy = bvh_destroy,
     .update = bvh_update,
+    .query = bvh_query,
 };
 
 const prt_repr_family prt__bvh_family = {&prt__bvh_ops, bvh_accepts, bvh_name_at};

@@ -127,3 +127,14 @@ prt_status prt_hits_write(const char *path, const prt_hit *hits, size_t count) {
 prt_status prt_hits_write_occluded(const char *path, const uint8_t *occluded, size_t count) {
     return write_records(path, count, occluded_record, occluded);
 }
+
+/* .points files (the mesh queries' input): PRTPNTS1, a count, then 3 float32 per point. */
+#define POINTS_MAGIC "PRTPNTS1"
+
+prt_status prt_points_read(const char *path, float **points, size_t *count) {
+    return read_array(path, POINTS_MAGIC, 12, (void **)points, count);
+}
+
+prt_status prt_points_write(const char *path, const float *points, size_t count) {
+    return write_array(path, POINTS_MAGIC, points, 12, count);
+}

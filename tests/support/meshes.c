@@ -101,3 +101,38 @@ prt_mesh *mesh_unwelded(const prt_mesh *m) {
     }
     return u;
 }
+
+prt_mesh *mesh_grid_cube(uint32_t n) {
+    /* Each face: (n + 1)^2 vertices of its own, welded below by integer position. */
+    const size_t fv = (size_t)(n + 1) * (n + 1);
+    prt_mesh *m;
+    if (prt_mesh_create(6 * fv, 12 * (size_t)n * n, &m)) return NULL;
+    /* Face f: axis a = f / 2 fixed at 0 (f even) or n (f odd); the other two axes span it. */
+    uint32_t *t = m->triangles;
+    for (int f = 0; f < 6; f++) {
+        const int a = f / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+        const bool top = f & 1;
+        for (uint32_t i = 0; i <= n; i++)
+            for (uint32_t j = 0; j <= n; j++) {
+                float *v = m->vertices + 3 * (f * fv + (size_t)i * (n + 1) + j);
+                v[a] = top ? (float)n : 0.0f, v[b] = (float)i, v[c] = (float)j;
+            }
+        for (uint32_t i = 0; i < n; i++)
+            for (uint32_t j = 0; j < n; j++) {
+                const uint32_t p = (uint32_t)(f * fv) + i * (n + 1) + j, q = p + n + 1;
+                /* (b x c) = a: counter-clockwise in (b, c) faces +a; the face at 0 faces -a. */
+                if (top) *t++ = p, *t++ = q, *t++ = q + 1, *t++ = p, *t++ = q + 1, *t++ = p + 1;
+                else *t++ = p, *t++ = q + 1, *t++ = q, *t++ = p, *t++ = p + 1, *t++ = q + 1;
+            }
+    }
+    /* Weld: the vertex with the same integer position on the lowest face. */
+    for (size_t k = 0; k < 3 * m->triangle_count; k++) {
+        const float *v = m->vertices + 3 * (size_t)m->triangles[k];
+        for (size_t w = 0; w < m->triangles[k]; w++)
+            if (!memcmp(m->vertices + 3 * w, v, 12)) {
+                m->triangles[k] = (uint32_t)w;
+                break;
+            }
+    }
+    return m;
+}

@@ -14,6 +14,12 @@ prt_mesh *mesh_same_centroid(size_t n);
  * shared: a connected mesh of half a vertex per triangle. */
 prt_mesh *mesh_grid(uint32_t n);
 
+/* The closed surface of the cube [0, n]^3, each face cut into n x n unit squares of two
+ * triangles, wound outward, vertices at integer positions shared between faces (unused
+ * duplicates stay in the vertex array): rays with integer origins and directions pass
+ * exactly through its edges and vertices. */
+prt_mesh *mesh_grid_cube(uint32_t n);
+
 /* A copy of m with every vertex scaled then moved: v * scale + offset. */
 prt_mesh *mesh_transformed(const prt_mesh *m, float scale, float offset);
 
