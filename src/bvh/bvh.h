@@ -32,13 +32,29 @@ typedef struct bvh_kernels {
     struct bvh_kernels (*for_blob)(const uint8_t *blob);
 } bvh_kernels;
 
-/* A node as the generic walks see it (bvh/walk.c: closest points and all crossings): a box
- * that holds every triangle below it as its codec decodes them, and where it lies. */
+/* A node as the generic walks see it (bvh/walk.c: closest points and all crossings): its
+ * box as the layout's kernels decode it, and where it lies. The box holds every vertex of
+ * the tree below (the mesh's; strip's with their low bits cleared), as the kernels' boxes
+ * do; a lossy codec may decode vertices just outside it, so walks test bvh_decoded_box of
+ * it. children() derives boxes from node->box in some layouts (aabb-compressed, skd): pass
+ * it a bvh_child exactly as root() or children() returned it, and widen a copy. */
 typedef struct bvh_child {
-    float box[6];   /* lo xyz, hi xyz; conservative: no decoded vertex below lies outside */
-    uint64_t ref;   /* layout-defined: an inner node, or the byte offset of a leaf in the blob */
+    float box[6];   /* lo xyz, hi xyz */
+    uint64_t ref;   /* an inner node's byte offset in the blob; a leaf's: where its codec block starts */
     uint32_t count; /* 0: an inner node; else a leaf, the count its kernels hand the codec */
 } bvh_child;
+
+/* box widened so that it also holds the vertices below it as codec c decodes them (shared
+ * data sh), so that it bounds what c's decode returns: unchanged for lossless codecs and
+ * strip (the tree is built over its decoded vertices); by the vertex error in the shared
+ * data for the shared-grid codecs (idx8/idx16/idx32-bitpack-soa4: a vertex on a box face
+ * moves by up to half a grid step either way); by 2^-20 of its largest coordinate for the
+ * codecs with a grid per leaf or block (bitpack, bitpack-soa4, strip-bitpack), whose
+ * vertices decode inside that grid's box up to a few roundings. bvh/child.c. */
+void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6], float out[6]);
+
+/* The box holding the n boxes of children (lo +inf, hi -inf for none). */
+void bvh_child_union(const bvh_child *children, uint32_t n, float box[6]);
 
 typedef struct bvh_layout {
     const char *name;
@@ -53,7 +69,9 @@ typedef struct bvh_layout {
     /* The tree for the generic walks, which decode nodes rather than trace them: the root
      * (a leaf when the tree is one leaf), whose box may be taken from bounds (the accel's
      * lo xyz, hi xyz) where the blob keeps none; and the up to 8 children of an inner node,
-     * returned in out with their count. Both only read a validated blob. */
+     * returned in out with their count. Both only read a validated blob. Every layout takes
+     * the root box from the blob (stored, or the union of the root's child boxes) and
+     * ignores bounds. */
     bvh_child (*root)(const uint8_t *blob, const bvh_codec *c, const float bounds[6]);
     uint32_t (*children)(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]);
 } bvh_layout;

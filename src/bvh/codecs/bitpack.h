@@ -50,7 +50,7 @@ static inline void bitpack_encode(uint8_t *dst, const prt_mesh *m, const uint32_
 #define bitpack_vertex_error NULL
 
 /* The 9 decoded coordinates of triangle i of the leaf. */
-PRT_INLINE void bitpack_decode(const uint8_t *leaf, uint32_t i, float p[9]) {
+PRT_INLINE void bitpack_triangle(const uint8_t *leaf, uint32_t i, float p[9]) {
     float g[6];
     memcpy(g, leaf + 4, sizeof g);
     uint64_t w[3];
@@ -66,7 +66,7 @@ static inline double bitpack_leaf_error(const uint8_t *leaf, uint32_t n, const p
     double err2 = 0;
     for (uint32_t i = 0; i < n && (size_t)id0 + i < m->triangle_count; i++) {
         float p[9];
-        bitpack_decode(leaf, i, p);
+        bitpack_triangle(leaf, i, p);
         for (int v = 0; v < 3; v++) {
             const float *q = m->vertices + 3 * (size_t)m->triangles[3 * ((size_t)id0 + i) + (size_t)v];
             double d2 = 0;
@@ -98,7 +98,7 @@ PRT_INLINE void bitpack_intersect(const uint8_t *leaf, uint32_t n, const prt__ra
     memcpy(&id0, leaf, 4);
     for (uint32_t i = 0; i < n; i++) {
         float p[9], t, u, w;
-        bitpack_decode(leaf, i, p);
+        bitpack_triangle(leaf, i, p);
         /* At equal t the smaller mesh id wins, as in every codec (bvh_tie_id). */
         if (prt__tri_hit(r, p, p + 3, p + 6, h->t, &t, &u, &w) &&
             (t < h->t || bvh_tie_id(c->sh, id0 + i) < bvh_tie_id(c->sh, h->prim)))
@@ -110,10 +110,22 @@ PRT_INLINE bool bitpack_occluded(const uint8_t *leaf, uint32_t n, const prt__ray
     (void)c;
     for (uint32_t i = 0; i < n; i++) {
         float p[9], t, u, w;
-        bitpack_decode(leaf, i, p);
+        bitpack_triangle(leaf, i, p);
         if (prt__tri_hit(r, p, p + 3, p + 6, tfar, &t, &u, &w)) return true;
     }
     return false;
+}
+
+/* The triangles as the kernel decodes them, with their leaf-order ids (bvh_codec.decode). */
+static inline uint32_t bitpack_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    (void)sh;
+    uint32_t id0;
+    memcpy(&id0, leaf, 4);
+    for (uint32_t i = 0; i < n; i++) {
+        bitpack_triangle(leaf, i, v + 9 * (size_t)i);
+        ids[i] = id0 + i;
+    }
+    return n;
 }
 
 #endif

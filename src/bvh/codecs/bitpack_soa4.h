@@ -15,6 +15,7 @@
 #define PRT_BVH_CODECS_BITPACK_SOA4_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
@@ -170,6 +171,22 @@ PRT_INLINE bool bitpack_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt
         if (prt__tri4_hit(r, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
+}
+
+/* The blocks as the kernel decodes them, with their leaf-order ids; padding lanes (and
+ * lanes quantized to zero area, which never hit either) skipped (bvh_codec.decode). */
+static inline uint32_t bitpack_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v,
+                                           uint32_t *ids) {
+    (void)sh;
+    uint32_t id0, k = 0;
+    memcpy(&id0, leaf, 4);
+    leaf += BSOA_HEAD_BYTES;
+    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += BSOA_BLOCK_BYTES) {
+        float p[36];
+        bsoa_decode_block(leaf, p);
+        k = bvh_decode_soa(p, 4, 4, id0 + 4 * b, v, ids, k);
+    }
+    return k;
 }
 
 #endif

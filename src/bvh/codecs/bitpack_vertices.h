@@ -197,6 +197,17 @@ PRT_INLINE void bpv_ray_init(bpv_ray *c, const prt__rayx *r, const bvh_shared *s
     c->sh = sh;
 }
 
+/* The constants bpv_ray_init sets for the gathers, with the axes not renamed (comp 0, 1, 2):
+ * for the decode functions, which give vertices in world order (the same bits). */
+static inline void bpv_ray_world(bpv_ray *c, const bvh_shared *sh) {
+    memset(c, 0, sizeof *c);
+    bpv_header hd;
+    memcpy(&hd, sh->data, sizeof hd);
+    for (int k = 0; k < 3; k++) c->comp[k] = k, c->lo[k] = hd.lo[k], c->step[k] = hd.step[k];
+    c->vertices = sh->data + sizeof hd;
+    c->sh = sh;
+}
+
 /* Lanes whose vertex 0 and vertex 1 are the same index (padding), as an all-ones mask. */
 static inline vi4 bpv_same_index4(const uint32_t i0[4], const uint32_t i1[4]) {
     return (vi4){-(int32_t)(i0[0] == i1[0]), -(int32_t)(i0[1] == i1[1]), -(int32_t)(i0[2] == i1[2]),

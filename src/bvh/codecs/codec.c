@@ -1,4 +1,5 @@
 /* The codec table: what encoding and loading need from each codec. */
+#include "bvh/bvh.h"
 #include "bvh/codecs/codecs.h"
 
 #define X(id, nm, desc)                                                                              \
@@ -12,10 +13,12 @@ const bvh_codec bvh_codecs[BVH_CODEC_COUNT] = {
 #define X(id, nm, desc)                                                                              \
     [BVH_CODEC_##id] = {nm, desc, id##_block, id##_align, id##_leaf_bytes, id##_encode_fn, id##_shared_build,        \
                         id##_leaf_valid, id##_seq_ids, id##_shared_remap, id##_vertex_error, id##_leaf_error,         \
-                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack, NULL},
+                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack, id##_decode},
     BVH_CODECS(X)
 #undef X
 };
+
+_Static_assert(BVH_DECODE_MAX >= BVH_MAX_LEAF, "a leaf decodes to at most BVH_MAX_LEAF triangles");
 
 int bvh_codec_find(const char *name) {
     for (int i = 0; i < BVH_CODEC_COUNT; i++)

@@ -107,8 +107,17 @@ typedef struct bvh_codec {
     uint32_t (*decode)(const uint8_t *leaf, uint32_t count, const bvh_shared *sh, float *v, uint32_t *ids);
 } bvh_codec;
 
-/* Most triangles one leaf decodes to (bvh_codec.decode). */
+/* Most triangles one leaf decodes to (bvh_codec.decode): every codec decodes at most one
+ * triangle per entry of the count it is handed, and no layout hands more than
+ * BVH_MAX_LEAF (16, bvh.h; strip leaves hold at most 16 entries) to a validated leaf. */
 #define BVH_DECODE_MAX 64
+
+/* The (block-padded) count of a leaf of codec c that is `bytes` long, for layouts that
+ * keep a leaf's size rather than its count (leaf sizes are affine in blocks, above). */
+static inline uint32_t bvh_leaf_count_of(const bvh_codec *c, size_t bytes) {
+    const size_t head = c->leaf_bytes(0), per = c->leaf_bytes((uint32_t)c->block) - head;
+    return (uint32_t)((bytes - head) / per) * (uint32_t)c->block;
+}
 
 extern const bvh_codec bvh_codecs[BVH_CODEC_COUNT];
 

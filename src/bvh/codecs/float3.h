@@ -5,6 +5,7 @@
 #define PRT_BVH_CODECS_FLOAT3_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "geom/triangle.h"
 
 #define FLOAT3_TRI_BYTES 40
@@ -51,6 +52,16 @@ PRT_INLINE bool float3_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx
         if (prt__tri_hit(r, v, v + 3, v + 6, tfar, &t, &u, &w)) return true;
     }
     return false;
+}
+
+/* The triangles as stored, with their mesh ids (bvh_codec.decode). */
+static inline uint32_t float3_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    (void)sh;
+    for (uint32_t i = 0; i < n; i++, leaf += FLOAT3_TRI_BYTES) {
+        memcpy(v + 9 * (size_t)i, leaf, 36);
+        memcpy(ids + i, leaf + 36, 4);
+    }
+    return n;
 }
 
 #define float3_shared_remap NULL

@@ -4,6 +4,7 @@
 #define PRT_BVH_CODECS_FLOAT3_SOA4_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 

@@ -9,6 +9,7 @@
 #define PRT_BVH_CODECS_IDX16_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/idx16_soa4.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
@@ -85,6 +86,23 @@ PRT_INLINE bool idx16_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx 
             return true;
     }
     return false;
+}
+
+/* The triangles' vertices from the shared buffer, with their leaf-order ids; the padding
+ * triangle (on the NaN vertex) skipped (bvh_codec.decode). */
+static inline uint32_t idx16_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    const float *vertices = (const float *)sh->data;
+    uint32_t id0, k = 0;
+    memcpy(&id0, leaf, 4);
+    leaf += IDX16_HEAD_BYTES;
+    for (uint32_t i = 0; i < n; i++, leaf += IDX16_TRI_BYTES) {
+        uint16_t idx[3];
+        memcpy(idx, leaf, sizeof idx);
+        float p[9];
+        for (int c = 0; c < 3; c++) memcpy(p + 3 * c, vertices + 3 * (size_t)idx[c], 12);
+        k = bvh_decode_soa(p, 1, 1, id0 + i, v, ids, k);
+    }
+    return k;
 }
 
 #define idx16_shared_remap NULL

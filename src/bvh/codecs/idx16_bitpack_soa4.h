@@ -5,6 +5,7 @@
 
 #include "bvh/codecs/bitpack_vertices.h"
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 

@@ -14,6 +14,7 @@
 #define PRT_BVH_CODECS_IDX16_SOA4_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/idx32_soa4.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
@@ -124,6 +125,20 @@ PRT_INLINE bool idx16_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__
         if (prt__tri4_hit(r, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
+}
+
+/* The blocks as the kernel gathers them, with their leaf-order ids; padding lanes (the NaN
+ * vertex) skipped (bvh_codec.decode). */
+static inline uint32_t idx16_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    uint32_t id0, k = 0;
+    memcpy(&id0, leaf, 4);
+    leaf += IDX16_HEAD_BYTES;
+    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX16_SOA4_BLOCK_BYTES) {
+        float p[36];
+        idx16_soa4_gather(leaf, (const float *)sh->data, p);
+        k = bvh_decode_soa(p, 4, 4, id0 + 4 * b, v, ids, k);
+    }
+    return k;
 }
 
 #define idx16_soa4_shared_remap NULL

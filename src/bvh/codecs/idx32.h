@@ -6,6 +6,7 @@
 #define PRT_BVH_CODECS_IDX32_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/idx32_soa4.h"
 #include "geom/triangle.h"
 
@@ -67,6 +68,18 @@ PRT_INLINE bool idx32_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx 
             return true;
     }
     return false;
+}
+
+/* The triangles' vertices from the shared buffer, with their mesh ids (bvh_codec.decode). */
+static inline uint32_t idx32_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    const float *vertices = (const float *)sh->data;
+    for (uint32_t i = 0; i < n; i++, leaf += IDX32_TRI_BYTES) {
+        uint32_t idx[4];
+        memcpy(idx, leaf, sizeof idx);
+        for (int c = 0; c < 3; c++) memcpy(v + 9 * (size_t)i + 3 * c, vertices + 3 * (size_t)idx[c], 12);
+        ids[i] = idx[3];
+    }
+    return n;
 }
 
 #define idx32_shared_remap NULL

@@ -8,6 +8,7 @@
 #define PRT_BVH_CODECS_IDX32_SOA4_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
@@ -107,6 +108,20 @@ PRT_INLINE bool idx32_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__
         if (prt__tri4_hit(r, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
+}
+
+/* The blocks as the kernel gathers them, with their mesh ids; padding lanes (the NaN
+ * vertex) skipped (bvh_codec.decode). */
+static inline uint32_t idx32_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    uint32_t k = 0;
+    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX32_SOA4_BLOCK_BYTES) {
+        float p[36];
+        idx32_soa4_gather(leaf, (const float *)sh->data, p);
+        uint32_t id[4];
+        memcpy(id, leaf + 48, sizeof id);
+        k = bvh_decode_soa_ids(p, 4, id, v, ids, k);
+    }
+    return k;
 }
 
 #define idx32_soa4_shared_remap NULL

@@ -14,6 +14,7 @@
 
 #include "bvh/codecs/bitpack_vertices.h"
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "bvh/codecs/vertex_window.h"
 #include "geom/triangle.h"
@@ -116,6 +117,26 @@ PRT_INLINE bool idx8_bitpack_soa4_occluded(const uint8_t *leaf, uint32_t n, cons
         if (prt__tri8_hit(&prt__rayx_renamed, &c->r8, p, vf8_set1(tfar), &t, &u, &v)) return true;
     }
     return false;
+}
+
+/* The blocks as the kernel decodes them (two at a time), axes not renamed, with their
+ * leaf-order ids; padding lanes skipped (bvh_codec.decode). */
+static inline uint32_t idx8_bitpack_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v,
+                                                uint32_t *ids) {
+    idx8_bitpack_soa4_ray c;
+    bpv_ray_world(&c, sh);
+    uint32_t first, id0, k = 0;
+    memcpy(&first, leaf, 4);
+    memcpy(&id0, leaf + 4, 4);
+    const uint8_t *base = c.vertices + 8 * (size_t)first;
+    leaf += IDX8BP_HEAD_BYTES;
+    const uint32_t blocks = (n + 3) / 4;
+    for (uint32_t b = 0; b < blocks; b += 2, leaf += 2 * IDX8BP_BLOCK_BYTES) {
+        float p[72];
+        idx8bp_gather8(leaf, b + 1 == blocks, base, &c, p);
+        k = bvh_decode_soa(p, 8, 8, id0 + 4 * b, v, ids, k);
+    }
+    return k;
 }
 
 #define idx8_bitpack_soa4_leaf_error NULL

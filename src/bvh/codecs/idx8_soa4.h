@@ -9,6 +9,7 @@
 #define PRT_BVH_CODECS_IDX8_SOA4_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "bvh/codecs/vertex_window.h"
 #include "geom/triangle.h"
@@ -139,6 +140,22 @@ PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__r
         if (prt__tri4_hit(&prt__rayx_renamed, &c->r4, p, tf, &t, &u, &v)) return true;
     }
     return false;
+}
+
+/* The blocks as the kernel gathers them, axes not renamed, with their leaf-order ids;
+ * padding lanes skipped (bvh_codec.decode). */
+static inline uint32_t idx8_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+    uint32_t first, id0, k = 0;
+    memcpy(&first, leaf, 4);
+    memcpy(&id0, leaf + 4, 4);
+    const float *base = (const float *)(sh->data + sizeof(idx8_head)) + 3 * (size_t)first;
+    leaf += VW_HEAD_BYTES;
+    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += VW_BLOCK_BYTES) {
+        float p[36];
+        idx8_gather(leaf, base, (vi4){0, 1, 2, 3}, p);
+        k = bvh_decode_soa(p, 4, 4, id0 + 4 * b, v, ids, k);
+    }
+    return k;
 }
 
 #define idx8_soa4_leaf_error NULL

@@ -8,6 +8,7 @@
 #define PRT_BVH_CODECS_STRIP_H
 
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "bvh/strip_leaves.h"
 #include "geom/triangle.h"

@@ -141,6 +141,54 @@ prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_sh
     return PRT_OK;
 }
 
+/* --- the generic walks' view (bvh_layout.root / children) -------------------------- */
+
+/* The node at byte offset o: its stored box; a leaf's block follows it, or with tl lies
+ * where its properties point. */
+static bvh_child aabb_child_at(const uint8_t *blob, size_t o, bool tl) {
+    bvh_child ch;
+    memcpy(ch.box, blob + o, sizeof ch.box);
+    const uint32_t props = aabb_props(blob + o);
+    if (!(props & AABB_LEAF)) {
+        ch.ref = o, ch.count = 0;
+    } else if (tl) {
+        ch.ref = o + 4 * (size_t)(props & AABB_TL_OFFSET_MASK), ch.count = (props & ~AABB_LEAF) >> AABB_TL_COUNT_SHIFT;
+    } else {
+        ch.ref = o + AABB_NODE_BYTES, ch.count = props & ~AABB_LEAF;
+    }
+    return ch;
+}
+
+bvh_child bvh_aabb_root(const uint8_t *blob, const bvh_codec *c, bool tl) {
+    (void)c;
+    return aabb_child_at(blob, 0, tl);
+}
+
+/* Where the kernels find an inner node's children (aabb_kernels.inc, aabb_order_kernels.inc). */
+uint32_t bvh_aabb_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8],
+                           aabb_variant v, bool bf, bool tl) {
+    const size_t o = (size_t)node->ref;
+    const uint32_t props = aabb_props(blob + o);
+    size_t left = o + AABB_NODE_BYTES, right = o + 4 * (size_t)(props & aabb_offset_mask(v));
+    if (bf) {
+        left = right, right = left + AABB_NODE_BYTES;
+        const uint32_t lp = aabb_props(blob + left);
+        if (!tl && (lp & AABB_LEAF)) right += c->leaf_bytes(lp & ~AABB_LEAF);
+    }
+    out[0] = aabb_child_at(blob, left, tl);
+    out[1] = aabb_child_at(blob, right, tl);
+    return 2;
+}
+
+static bvh_child aabb_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    return bvh_aabb_root(blob, c, false);
+}
+
+static uint32_t aabb_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    return bvh_aabb_children(blob, c, node, out, AABB_PLAIN, false, false);
+}
+
 static prt_status aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
     return bvh_aabb_encode(t, c, m, AABB_PLAIN, out);
 }
@@ -160,6 +208,6 @@ const bvh_layout bvh_layout_aabb = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_root,
+    aabb_children,
 };

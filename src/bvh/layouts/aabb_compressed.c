@@ -161,6 +161,35 @@ static prt_status aabb_compressed_validate(const bvh_blob *b, const bvh_codec *c
     return PRT_OK;
 }
 
+/* --- the generic walks' view (bvh_layout.root / children) -------------------------- */
+
+/* A child at byte offset o of count triangles (0: an inner node) with its decoded box. */
+static bvh_child ac_child(size_t o, uint32_t count, const float lo[3], const float hi[3]) {
+    bvh_child ch = {.ref = o, .count = count};
+    memcpy(ch.box, lo, 12), memcpy(ch.box + 3, hi, 12);
+    return ch;
+}
+
+/* The root from the header; ref: an inner node's byte offset, a leaf's block's. */
+static bvh_child aabb_compressed_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    ac_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    return ac_child(hd.root_count ? ac_align_up(AC_HEADER_BYTES, c->align) : AC_HEADER_BYTES, hd.root_count, hd.lo, hd.hi);
+}
+
+/* Both children, their boxes decoded from node->box as traversal decodes them. */
+static uint32_t aabb_compressed_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    const size_t o = (size_t)node->ref;
+    const uint32_t wmin = ac_word(blob + o), wmax = ac_word(blob + o + 4), right = ac_word(blob + o + 8);
+    const uint32_t nl = wmin >> AC_COUNT_SHIFT, nr = wmax >> AC_COUNT_SHIFT;
+    float llo[3], lhi[3], rlo[3], rhi[3];
+    ac_unpack(node->box, node->box + 3, wmin, wmax, llo, lhi, rlo, rhi);
+    out[0] = ac_child(nl ? ac_align_up(o + AC_NODE_BYTES, c->align) : o + AC_NODE_BYTES, nl, llo, lhi);
+    out[1] = ac_child(right, nr, rlo, rhi);
+    return 2;
+}
+
 /* --- test walk (layout_debug.h) ------------------------------------------------------ */
 
 typedef struct debug_walk {
@@ -217,6 +246,6 @@ const bvh_layout bvh_layout_aabb_compressed = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_compressed_root,
+    aabb_compressed_children,
 };

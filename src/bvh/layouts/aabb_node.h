@@ -44,6 +44,14 @@ static inline float aabb_box_hit(const prt__rayx *r, const uint8_t *node, float 
     return prt__box_hit(r, b, b + 3, tfar);
 }
 
+/* The generic walks' view of the 28-byte nodes in every variant and node order (bf: an
+ * inner node's children side by side where its properties point; tl: leaves point to
+ * their triangle block behind all nodes; aabb_order.c): a node's ref is its byte offset,
+ * a leaf's the offset of its triangle block, with the count its properties hold. */
+bvh_child bvh_aabb_root(const uint8_t *blob, const bvh_codec *c, bool tl);
+uint32_t bvh_aabb_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8],
+                           aabb_variant v, bool bf, bool tl);
+
 /* Depth-first encoding and its structural check, for every variant. */
 prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, aabb_variant v, bvh_blob *out);
 prt_status bvh_aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh, aabb_variant v);

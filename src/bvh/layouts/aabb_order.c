@@ -159,6 +159,13 @@ static prt_status validate_order(const bvh_blob *b, const bvh_codec *c, const bv
     }                                                                                                               \
     static prt_status name##_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {                \
         return validate_order(b, c, sh, bf, tl);                                                                    \
+    }                                                                                                               \
+    static bvh_child name##_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {                  \
+        (void)bounds;                                                                                               \
+        return bvh_aabb_root(blob, c, tl);                                                                          \
+    }                                                                                                               \
+    static uint32_t name##_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) { \
+        return bvh_aabb_children(blob, c, node, out, AABB_PLAIN, bf, tl);                                           \
     }
 ORDER_FNS(aabb_df_tl, false, true)
 ORDER_FNS(aabb_bf, true, false)
@@ -175,8 +182,8 @@ static const bvh_layout aabb_df_tl = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_df_tl_root,
+    aabb_df_tl_children,
 };
 
 static const bvh_layout aabb_bf = {
@@ -187,8 +194,8 @@ static const bvh_layout aabb_bf = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_bf_root,
+    aabb_bf_children,
 };
 
 static const bvh_layout aabb_bf_tl = {
@@ -199,8 +206,8 @@ static const bvh_layout aabb_bf_tl = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_bf_tl_root,
+    aabb_bf_tl_children,
 };
 
 const bvh_layout *const bvh_aabb_orders[BVH_ORDER_COUNT] = {&bvh_layout_aabb, &aabb_df_tl, &aabb_bf, &aabb_bf_tl};

@@ -16,6 +16,15 @@ static prt_status aabb_pns_validate(const bvh_blob *b, const bvh_codec *c, const
     return bvh_aabb_validate(b, c, sh, AABB_PNS);
 }
 
+static bvh_child aabb_pns_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    return bvh_aabb_root(blob, c, false);
+}
+
+static uint32_t aabb_pns_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    return bvh_aabb_children(blob, c, node, out, AABB_PNS, false, false);
+}
+
 const bvh_layout bvh_layout_aabb_pns = {
     "aabb-pns",
     "AABBTreePNS (Rouwe 5.3): AABBTree nodes with 8 precomputed node-sorting bits, children visited in the "
@@ -29,6 +38,6 @@ const bvh_layout bvh_layout_aabb_pns = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_pns_root,
+    aabb_pns_children,
 };

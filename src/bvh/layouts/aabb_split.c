@@ -15,6 +15,15 @@ static prt_status aabb_split_validate(const bvh_blob *b, const bvh_codec *c, con
     return bvh_aabb_validate(b, c, sh, AABB_SPLIT);
 }
 
+static bvh_child aabb_split_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    return bvh_aabb_root(blob, c, false);
+}
+
+static uint32_t aabb_split_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    return bvh_aabb_children(blob, c, node, out, AABB_SPLIT, false, false);
+}
+
 const bvh_layout bvh_layout_aabb_split = {
     "aabb-split",
     "AABBTreeSplitAxis (Rouwe 5.2): AABBTree nodes with the split axis, children visited in ray order",
@@ -27,6 +36,6 @@ const bvh_layout bvh_layout_aabb_split = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    aabb_split_root,
+    aabb_split_children,
 };

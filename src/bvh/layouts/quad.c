@@ -178,6 +178,34 @@ static prt_status quad_validate(const bvh_blob *b, const bvh_codec *c, const bvh
     return s;
 }
 
+/* --- the generic walks' view (bvh_layout.root / children) -------------------------- */
+
+/* The occupied slots of the node at byte offset node->ref, with their stored boxes; ref: a
+ * child node's byte offset, a leaf's block's. */
+static uint32_t quad_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    (void)c;
+    quad_node n;
+    memcpy(&n, blob + node->ref, sizeof n);
+    uint32_t count = 0;
+    for (int i = 0; i < 4; i++) {
+        const uint64_t ref = n.child[i];
+        if (!ref) continue;
+        bvh_child *o = &out[count++];
+        for (int k = 0; k < 3; k++) o->box[k] = n.box[8 * k + i], o->box[3 + k] = n.box[8 * k + 4 + i];
+        o->ref = ref & QUAD_OFFSET_MASK;
+        o->count = ref & QUAD_LEAF ? quad_leaf_count(ref) : 0;
+    }
+    return count;
+}
+
+/* The root node (offset 0), its box the union of its child boxes. */
+static bvh_child quad_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    bvh_child root = {.ref = 0, .count = 0}, kids[8];
+    bvh_child_union(kids, quad_children(blob, c, &root, kids), root.box);
+    return root;
+}
+
 const bvh_layout bvh_layout_quad = {
     "quad",
     "QuadTree (Rouwe 5.6): 4-wide 128-byte nodes, SIMD box test, nearest child first",
@@ -189,6 +217,6 @@ const bvh_layout bvh_layout_quad = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    quad_root,
+    quad_children,
 };

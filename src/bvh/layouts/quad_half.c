@@ -223,6 +223,38 @@ static prt_status quad_half_validate(const bvh_blob *b, const bvh_codec *c, cons
     return s;
 }
 
+/* --- the generic walks' view (bvh_layout.root / children) -------------------------- */
+
+/* The occupied slots of the node at byte offset node->ref, boxes decoded as the kernels do
+ * (qh_plane); ref: a child node's byte offset, a leaf's block's. */
+static uint32_t quad_half_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    (void)c;
+    qh_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    qh_node n;
+    memcpy(&n, blob + node->ref, sizeof n);
+    uint32_t count = 0;
+    for (int i = 0; i < 4; i++) {
+        const uint32_t ref = n.child[i];
+        if (!ref) continue;
+        bvh_child *o = &out[count++];
+        for (int k = 0; k < 3; k++)
+            o->box[k] = qh_plane(n.box[8 * k + i], hd.scale[k], hd.centre[k]),
+            o->box[3 + k] = qh_plane(n.box[8 * k + 4 + i], hd.scale[k], hd.centre[k]);
+        if (ref & QH_LEAF) o->ref = hd.geometry + 4 * (uint64_t)(ref & QH_OFFSET_MASK), o->count = qh_leaf_count(ref);
+        else o->ref = QH_HEADER_BYTES + (uint64_t)QH_NODE_BYTES * ref, o->count = 0;
+    }
+    return count;
+}
+
+/* The root node, its box the union of its decoded child boxes. */
+static bvh_child quad_half_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    bvh_child root = {.ref = QH_HEADER_BYTES, .count = 0}, kids[8];
+    bvh_child_union(kids, quad_half_children(blob, c, &root, kids), root.box);
+    return root;
+}
+
 /* --- test walk (layout_debug.h) ------------------------------------------------------ */
 
 static void debug_node(const bvh_blob *b, const qh_header *hd, uint32_t q, bvh_debug_leaf_fn leaf, void *user,
@@ -272,6 +304,6 @@ const bvh_layout bvh_layout_quad_half = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    quad_half_root,
+    quad_half_children,
 };

@@ -200,6 +200,42 @@ static prt_status skd_validate(const bvh_blob *b, const bvh_codec *c, const bvh_
     return PRT_OK;
 }
 
+/* --- the generic walks' view (bvh_layout.root / children) -------------------------- */
+
+/* The node at byte offset o with region box: an inner node's ref its offset, a leaf's its
+ * block's, at the codec's alignment after the node's word. */
+static bvh_child skd_child(const uint8_t *blob, const bvh_codec *c, size_t o, const float box[6]) {
+    bvh_child ch;
+    memcpy(ch.box, box, sizeof ch.box);
+    const uint32_t props = skd_u32(blob + o);
+    if (props >> SKD_AXIS_SHIFT == SKD_LEAF) ch.ref = skd_align_up(o + 4, c->align), ch.count = props & SKD_PAYLOAD_MASK;
+    else ch.ref = o, ch.count = 0;
+    return ch;
+}
+
+static bvh_child skd_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    skd_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    const float box[6] = {hd.lo[0], hd.lo[1], hd.lo[2], hd.hi[0], hd.hi[1], hd.hi[2]};
+    return skd_child(blob, c, SKD_HEADER_BYTES, box);
+}
+
+/* Both children, their regions node->box cut by the node's planes (the left child's
+ * maximum, the right child's minimum along its axis), as traversal clips the ray. */
+static uint32_t skd_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    const size_t o = (size_t)node->ref;
+    const uint32_t props = skd_u32(blob + o);
+    const int k = (int)(props >> SKD_AXIS_SHIFT);
+    float left[6], right[6];
+    memcpy(left, node->box, sizeof left), memcpy(right, node->box, sizeof right);
+    left[3 + k] = fminf(left[3 + k], skd_f32(blob + o + 4));
+    right[k] = fmaxf(right[k], skd_f32(blob + o + 8));
+    out[0] = skd_child(blob, c, o + SKD_INNER_BYTES, left);
+    out[1] = skd_child(blob, c, o + 4 * (size_t)(props & SKD_PAYLOAD_MASK), right);
+    return 2;
+}
+
 /* --- test walk (layout_debug.h) ------------------------------------------------------ */
 
 typedef struct debug_walk {
@@ -257,6 +293,6 @@ const bvh_layout bvh_layout_skd = {
         BVH_CODECS(X)
 #undef X
     },
-    NULL, /* root: the generic walks' view, bvh/walk.c */
-    NULL, /* children */
+    skd_root,
+    skd_children,
 };

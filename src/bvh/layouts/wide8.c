@@ -54,6 +54,45 @@ static prt_status wide8_validate(const bvh_blob *b, const bvh_codec *c, const bv
     return wide8_check(b, &lv);
 }
 
+/* --- the generic walks' view (bvh_layout.root / children) -------------------------- */
+
+/* Children of the node at byte offset node->ref: boxes decoded with the kernels' fma
+ * (wide8_plane); an inner child's ref its node's byte offset, a leaf's its block's, with
+ * the block-padded count wide8_child_ref hands the codec. */
+static uint32_t wide8_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+    wide8_header hd;
+    memcpy(&hd, blob, sizeof hd);
+    wide8_node n;
+    memcpy(&n, blob + node->ref, sizeof n);
+    const unsigned occupied = wide8_occupied(&n);
+    uint32_t count = 0;
+    for (int i = 0; i < 8; i++) {
+        if (!(occupied >> i & 1)) continue;
+        bvh_child *o = &out[count++];
+        for (int k = 0; k < 3; k++) {
+            const float s = wide8_scale(n.e[k]);
+            o->box[k] = fmaf((float)n.q[2 * k][i], s, n.p[k]);
+            o->box[3 + k] = fmaf((float)n.q[2 * k + 1][i], s, n.p[k]);
+        }
+        if (n.imask >> i & 1) {
+            o->ref = WIDE8_HEADER_BYTES + (uint64_t)WIDE8_NODE_BYTES * (n.child + (uint32_t)i), o->count = 0;
+        } else {
+            const uint32_t start = i ? n.meta[i - 1] : 0, end = n.meta[i];
+            o->ref = hd.geometry + 4 * (uint64_t)n.leaf + (uint64_t)start * hd.grain;
+            o->count = bvh_leaf_count_of(c, (size_t)(end - start) * hd.grain);
+        }
+    }
+    return count;
+}
+
+/* The root node, its box the union of its decoded child boxes. */
+static bvh_child wide8_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
+    (void)bounds;
+    bvh_child root = {.ref = WIDE8_HEADER_BYTES, .count = 0}, kids[8];
+    bvh_child_union(kids, wide8_children(blob, c, &root, kids), root.box);
+    return root;
+}
+
 /* The layout object, and the same with the filled collapse (collapse=fill): the blobs
  * differ in their trees only, so both share validation and kernels. */
 #define WIDE8_LAYOUT(encode)                                                                                       \
@@ -63,7 +102,7 @@ static prt_status wide8_validate(const bvh_blob *b, const bvh_codec *c, const bv
         "power-of-two grid, one 8-lane box test",                                                                  \
         {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4, \
          [BVH_CODEC_idx32_soa4] = 8},                                                                              \
-        encode, wide8_validate, {BVH_CODECS(WIDE8_KERNELS)}, NULL, NULL,                                          \
+        encode, wide8_validate, {BVH_CODECS(WIDE8_KERNELS)}, wide8_root, wide8_children,                                          \
     }
 #define WIDE8_KERNELS(id, nm, desc)                                                                                \
     [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id, wide8_for_blob_##id},
