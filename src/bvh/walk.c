@@ -15,6 +15,10 @@ static void name_triangles(const bvh_view *w, float *v, uint32_t *ids, uint32_t 
     const bvh_shared *sh = w->shared;
     for (uint32_t i = 0; i < n; i++) {
         if (ids[i] >= sh->triangles) continue;
+        if (sh->map_id) { /* lossygrid: its compact map; its decode gives mesh vertex order */
+            ids[i] = sh->map_id(sh->map, ids[i]);
+            continue;
+        }
         if (w->codec->strips) {
             const uint32_t r = sh->data[sizeof(strip_shared_head) + ids[i] / 4] >> (2 * (ids[i] % 4)) & 3;
             if (r) {
@@ -25,6 +29,13 @@ static void name_triangles(const bvh_view *w, float *v, uint32_t *ids, uint32_t 
         }
         if (sh->mesh_ids) ids[i] = sh->mesh_ids[ids[i]];
     }
+}
+
+/* A node's cost for q, tested on its box widened to hold what the codec decodes. */
+static double walk_cost(const bvh_view *w, const prt__query *q, const bvh_child *c) {
+    float box[6];
+    bvh_decoded_box(w->codec, w->shared, c->box, box);
+    return prt__query_cost(q, box);
 }
 
 typedef struct walk_entry {
@@ -38,7 +49,7 @@ void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
     uint32_t ids[BVH_DECODE_MAX];
     uint32_t sp = 0;
     const bvh_child root = w->layout->root(w->blob, w->codec, bounds);
-    stack[sp++] = (walk_entry){root, prt__query_cost(q, root.box)};
+    stack[sp++] = (walk_entry){root, walk_cost(w, q, &root)};
     while (sp) {
         const walk_entry e = stack[--sp];
         if (e.cost == INFINITY || (q->kind == PRT__QUERY_POINT && e.cost > q->r2)) continue;
@@ -53,7 +64,7 @@ void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
         walk_entry next[8];
         uint32_t m = 0;
         for (uint32_t i = 0; i < n; i++) {
-            const double c = prt__query_cost(q, kids[i].box);
+            const double c = walk_cost(w, q, &kids[i]);
             if (c < INFINITY) next[m++] = (walk_entry){kids[i], c};
         }
         /* Farthest pushed first, so the nearest is popped next (insertion sort, at most 8). */

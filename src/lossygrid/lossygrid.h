@@ -37,6 +37,10 @@ prt_status lg_blob_check(const bvh_blob *b, const bvh_shared *sh);
 
 /* Closest and any hit (traverse.c); hits name accel positions. */
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
+
+/* The triangles of a leaf of count records, in the mesh's vertex order, with their accel
+ * positions (bvh_codec.decode's contract, lossygrid/decode.c): for the mesh queries. */
+uint32_t lg_record_triangles(const uint8_t *leaf, uint32_t count, const bvh_shared *sh, float *v, uint32_t *ids);
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
 /* lg_trace1 for n rays (invalid ones a miss), four walks interleaved by the wide8
  * template's stream; every answer is lg_trace1's bit for bit. */

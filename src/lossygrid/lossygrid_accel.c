@@ -11,6 +11,7 @@
 #include "geom/ray.h"
 #include "lossygrid/idmap.h"
 #include "lossygrid/lossygrid.h"
+#include "lossygrid/record.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -277,6 +278,20 @@ static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     return PRT_OK;
 }
 
+/* The mesh queries walk the wide8 nodes through the BVH family's view of them, with the
+ * records as the leaves' codec (bvh/walk.c, api/query.h). */
+static void lg_query(const prt_accel *a, struct prt__query *q) {
+    static const bvh_codec records = {.name = "lossygrid records",
+                                      .block = lgrec_block,
+                                      .align = lgrec_align,
+                                      .leaf_bytes = lgrec_leaf_bytes,
+                                      .seq_ids = true,
+                                      .decode = lg_record_triangles};
+    const lg_accel *g = (const lg_accel *)a;
+    const bvh_view w = {&bvh_layout_wide8, &records, g->blob.data, &g->shared};
+    bvh_walk(&w, a->bounds, q);
+}
+
 const prt_accel_ops prt__lossygrid_ops = {
     .name = "lossygrid",
     .build = lg_build,
@@ -289,6 +304,7 @@ const prt_accel_ops prt__lossygrid_ops = {
     .save = lg_save,
     .load = lg_load,
     .destroy = lg_destroy,
+    .query = lg_query,
 };
 
 const prt_repr_family prt__lossygrid_family = {&prt__lossygrid_ops, lg_accepts, lg_name_at};

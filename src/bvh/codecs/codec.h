@@ -107,10 +107,11 @@ typedef struct bvh_codec {
     uint32_t (*decode)(const uint8_t *leaf, uint32_t count, const bvh_shared *sh, float *v, uint32_t *ids);
 } bvh_codec;
 
-/* Most triangles one leaf decodes to (bvh_codec.decode): every codec decodes at most one
- * triangle per entry of the count it is handed, and no layout hands more than
- * BVH_MAX_LEAF (16, bvh.h; strip leaves hold at most 16 entries) to a validated leaf. */
-#define BVH_DECODE_MAX 64
+/* Most triangles one leaf decodes to (bvh_codec.decode): every BVH codec decodes at most
+ * one triangle per entry of the count it is handed, and no layout hands more than
+ * BVH_MAX_LEAF (16, bvh.h; strip leaves hold at most 16 entries) to a validated leaf;
+ * lossygrid's leaves (lossygrid/decode.c) hold up to 4 records of 32 triangles. */
+#define BVH_DECODE_MAX 128
 
 /* The (block-padded) count of a leaf of codec c that is `bytes` long, for layouts that
  * keep a leaf's size rather than its count (leaf sizes are affine in blocks, above). */
