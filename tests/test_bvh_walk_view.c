@@ -31,6 +31,8 @@ typedef struct decoded {
     uint32_t *mesh; /* mapped to the mesh */
     size_t n, cap;
     size_t leaves, outside_raw; /* vertices outside a raw (unwidened) box: lossy codecs only */
+    size_t outside_bounds;      /* vertices outside the accel's bounds: lossy codecs only */
+    float bounds[6];
     size_t bad_box, bad_structure;
 } decoded;
 
@@ -78,6 +80,7 @@ static void walk(const bvh_view *w, const bvh_child *node, const float clip_in[6
             for (int c = 0; c < 3; c++) {
                 d->bad_box += !inside(clip, t + 3 * c);
                 d->outside_raw += !inside(node->box, t + 3 * c);
+                d->outside_bounds += !inside(d->bounds, t + 3 * c);
             }
             d->mesh[d->n + i] = mesh_id_of(w->shared, d->id[d->n + i]);
         }
@@ -183,19 +186,19 @@ static void decode_all(const prt_accel *a, bvh_view *w, decoded *d) {
         d->bad_structure++;
         return;
     }
-    float bounds[6];
-    memcpy(bounds, a->bounds, sizeof bounds);
-    const bvh_child root = w->layout->root(w->blob, w->codec, bounds);
+    memcpy(d->bounds, a->bounds, sizeof d->bounds);
+    const bvh_child root = w->layout->root(w->blob, w->codec, d->bounds);
     const float all[6] = {-INFINITY, -INFINITY, -INFINITY, INFINITY, INFINITY, INFINITY};
     walk(w, &root, all, d, 1);
 }
 
-/* One spec over mesh m, as built and as loaded back; returns the vertices outside a raw box. */
-static size_t check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays, size_t *leaves) {
+/* One spec over mesh m, as built and as loaded back; adds the vertices outside a raw box
+ * and outside the accel's bounds to outside[0] and [1]. */
+static void check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays, size_t outside[2]) {
     prt_accel *a = NULL;
     prt_status s = prt_build(m, spec, NULL, &a);
     CHECK_MSG(s == PRT_OK, "%s: %s", spec, prt_last_error());
-    if (s) return 0;
+    if (s) return;
     prt_stats st;
     prt_accel_stats(a, &st);
     bvh_view w;
@@ -226,12 +229,12 @@ static size_t check_spec(const char *spec, const prt_mesh *m, const prt_ray *ray
         decoded_free(&dl);
         prt_accel_free(b);
     }
-    const size_t outside = d.outside_raw;
-    *leaves = d.leaves;
-    if (lossless) CHECK_MSG(outside == 0, "%s: a lossless codec's vertex lies outside its raw box", spec);
+    CHECK_MSG(d.leaves == st.leaves, "%s: %zu leaves walked, %zu in the tree", spec, d.leaves, st.leaves);
+    if (lossless)
+        CHECK_MSG(d.outside_raw == 0 && d.outside_bounds == 0, "%s: a lossless codec's vertex lies outside its raw box", spec);
+    outside[0] += d.outside_raw, outside[1] += d.outside_bounds;
     decoded_free(&d);
     prt_accel_free(a);
-    return outside;
 }
 
 static void check_mesh(const char *kind, size_t triangles) {
@@ -240,18 +243,19 @@ static void check_mesh(const char *kind, size_t triangles) {
     if (!m) return;
     prt_ray *rays = rays_random(m, RAYS, 11);
     for (int c = 0; c < BVH_CODEC_COUNT; c++) {
-        size_t outside = 0;
+        size_t outside[2] = {0, 0};
         for (size_t l = 0; l < COUNT_OF(g_layouts); l++) {
             char spec[128];
             const char *comma = strchr(g_layouts[l], ',');
             if (comma)
                 snprintf(spec, sizeof spec, "%.*s:%s%s", (int)(comma - g_layouts[l]), g_layouts[l], bvh_codecs[c].name, comma);
             else snprintf(spec, sizeof spec, "%s:%s", g_layouts[l], bvh_codecs[c].name);
-            size_t leaves;
-            outside += check_spec(spec, m, rays, &leaves);
+            check_spec(spec, m, rays, outside);
         }
-        if (outside) printf("  %s %s: %zu decoded vertices outside their raw box (inside the widened one)\n", kind,
-                            bvh_codecs[c].name, outside);
+        if (outside[0])
+            printf("  %s %s: over the %zu trees, %zu decoded vertices outside their raw box (inside the widened one), "
+                   "%zu outside the accel's bounds\n",
+                   kind, bvh_codecs[c].name, COUNT_OF(g_layouts), outside[0], outside[1]);
     }
     free(rays);
     prt_mesh_free(m);

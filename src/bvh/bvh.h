@@ -53,8 +53,10 @@ typedef struct bvh_child {
  * vertices decode inside that grid's box up to a few roundings. bvh/child.c. */
 void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6], float out[6]);
 
-/* The box holding the n boxes of children (lo +inf, hi -inf for none). */
-void bvh_child_union(const bvh_child *children, uint32_t n, float box[6]);
+/* The root of layouts that keep no box for it (quad, quad-half, wide8): the inner node at
+ * ref, its box the union of the boxes children() gives its children. bvh/child.c. */
+bvh_child bvh_child_inner_root(const uint8_t *blob, const bvh_codec *c, uint64_t ref,
+                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *, bvh_child[8]));
 
 typedef struct bvh_layout {
     const char *name;
