@@ -22,7 +22,7 @@ static const char *const g_layouts[] = {
     "aabb-compressed", "quad", "quad-half", "skd", "wide8", "wide8,collapse=fill",
 };
 
-#define RAYS 256
+#define RAYS 200
 
 /* The decoded triangles of a whole tree, in walk order. */
 typedef struct decoded {
@@ -153,9 +153,10 @@ static void check_triangles(const char *name, const prt_mesh *m, const bvh_view 
 
 /* (d): the nearest scalar hit over every decoded triangle against prt_intersect1, bit for
  * bit: t, the mesh id (ties: the smaller), u and v (strip codecs: rotated back). */
-static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, const decoded *d, const prt_ray *rays) {
+static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, const decoded *d, const prt_ray *rays,
+                       int count) {
     size_t wrong = 0;
-    for (int i = 0; i < RAYS; i++) {
+    for (int i = 0; i < count; i++) {
         prt__rayx x;
         prt__rayx_init(&x, &rays[i]);
         float best = rays[i].tfar, bu = 0, bv = 0;
@@ -176,7 +177,7 @@ static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, 
             fprintf(stderr, "  %s: ray %d: decoded %u t %a u %a v %a, intersect1 %u t %a u %a v %a\n", name, i, prim,
                     best, bu, bv, h.prim, h.t, h.u, h.v);
     }
-    CHECK_MSG(wrong == 0, "%s: %zu of %d rays differ", name, wrong, RAYS);
+    CHECK_MSG(wrong == 0, "%s: %zu of %d rays differ", name, wrong, count);
 }
 
 static void decode_all(const prt_accel *a, bvh_view *w, decoded *d) {
@@ -208,7 +209,7 @@ static void check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays,
     CHECK_MSG(d.bad_structure == 0 && d.bad_box == 0, "%s: %zu structural faults, %zu vertices outside a box", spec,
               d.bad_structure, d.bad_box);
     check_triangles(spec, m, &w, &d, st.vertex_error, lossless);
-    check_rays(spec, a, &w, &d, rays);
+    check_rays(spec, a, &w, &d, rays, RAYS);
 
     /* Saved and loaded: the same triangles in the same walk order, the same hits. */
     const char *path = test_tmp_path("walk_view.prt");
@@ -225,7 +226,7 @@ static void check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays,
                       !memcmp(dl.mesh, d.mesh, 4 * d.n),
                   "%s loaded: %zu triangles (built: %zu), %zu faults, decoded differently", spec, dl.n, d.n,
                   dl.bad_structure);
-        check_rays(spec, b, &wl, &dl, rays);
+        check_rays(spec, b, &wl, &dl, rays, RAYS / 4); /* the same triangles: the loaded kernels */
         decoded_free(&dl);
         prt_accel_free(b);
     }
@@ -237,10 +238,8 @@ static void check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays,
     prt_accel_free(a);
 }
 
-static void check_mesh(const char *kind, size_t triangles) {
-    prt_mesh *m = NULL;
-    CHECK_OK(prt_mesh_generate(kind, triangles, 3, &m));
-    if (!m) return;
+/* Every spec over m (named kind in messages). */
+static void check_mesh(const char *kind, const prt_mesh *m) {
     prt_ray *rays = rays_random(m, RAYS, 11);
     for (int c = 0; c < BVH_CODEC_COUNT; c++) {
         size_t outside[2] = {0, 0};
@@ -258,15 +257,31 @@ static void check_mesh(const char *kind, size_t triangles) {
                    kind, bvh_codecs[c].name, COUNT_OF(g_layouts), outside[0], outside[1]);
     }
     free(rays);
+}
+
+static void check_generated(const char *kind, size_t triangles) {
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_generate(kind, triangles, 3, &m));
+    if (!m) return;
+    check_mesh(kind, m);
     prt_mesh_free(m);
 }
 
-TEST(test_walk_view_decodes_every_triangle_of_a_closed_sphere) { check_mesh("sphere", 1000); }
+TEST(test_walk_view_decodes_every_triangle_of_a_closed_sphere) { check_generated("sphere", 1000); }
 
-TEST(test_walk_view_decodes_every_triangle_of_a_cad_mesh) { check_mesh("cad", 1000); }
+TEST(test_walk_view_decodes_every_triangle_of_a_cad_mesh) { check_generated("cad", 1000); }
+
+/* Six triangles: most layouts' root is then a leaf (aabb, aabb-compressed, skd), or an
+ * inner node over one leaf (quad, quad-half, wide8). */
+TEST(test_walk_view_decodes_a_tree_of_one_leaf) {
+    prt_mesh *m = mesh_random_soup(6, 5);
+    check_mesh("soup", m);
+    prt_mesh_free(m);
+}
 
 int main(void) {
     RUN(test_walk_view_decodes_every_triangle_of_a_closed_sphere);
     RUN(test_walk_view_decodes_every_triangle_of_a_cad_mesh);
+    RUN(test_walk_view_decodes_a_tree_of_one_leaf);
     TEST_END();
 }

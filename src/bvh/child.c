@@ -5,7 +5,7 @@
 #include <math.h>
 
 void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6], float out[6]) {
-    memcpy(out, box, 6 * sizeof(float));
+    memmove(out, box, 6 * sizeof(float)); /* out may be box */
     if (c->leaf_error) {
         /* A grid per leaf or block over its triangles' bounds (inside the box): a vertex
          * decodes to lo + q step with 0 <= q <= 2^b - 1, at most lo + (hi - lo)(1 + 4u)
