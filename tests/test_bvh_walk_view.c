@@ -22,7 +22,7 @@ static const char *const g_layouts[] = {
     "aabb-compressed", "quad", "quad-half", "skd", "wide8", "wide8,collapse=fill",
 };
 
-#define RAYS 256
+#define RAYS 200
 
 /* The decoded triangles of a whole tree, in walk order. */
 typedef struct decoded {
@@ -31,6 +31,8 @@ typedef struct decoded {
     uint32_t *mesh; /* mapped to the mesh */
     size_t n, cap;
     size_t leaves, outside_raw; /* vertices outside a raw (unwidened) box: lossy codecs only */
+    size_t outside_bounds;      /* vertices outside the accel's bounds: lossy codecs only */
+    float bounds[6];
     size_t bad_box, bad_structure;
 } decoded;
 
@@ -78,6 +80,7 @@ static void walk(const bvh_view *w, const bvh_child *node, const float clip_in[6
             for (int c = 0; c < 3; c++) {
                 d->bad_box += !inside(clip, t + 3 * c);
                 d->outside_raw += !inside(node->box, t + 3 * c);
+                d->outside_bounds += !inside(d->bounds, t + 3 * c);
             }
             d->mesh[d->n + i] = mesh_id_of(w->shared, d->id[d->n + i]);
         }
@@ -150,9 +153,10 @@ static void check_triangles(const char *name, const prt_mesh *m, const bvh_view 
 
 /* (d): the nearest scalar hit over every decoded triangle against prt_intersect1, bit for
  * bit: t, the mesh id (ties: the smaller), u and v (strip codecs: rotated back). */
-static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, const decoded *d, const prt_ray *rays) {
+static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, const decoded *d, const prt_ray *rays,
+                       int count) {
     size_t wrong = 0;
-    for (int i = 0; i < RAYS; i++) {
+    for (int i = 0; i < count; i++) {
         prt__rayx x;
         prt__rayx_init(&x, &rays[i]);
         float best = rays[i].tfar, bu = 0, bv = 0;
@@ -173,7 +177,7 @@ static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, 
             fprintf(stderr, "  %s: ray %d: decoded %u t %a u %a v %a, intersect1 %u t %a u %a v %a\n", name, i, prim,
                     best, bu, bv, h.prim, h.t, h.u, h.v);
     }
-    CHECK_MSG(wrong == 0, "%s: %zu of %d rays differ", name, wrong, RAYS);
+    CHECK_MSG(wrong == 0, "%s: %zu of %d rays differ", name, wrong, count);
 }
 
 static void decode_all(const prt_accel *a, bvh_view *w, decoded *d) {
@@ -183,19 +187,19 @@ static void decode_all(const prt_accel *a, bvh_view *w, decoded *d) {
         d->bad_structure++;
         return;
     }
-    float bounds[6];
-    memcpy(bounds, a->bounds, sizeof bounds);
-    const bvh_child root = w->layout->root(w->blob, w->codec, bounds);
+    memcpy(d->bounds, a->bounds, sizeof d->bounds);
+    const bvh_child root = w->layout->root(w->blob, w->codec, d->bounds);
     const float all[6] = {-INFINITY, -INFINITY, -INFINITY, INFINITY, INFINITY, INFINITY};
     walk(w, &root, all, d, 1);
 }
 
-/* One spec over mesh m, as built and as loaded back; returns the vertices outside a raw box. */
-static size_t check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays, size_t *leaves) {
+/* One spec over mesh m, as built and as loaded back; adds the vertices outside a raw box
+ * and outside the accel's bounds to outside[0] and [1]. */
+static void check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays, size_t outside[2]) {
     prt_accel *a = NULL;
     prt_status s = prt_build(m, spec, NULL, &a);
     CHECK_MSG(s == PRT_OK, "%s: %s", spec, prt_last_error());
-    if (s) return 0;
+    if (s) return;
     prt_stats st;
     prt_accel_stats(a, &st);
     bvh_view w;
@@ -205,7 +209,7 @@ static size_t check_spec(const char *spec, const prt_mesh *m, const prt_ray *ray
     CHECK_MSG(d.bad_structure == 0 && d.bad_box == 0, "%s: %zu structural faults, %zu vertices outside a box", spec,
               d.bad_structure, d.bad_box);
     check_triangles(spec, m, &w, &d, st.vertex_error, lossless);
-    check_rays(spec, a, &w, &d, rays);
+    check_rays(spec, a, &w, &d, rays, RAYS);
 
     /* Saved and loaded: the same triangles in the same walk order, the same hits. */
     const char *path = test_tmp_path("walk_view.prt");
@@ -222,47 +226,62 @@ static size_t check_spec(const char *spec, const prt_mesh *m, const prt_ray *ray
                       !memcmp(dl.mesh, d.mesh, 4 * d.n),
                   "%s loaded: %zu triangles (built: %zu), %zu faults, decoded differently", spec, dl.n, d.n,
                   dl.bad_structure);
-        check_rays(spec, b, &wl, &dl, rays);
+        check_rays(spec, b, &wl, &dl, rays, RAYS / 4); /* the same triangles: the loaded kernels */
         decoded_free(&dl);
         prt_accel_free(b);
     }
-    const size_t outside = d.outside_raw;
-    *leaves = d.leaves;
-    if (lossless) CHECK_MSG(outside == 0, "%s: a lossless codec's vertex lies outside its raw box", spec);
+    CHECK_MSG(d.leaves == st.leaves, "%s: %zu leaves walked, %zu in the tree", spec, d.leaves, st.leaves);
+    if (lossless)
+        CHECK_MSG(d.outside_raw == 0 && d.outside_bounds == 0, "%s: a lossless codec's vertex lies outside its raw box", spec);
+    outside[0] += d.outside_raw, outside[1] += d.outside_bounds;
     decoded_free(&d);
     prt_accel_free(a);
-    return outside;
 }
 
-static void check_mesh(const char *kind, size_t triangles) {
-    prt_mesh *m = NULL;
-    CHECK_OK(prt_mesh_generate(kind, triangles, 3, &m));
-    if (!m) return;
+/* Every spec over m (named kind in messages). */
+static void check_mesh(const char *kind, const prt_mesh *m) {
     prt_ray *rays = rays_random(m, RAYS, 11);
     for (int c = 0; c < BVH_CODEC_COUNT; c++) {
-        size_t outside = 0;
+        size_t outside[2] = {0, 0};
         for (size_t l = 0; l < COUNT_OF(g_layouts); l++) {
             char spec[128];
             const char *comma = strchr(g_layouts[l], ',');
             if (comma)
                 snprintf(spec, sizeof spec, "%.*s:%s%s", (int)(comma - g_layouts[l]), g_layouts[l], bvh_codecs[c].name, comma);
             else snprintf(spec, sizeof spec, "%s:%s", g_layouts[l], bvh_codecs[c].name);
-            size_t leaves;
-            outside += check_spec(spec, m, rays, &leaves);
+            check_spec(spec, m, rays, outside);
         }
-        if (outside) printf("  %s %s: %zu decoded vertices outside their raw box (inside the widened one)\n", kind,
-                            bvh_codecs[c].name, outside);
+        if (outside[0])
+            printf("  %s %s: over the %zu trees, %zu decoded vertices outside their raw box (inside the widened one), "
+                   "%zu outside the accel's bounds\n",
+                   kind, bvh_codecs[c].name, COUNT_OF(g_layouts), outside[0], outside[1]);
     }
     free(rays);
+}
+
+static void check_generated(const char *kind, size_t triangles) {
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_generate(kind, triangles, 3, &m));
+    if (!m) return;
+    check_mesh(kind, m);
     prt_mesh_free(m);
 }
 
-TEST(test_walk_view_decodes_every_triangle_of_a_closed_sphere) { check_mesh("sphere", 1000); }
+TEST(test_walk_view_decodes_every_triangle_of_a_closed_sphere) { check_generated("sphere", 1000); }
 
-TEST(test_walk_view_decodes_every_triangle_of_a_cad_mesh) { check_mesh("cad", 1000); }
+TEST(test_walk_view_decodes_every_triangle_of_a_cad_mesh) { check_generated("cad", 1000); }
+
+/* Six triangles: most layouts' root is then a leaf (aabb, aabb-compressed, skd), or an
+ * inner node over one leaf (quad, quad-half, wide8). */
+TEST(test_walk_view_decodes_a_tree_of_one_leaf) {
+    prt_mesh *m = mesh_random_soup(6, 5);
+    check_mesh("soup", m);
+    prt_mesh_free(m);
+}
 
 int main(void) {
     RUN(test_walk_view_decodes_every_triangle_of_a_closed_sphere);
     RUN(test_walk_view_decodes_every_triangle_of_a_cad_mesh);
+    RUN(test_walk_view_decodes_a_tree_of_one_leaf);
     TEST_END();
 }

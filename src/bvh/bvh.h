@@ -50,11 +50,13 @@ typedef struct bvh_child {
  * data for the shared-grid codecs (idx8/idx16/idx32-bitpack-soa4: a vertex on a box face
  * moves by up to half a grid step either way); by 2^-20 of its largest coordinate for the
  * codecs with a grid per leaf or block (bitpack, bitpack-soa4, strip-bitpack), whose
- * vertices decode inside that grid's box up to a few roundings. bvh/child.c. */
+ * vertices decode inside that grid's box up to a few roundings. out may be box. bvh/child.c. */
 void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6], float out[6]);
 
-/* The box holding the n boxes of children (lo +inf, hi -inf for none). */
-void bvh_child_union(const bvh_child *children, uint32_t n, float box[6]);
+/* The root of layouts that keep no box for it (quad, quad-half, wide8): the inner node at
+ * ref, its box the union of the boxes children() gives its children. bvh/child.c. */
+bvh_child bvh_child_inner_root(const uint8_t *blob, const bvh_codec *c, uint64_t ref,
+                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *, bvh_child[8]));
 
 typedef struct bvh_layout {
     const char *name;

@@ -5,7 +5,7 @@
 #include <math.h>
 
 void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6], float out[6]) {
-    memcpy(out, box, 6 * sizeof(float));
+    memmove(out, box, 6 * sizeof(float)); /* out may be box */
     if (c->leaf_error) {
         /* A grid per leaf or block over its triangles' bounds (inside the box): a vertex
          * decodes to lo + q step with 0 <= q <= 2^b - 1, at most lo + (hi - lo)(1 + 4u)
@@ -26,9 +26,12 @@ void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6
     }
 }
 
-void bvh_child_union(const bvh_child *children, uint32_t n, float box[6]) {
-    for (int k = 0; k < 3; k++) box[k] = INFINITY, box[3 + k] = -INFINITY;
+bvh_child bvh_child_inner_root(const uint8_t *blob, const bvh_codec *c, uint64_t ref,
+                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *, bvh_child[8])) {
+    bvh_child root = {.box = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}, .ref = ref, .count = 0}, kids[8];
+    const uint32_t n = children(blob, c, &root, kids);
     for (uint32_t i = 0; i < n; i++)
         for (int k = 0; k < 3; k++)
-            box[k] = fminf(box[k], children[i].box[k]), box[3 + k] = fmaxf(box[3 + k], children[i].box[3 + k]);
+            root.box[k] = fminf(root.box[k], kids[i].box[k]), root.box[3 + k] = fmaxf(root.box[3 + k], kids[i].box[3 + k]);
+    return root;
 }

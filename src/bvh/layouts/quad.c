@@ -201,9 +201,7 @@ static uint32_t quad_children(const uint8_t *blob, const bvh_codec *c, const bvh
 /* The root node (offset 0), its box the union of its child boxes. */
 static bvh_child quad_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
     (void)bounds;
-    bvh_child root = {.ref = 0, .count = 0}, kids[8];
-    bvh_child_union(kids, quad_children(blob, c, &root, kids), root.box);
-    return root;
+    return bvh_child_inner_root(blob, c, 0, quad_children);
 }
 
 const bvh_layout bvh_layout_quad = {

@@ -250,9 +250,7 @@ static uint32_t quad_half_children(const uint8_t *blob, const bvh_codec *c, cons
 /* The root node, its box the union of its decoded child boxes. */
 static bvh_child quad_half_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
     (void)bounds;
-    bvh_child root = {.ref = QH_HEADER_BYTES, .count = 0}, kids[8];
-    bvh_child_union(kids, quad_half_children(blob, c, &root, kids), root.box);
-    return root;
+    return bvh_child_inner_root(blob, c, QH_HEADER_BYTES, quad_half_children);
 }
 
 /* --- test walk (layout_debug.h) ------------------------------------------------------ */

@@ -88,9 +88,7 @@ static uint32_t wide8_children(const uint8_t *blob, const bvh_codec *c, const bv
 /* The root node, its box the union of its decoded child boxes. */
 static bvh_child wide8_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {
     (void)bounds;
-    bvh_child root = {.ref = WIDE8_HEADER_BYTES, .count = 0}, kids[8];
-    bvh_child_union(kids, wide8_children(blob, c, &root, kids), root.box);
-    return root;
+    return bvh_child_inner_root(blob, c, WIDE8_HEADER_BYTES, wide8_children);
 }
 
 /* The layout object, and the same with the filled collapse (collapse=fill): the blobs
