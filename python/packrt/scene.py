@@ -28,7 +28,7 @@ assert _CLOSEST.itemsize == ffi.sizeof("prt_closest")
 
 class Error(Exception):
     """A failure reported by libpackrt (message from prt_last_error) or bad input caught here.
-    `status` is the library's status name ("argument error", "mesh error", ...)."""
+    `status` is the library's status name (prt_status_string: "invalid argument", "invalid mesh", ...)."""
 
     def __init__(self, status, message):
         super().__init__(f"{status}: {message}" if message else status)
@@ -61,7 +61,7 @@ def has_mesh_queries():
 def _threads(threads, nthreads):
     t = threads if nthreads is None else nthreads  # nthreads: Open3D's name
     if not isinstance(t, (int, np.integer)) or isinstance(t, bool) or t < 0:
-        raise Error("argument error", f"threads must be an int >= 0 (0: all cores), not {t!r}")
+        raise Error("invalid argument", f"threads must be an int >= 0 (0: all cores), not {t!r}")
     return int(t)
 
 
@@ -69,9 +69,9 @@ def _floats(a, last, what):
     """a as an array of shape (..., last) of a floating type, or Error."""
     a = np.asarray(a)
     if a.dtype.kind != "f":
-        raise Error("argument error", f"{what} must be float32 or float64, not {a.dtype}")
+        raise Error("invalid argument", f"{what} must be float32 or float64, not {a.dtype}")
     if a.ndim < 1 or a.shape[-1] != last:
-        raise Error("argument error", f"{what} must have shape (..., {last}), not {a.shape}")
+        raise Error("invalid argument", f"{what} must have shape (..., {last}), not {a.shape}")
     return a
 
 
@@ -96,7 +96,7 @@ def _rays(rays, tnear, tfar):
             try:
                 out[:, col, 3] = np.broadcast_to(np.asarray(value, np.float32), shape).reshape(n)
             except ValueError:
-                raise Error("argument error", f"{name} of shape {np.shape(value)} does not fit rays {shape}") from None
+                raise Error("invalid argument", f"{name} of shape {np.shape(value)} does not fit rays {shape}") from None
     return out.reshape(n, 8), shape
 
 
@@ -125,12 +125,12 @@ class Scene:
         v = np.asarray(vertices)
         t = np.asarray(triangles)
         if v.dtype.kind != "f" or v.ndim != 2 or v.shape[1] != 3:
-            raise Error("argument error", f"vertices must be a (V, 3) float array, not {v.shape} {v.dtype}")
+            raise Error("invalid argument", f"vertices must be a (V, 3) float array, not {v.shape} {v.dtype}")
         if t.dtype.kind not in "iu" or t.ndim != 2 or t.shape[1] != 3:
-            raise Error("argument error", f"triangles must be a (T, 3) integer array, not {t.shape} {t.dtype}")
+            raise Error("invalid argument", f"triangles must be a (T, 3) integer array, not {t.shape} {t.dtype}")
         if t.size and (t.min() < 0 or t.max() >= len(v)):
             bad = int(np.flatnonzero((t < 0) | (t >= len(v)))[0])
-            raise Error("mesh error", f"triangle {bad // 3} has vertex index {int(t.flat[bad])}, "
+            raise Error("invalid mesh", f"triangle {bad // 3} has vertex index {int(t.flat[bad])}, "
                         f"outside 0..{len(v) - 1}")
         v32 = np.ascontiguousarray(v, dtype=np.float32)
         t32 = np.ascontiguousarray(t, dtype=np.uint32)
@@ -146,7 +146,7 @@ class Scene:
         pa = ffi.new("prt_accel **")
         spec = DEFAULT_SPEC if spec is None else spec
         if not isinstance(spec, str):
-            raise Error("argument error", f"spec must be a string or None, not {spec!r}")
+            raise Error("invalid argument", f"spec must be a string or None, not {spec!r}")
         _check(lib.prt_build(mesh, spec.encode(), opts, pa))
         self._set_accel(pa[0], vertices, triangles)
 
@@ -400,13 +400,13 @@ def _pinhole(*args, **kw):
     names4 = ("intrinsic_matrix", "extrinsic_matrix", "width_px", "height_px")
     names = names6 if len(args) + len(kw) == 6 else names4
     if len(args) + len(kw) not in (4, 6):
-        raise Error("argument error", "create_rays_pinhole takes (fov_deg, center, eye, up, width_px, height_px) "
+        raise Error("invalid argument", "create_rays_pinhole takes (fov_deg, center, eye, up, width_px, height_px) "
                     "or (intrinsic_matrix, extrinsic_matrix, width_px, height_px)")
     a = dict(zip(names, args))
     a.update(kw)
     w, h = int(a["width_px"]), int(a["height_px"])
     if w <= 0 or h <= 0:
-        raise Error("argument error", f"image size {w} x {h} must be positive")
+        raise Error("invalid argument", f"image size {w} x {h} must be positive")
     if names is names6:
         center, eye, up = (np.asarray(a[k], np.float64).reshape(3) for k in ("center", "eye", "up"))
         f = 0.5 * w / math.tan(0.5 * math.radians(float(a["fov_deg"])))

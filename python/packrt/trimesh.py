@@ -20,7 +20,7 @@ def _origins_directions(ray_origins, ray_directions):
     o = np.asarray(ray_origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(ray_directions, dtype=np.float64).reshape(-1, 3)
     if o.shape != d.shape:
-        raise Error("argument error", f"{len(o)} ray origins but {len(d)} directions")
+        raise Error("invalid argument", f"{len(o)} ray origins but {len(d)} directions")
     return o, d, np.concatenate([o, d], axis=1).astype(np.float32)
 
 
