@@ -126,12 +126,17 @@ def all_hits(rays, v, t, tnear=0.0, tfar=np.inf):
     return out
 
 
-def closest_points(points, v, t):
-    """(points (n, 3), distance (n,), prim (n,), second-nearest distance) by brute force."""
+def point_triangle(points, v, t):
+    """(nearest points (n, T, 3), distances (n, T)) of every point to every triangle."""
     p = points.astype(np.float64)[:, None, :]
     a, b, c = (v[t[:, k]][None] for k in range(3))
     q = _closest_on_triangle(p, a, b, c)
-    dist = np.linalg.norm(q - p, axis=-1)
+    return q, np.linalg.norm(q - p, axis=-1)
+
+
+def closest_points(points, v, t):
+    """(points (n, 3), distance (n,), prim (n,), second-nearest distance) by brute force."""
+    q, dist = point_triangle(points, v, t)
     prim = np.argmin(dist, axis=1)
     rows = np.arange(len(points))
     srt = np.sort(dist, axis=1)

@@ -82,9 +82,14 @@ def test_compute_closest_points_matches_brute_force(name):
     ans = scene.compute_closest_points(p.reshape(30, 50, 3))
     assert ans["points"].shape == (30, 50, 3) and ans["primitive_ids"].shape == (30, 50)
     got = {k: a.reshape((1500,) + a.shape[2:]) for k, a in ans.items()}
-    np.testing.assert_allclose(got["points"], q, atol=2e-5 * (1 + dist[:, None]))
+    assert (np.abs(got["points"] - q) <= 2e-5 * (1 + dist[:, None])).all()
+    # Where several triangles are about as near (edges and corners of closed meshes), any of
+    # them will do: the one named must be as near as the nearest.
+    _, all_dist = R.point_triangle(p, v, t)
+    named = all_dist[np.arange(len(p)), got["primitive_ids"]]
+    assert (np.abs(named - dist) <= 1e-5 * (1 + dist)).all()
     clear = second - dist > 1e-4
-    assert clear.mean() > 0.5
+    assert clear.mean() > 0.2
     assert np.array_equal(got["primitive_ids"][clear], prim[clear])
     n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
