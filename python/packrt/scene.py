@@ -7,6 +7,7 @@ that leading shape. Calls into the library release the GIL (cffi does so around 
 and run on `threads` threads (0: all cores).
 """
 import math
+import threading
 
 import numpy as np
 
@@ -81,23 +82,44 @@ def _points(points, what="query_points"):
     return np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float32), p.shape[:-1]
 
 
+# Rays as prt_ray records: 12 bytes of origin, tnear, 12 bytes of direction, tfar.
+_RAY_PAIRS = np.dtype([("xyz", "V12"), ("t", "<f4")])
+_SCRATCH_MAX = 1 << 21  # rays: a per-thread buffer up to 64 MiB is kept between calls
+_scratch = threading.local()
+
+
+def _ray_buffer(n):
+    """An (n, 8) float32 array for prt_ray records. The C stream shrinks tfar in place, so
+    every call fills one; the calling thread's is reused (up to _SCRATCH_MAX rays) so that
+    repeated calls do not pay the first touch of fresh pages."""
+    if n > _SCRATCH_MAX:
+        return np.empty((n, 8), np.float32)
+    buf = getattr(_scratch, "rays", None)
+    if buf is None or len(buf) < n:
+        buf = _scratch.rays = np.empty((max(n, 1024), 8), np.float32)
+    return buf[:n]
+
+
 def _rays(rays, tnear, tfar):
     """(..., 6) rays as an (n, 8) float32 array of prt_ray records, and the leading shape.
-    One vectorised copy: the C queries shrink tfar in place and want tnear/tfar inline."""
+    One vectorised copy of 12-byte origins and directions (numpy copies them as opaque items,
+    faster than a strided copy of three floats)."""
     r = _floats(rays, 6, "rays")
     shape = r.shape[:-1]
     n = math.prod(shape)
-    out = np.empty((n, 2, 4), np.float32)
-    out[:, :, :3] = r.reshape(n, 2, 3)
+    r = np.ascontiguousarray(r.reshape(n, 6), dtype=np.float32)
+    out = _ray_buffer(n)
+    pairs = out.view(_RAY_PAIRS).reshape(n, 2)
+    pairs["xyz"] = r.view("V12").reshape(n, 2)
     for col, value, name in ((0, tnear, "tnear"), (1, tfar, "tfar")):
         if np.ndim(value) == 0:
-            out[:, col, 3] = value
+            pairs["t"][:, col] = value
         else:
             try:
-                out[:, col, 3] = np.broadcast_to(np.asarray(value, np.float32), shape).reshape(n)
+                pairs["t"][:, col] = np.broadcast_to(np.asarray(value, np.float32), shape).reshape(n)
             except ValueError:
                 raise Error("invalid argument", f"{name} of shape {np.shape(value)} does not fit rays {shape}") from None
-    return out.reshape(n, 8), shape
+    return out, shape
 
 
 def _triangle_normals(vertices, triangles):
@@ -260,20 +282,25 @@ class Scene:
         lib.prt_intersect_stream(self._accel, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("prt_hit[]", hits),
                                  n, _threads(threads, nthreads))
         words = hits.view(np.uint32)
-        prim = words[:, 3]
-        miss = prim == INVALID_ID
+        prim, geom = words[:, 3], words[:, 4]
+        np.copyto(geom, INVALID_ID, where=prim == INVALID_ID)  # the library leaves geom 0 on a miss
         ans = {
             "t_hit": hits[:, 0].reshape(shape),
-            "geometry_ids": np.where(miss, np.uint32(INVALID_ID), words[:, 4]).reshape(shape),
+            "geometry_ids": geom.reshape(shape),
             "primitive_ids": prim.reshape(shape),
             "primitive_uvs": hits[:, 1:3].reshape(shape + (2,)),
-            "primitive_normals": None,
+            "primitive_normals": self._gather_normals(prim, shape),
         }
-        if self._normals is not None:
-            # The last row of _normals is zeros: misses (and ids past the mesh) take it.
-            ans["primitive_normals"] = self._normals.take(np.minimum(prim, len(self._normals) - 1), axis=0).reshape(
-                shape + (3,))
         return ans
+
+    def _gather_normals(self, prim, shape):
+        """Unit normals of triangles prim (zeros for misses), or None without a mesh."""
+        if self._normals is None:
+            return None
+        # The last row of _normals is zeros: misses (and ids past the mesh) take it. The rows
+        # are gathered as opaque 12-byte items, faster than a (n, 3) take.
+        idx = np.minimum(prim, np.uint32(len(self._normals) - 1))
+        return self._normals.view("V12").reshape(-1).take(idx).view(np.float32).reshape(shape + (3,))
 
     def test_occlusions(self, rays, tnear=0.0, tfar=np.inf, threads=0, nthreads=None):
         """True for each ray of (..., 6) that hits anything with t in [tnear, tfar]."""
@@ -346,11 +373,8 @@ class Scene:
             "geometry_ids": np.where(prim == INVALID_ID, np.uint32(INVALID_ID), np.uint32(0)).reshape(shape),
             "primitive_ids": prim.reshape(shape),
             "primitive_uvs": np.stack([out["u"], out["v"]], axis=-1).reshape(shape + (2,)),
-            "primitive_normals": None,
+            "primitive_normals": self._gather_normals(prim, shape),
         }
-        if self._normals is not None:
-            ans["primitive_normals"] = self._normals.take(np.minimum(prim, len(self._normals) - 1), axis=0).reshape(
-                shape + (3,))
         return ans
 
     def _closest(self, p, threads, nthreads):

@@ -1,0 +1,61 @@
+#!/usr/bin/env python3
+"""The cost of the Python binding: rays per second through packrt.Scene.cast_rays against the
+same rays through prt_intersect_stream called directly (cffi, preallocated prt_ray/prt_hit
+arrays, only the C call timed), at 1K, 64K and 1M rays, interleaved in one process; median of
+--runs. Results: docs/results/python.md.
+
+    PACKRT_LIBRARY=build/libpackrt.so /usr/bin/python3 bench/python_binding.py [--runs 9]
+"""
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+import packrt  # noqa: E402
+from packrt._ffi import ffi, lib  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--kind", default="terrain")
+    ap.add_argument("--tris", type=int, default=200_000)
+    ap.add_argument("--spec", default=None)
+    ap.add_argument("--runs", type=int, default=9)
+    ap.add_argument("--threads", type=int, default=0)
+    args = ap.parse_args()
+    scene = packrt.Scene.generate(args.kind, args.tris, spec=args.spec)
+    lo, hi = (b.astype(np.float64) for b in scene.bounds())
+    center, diag = (lo + hi) / 2, np.linalg.norm(hi - lo)
+    eye = center + diag * np.array([0.35, 0.45, 0.9])
+    st = scene.stats()
+    print(f"library {packrt.library_path}; {args.kind} {st['triangles']} triangles, {st['spec']}, "
+          f"threads={args.threads or os.cpu_count()}, median of {args.runs}")
+    print(f"{'rays':>8} {'C Mrays/s':>10} {'Py Mrays/s':>10} {'Py/C':>6} {'C us':>9} {'Py us':>9} {'overhead us':>11}")
+    for side in (32, 256, 1024):  # 1K, 64K, 1M rays of the same view
+        rays6 = packrt.Scene.create_rays_pinhole(50.0, center, eye, [0, 1, 0], side, side).reshape(-1, 6)
+        n = len(rays6)
+        pristine = np.zeros((n, 8), np.float32)
+        pristine[:, :3], pristine[:, 4:7], pristine[:, 7] = rays6[:, :3], rays6[:, 3:], np.inf
+        work = pristine.copy()
+        hits = np.empty((n, 5), np.float32)
+        c_rays, c_hits = ffi.from_buffer("prt_ray[]", work), ffi.from_buffer("prt_hit[]", hits)
+        tc, tp = [], []
+        for _ in range(args.runs):
+            np.copyto(work, pristine)  # the stream shrinks tfar: fresh rays, outside the clock
+            t0 = time.perf_counter()
+            lib.prt_intersect_stream(scene._accel, c_rays, c_hits, n, args.threads)
+            tc.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            ans = scene.cast_rays(rays6, threads=args.threads)
+            tp.append(time.perf_counter() - t0)
+        assert ans["t_hit"].tobytes() == hits[:, 0].tobytes()  # the same answers, bit for bit
+        c, p = np.median(tc), np.median(tp)
+        print(f"{n:>8} {n / c / 1e6:>10.2f} {n / p / 1e6:>10.2f} {c / p:>6.3f} {c * 1e6:>9.1f} {p * 1e6:>9.1f} "
+              f"{(p - c) * 1e6:>11.1f}")
+
+
+if __name__ == "__main__":
+    main()
