@@ -180,6 +180,7 @@ class Scene:
         self._normals = None
         if vertices is not None and "ids=none" not in self.spec:
             self._normals = _triangle_normals(vertices, triangles)
+            self._normals_v12 = self._normals.view("V12").reshape(-1)
 
     @classmethod
     def _from_mesh_ptr(cls, pm, spec, threads):
@@ -297,10 +298,9 @@ class Scene:
         """Unit normals of triangles prim (zeros for misses), or None without a mesh."""
         if self._normals is None:
             return None
-        # The last row of _normals is zeros: misses (and ids past the mesh) take it. The rows
-        # are gathered as opaque 12-byte items, faster than a (n, 3) take.
-        idx = np.minimum(prim, np.uint32(len(self._normals) - 1))
-        return self._normals.view("V12").reshape(-1).take(idx).view(np.float32).reshape(shape + (3,))
+        # The last row of _normals is zeros: misses (INVALID_ID, past the mesh) clip to it. The
+        # rows are gathered as opaque 12-byte items, faster than a (n, 3) take.
+        return self._normals_v12.take(prim, mode="clip").view(np.float32).reshape(shape + (3,))
 
     def test_occlusions(self, rays, tnear=0.0, tfar=np.inf, threads=0, nthreads=None):
         """True for each ray of (..., 6) that hits anything with t in [tnear, tfar]."""
@@ -317,7 +317,9 @@ class Scene:
         horizontal field of view) or create_rays_pinhole(intrinsic_matrix, extrinsic_matrix,
         width_px, height_px) (3x3 K, 4x4 world-to-camera). Pixel (x, y) looks through
         (x + 0.5, y + 0.5) and its direction has unit depth along the view axis, so t_hit is
-        the depth (z distance) of the hit, not its distance."""
+        the depth (z distance) of the hit, not its distance. As in Open3D, image x runs along
+        cross(up, center - eye) and image y along up, so with row 0 shown on top the picture
+        is turned half a turn (np.rot90(image, 2) sets it upright; examples/depth.py does)."""
         return _pinhole(*args, **kw)
 
     # ---- mesh queries (library issue 28) ------------------------------------------------
