@@ -37,11 +37,8 @@ typedef struct prt_hit { float t, u, v; uint32_t prim; uint32_t geom; } prt_hit;
 
 typedef struct prt_accel prt_accel;
 typedef struct prt_build_options {
-    int threads;
-    void (*progress)(void *user, float fraction);
-    void *progress_user;
-    uint32_t *triangle_order;
-    uint64_t memory_budget;
+    int threads; void (*progress)(void *user, float fraction); void *progress_user;
+    uint32_t *triangle_order; uint64_t memory_budget;
 } prt_build_options;
 typedef struct prt_stats {
     size_t triangles; size_t triangles_built;

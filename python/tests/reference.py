@@ -24,6 +24,14 @@ def cube(half=1.0):
     return v, t
 
 
+def write_ply(path, v, t):
+    """An ASCII PLY of a mesh, for the loaders."""
+    head = ["ply", "format ascii 1.0", f"element vertex {len(v)}", "property float x", "property float y",
+            "property float z", f"element face {len(t)}", "property list uchar int vertex_indices", "end_header"]
+    lines = head + [" ".join(map(str, p)) for p in v] + ["3 " + " ".join(map(str, f)) for f in t]
+    open(path, "w").write("\n".join(lines) + "\n")
+
+
 def icosphere(subdivisions=2, radius=1.0):
     """Closed sphere of 20 * 4^subdivisions outward-wound triangles."""
     p = (1 + 5 ** 0.5) / 2

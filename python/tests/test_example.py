@@ -33,10 +33,7 @@ def read_png_gray(path):
 
 def test_depth_example_writes_a_png_of_the_mesh(tmp_path):
     v, t = R.cube()
-    ply = ["ply", "format ascii 1.0", f"element vertex {len(v)}", "property float x", "property float y",
-           "property float z", f"element face {len(t)}", "property list uchar int vertex_indices", "end_header"]
-    ply += [" ".join(map(str, p)) for p in v] + ["3 " + " ".join(map(str, f)) for f in t]
-    (tmp_path / "c.ply").write_text("\n".join(ply) + "\n")
+    R.write_ply(tmp_path / "c.ply", v, t)
     out = tmp_path / "d.png"
     subprocess.run([sys.executable, EXAMPLE, str(tmp_path / "c.ply"), "-o", str(out), "--size", "64x48"],
                    check=True, capture_output=True)

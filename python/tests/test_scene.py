@@ -181,10 +181,7 @@ def test_stats_split_bytes_into_tree_and_geometry():
 
 def test_from_file_reads_a_ply_and_generate_makes_a_closed_sphere(tmp_path):
     v, t = R.cube()
-    ply = ["ply", "format ascii 1.0", f"element vertex {len(v)}", "property float x", "property float y",
-           "property float z", f"element face {len(t)}", "property list uchar int vertex_indices", "end_header"]
-    ply += [" ".join(map(str, p)) for p in v] + ["3 " + " ".join(map(str, f)) for f in t]
-    (tmp_path / "c.ply").write_text("\n".join(ply) + "\n")
+    R.write_ply(tmp_path / "c.ply", v, t)
     scene = packrt.Scene.from_file(tmp_path / "c.ply", spec="aabb:float3")
     assert np.array_equal(scene.triangles, t) and np.array_equal(scene.vertices, v.astype(np.float32))
     check_against_reference(scene.cast_rays(R.random_rays(2000)), R.random_rays(2000), v, t)
