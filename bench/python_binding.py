@@ -33,7 +33,7 @@ def main():
     st = scene.stats()
     print(f"library {packrt.library_path}; {args.kind} {st['triangles']} triangles, {st['spec']}, "
           f"median of {args.runs}")
-    print(f"{'rays':>8} {'thr':>3} {'C Mrays/s':>10} {'Py Mrays/s':>10} {'Py/C':>6} {'C us':>9} {'Py us':>9} {'overhead us':>11}")
+    print(f"{'rays':>8} {'thr':>3} {'C Mrays/s':>10} {'Py Mrays/s':>10} {'Py/C':>6} {'C us':>9} {'Py us':>9} {'overhead us':>11} {'no-normals':>10} {'overhead us':>12}")
     # 1K rays on one thread (the binding's own cost, without waking OpenMP's team), then 1K,
     # 64K and 1M rays of the same view on --threads.
     for side, threads in ((32, 1), (32, args.threads), (256, args.threads), (1024, args.threads)):
@@ -44,7 +44,7 @@ def main():
         work = pristine.copy()
         hits = np.empty((n, 5), np.float32)
         c_rays, c_hits = ffi.from_buffer("prt_ray[]", work), ffi.from_buffer("prt_hit[]", hits)
-        tc, tp = [], []
+        tc, tp, tl = [], [], []
         for _ in range(args.runs):
             np.copyto(work, pristine)  # the stream shrinks tfar: fresh rays, outside the clock
             t0 = time.perf_counter()
@@ -53,10 +53,13 @@ def main():
             t0 = time.perf_counter()
             ans = scene.cast_rays(rays6, threads=threads)
             tp.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            scene.cast_rays(rays6, threads=threads, normals=False)
+            tl.append(time.perf_counter() - t0)
         assert ans["t_hit"].tobytes() == hits[:, 0].tobytes()  # the same answers, bit for bit
-        c, p = np.median(tc), np.median(tp)
+        c, p, q = np.median(tc), np.median(tp), np.median(tl)
         print(f"{n:>8} {threads or os.cpu_count():>3} {n / c / 1e6:>10.2f} {n / p / 1e6:>10.2f} {c / p:>6.3f} {c * 1e6:>9.1f} {p * 1e6:>9.1f} "
-              f"{(p - c) * 1e6:>11.1f}")
+              f"{(p - c) * 1e6:>11.1f} {c / q:>10.3f} {(q - c) * 1e6:>12.1f}")
 
 
 if __name__ == "__main__":

@@ -42,6 +42,9 @@ def test_cast_rays_matches_brute_force(name, spec):
     assert ans["t_hit"].dtype == np.float32 and ans["primitive_ids"].dtype == np.uint32
     assert ans["primitive_uvs"].shape == (3000, 2) and ans["primitive_normals"].shape == (3000, 3)
     check_against_reference(ans, rays, v, t)
+    lean = packrt.Scene(v, t, spec=spec).cast_rays(rays, normals=False)
+    assert lean["primitive_normals"] is None
+    assert all(np.array_equal(lean[k], ans[k]) for k in ("t_hit", "primitive_ids", "primitive_uvs", "geometry_ids"))
 
 
 @pytest.mark.parametrize("name", MESHES)
