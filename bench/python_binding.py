@@ -5,10 +5,15 @@ arrays, only the C call timed), at 1K, 64K and 1M rays, interleaved in one proce
 --runs. Results: docs/results/python.md.
 
     PACKRT_LIBRARY=build/libpackrt.so /usr/bin/python3 bench/python_binding.py [--runs 9]
+
+With the CLI (--cli, default build/packrt) it then runs `packrt bench` on the same mesh and
+spec (random workload, streams) for the C stream's rate against Embree's in the same run.
 """
 import argparse
 import os
+import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -25,8 +30,16 @@ def main():
     ap.add_argument("--spec", default=None)
     ap.add_argument("--runs", type=int, default=9)
     ap.add_argument("--threads", type=int, default=0)
+    ap.add_argument("--cli", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "build", "packrt"))
     args = ap.parse_args()
-    scene = packrt.Scene.generate(args.kind, args.tris, spec=args.spec)
+    tmp = tempfile.mkdtemp()
+    ply = os.path.join(tmp, "mesh.ply")
+    if os.path.exists(args.cli):  # the same mesh for the CLI bench below
+        subprocess.run([args.cli, "gen", args.kind, "--tris", str(args.tris), "-o", ply], check=True,
+                       capture_output=True)
+        scene = packrt.Scene.from_file(ply, spec=args.spec)
+    else:
+        scene = packrt.Scene.generate(args.kind, args.tris, spec=args.spec)
     lo, hi = (b.astype(np.float64) for b in scene.bounds())
     center, diag = (lo + hi) / 2, np.linalg.norm(hi - lo)
     eye = center + diag * np.array([0.35, 0.45, 0.9])
@@ -60,6 +73,14 @@ def main():
         c, p, q = np.median(tc), np.median(tp), np.median(tl)
         print(f"{n:>8} {threads or os.cpu_count():>3} {n / c / 1e6:>10.2f} {n / p / 1e6:>10.2f} {c / p:>6.3f} {c * 1e6:>9.1f} {p * 1e6:>9.1f} "
               f"{(p - c) * 1e6:>11.1f} {c / q:>10.3f} {(q - c) * 1e6:>12.1f}")
+
+    if os.path.exists(ply):
+        print(f"\n{args.cli} bench (same mesh and spec; its random workload goes through prt_intersect_stream):")
+        out = subprocess.run([args.cli, "bench", ply, "-r", st["spec"], "--workload", "random", "--no-cold",
+                              "--threads", str(args.threads)], check=True, capture_output=True, text=True).stdout
+        print(out)
+        os.remove(ply)
+    os.rmdir(tmp)
 
 
 if __name__ == "__main__":
