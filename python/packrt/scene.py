@@ -84,20 +84,31 @@ def _points(points, what="query_points"):
 
 # Rays as prt_ray records: 12 bytes of origin, tnear, 12 bytes of direction, tfar.
 _RAY_PAIRS = np.dtype([("xyz", "V12"), ("t", "<f4")])
+_V12 = np.dtype("V12")
 _SCRATCH_MAX = 1 << 21  # rays: a per-thread buffer up to 64 MiB is kept between calls
 _scratch = threading.local()
 
 
+class _RayBuffer:
+    """An (n, 8) float32 array of prt_ray records with views of its 12-byte origin and
+    direction items and of its tnear/tfar pairs, made once per buffer."""
+
+    def __init__(self, n):
+        self.records = np.empty((n, 8), np.float32)
+        pairs = self.records.view(_RAY_PAIRS).reshape(n, 2)
+        self.xyz, self.t = pairs["xyz"], pairs["t"]
+
+
 def _ray_buffer(n):
-    """An (n, 8) float32 array for prt_ray records. The C stream shrinks tfar in place, so
-    every call fills one; the calling thread's is reused (up to _SCRATCH_MAX rays) so that
-    repeated calls do not pay the first touch of fresh pages."""
+    """A _RayBuffer for at least n rays. The C stream shrinks tfar in place, so every call
+    fills one; the calling thread's is reused (up to _SCRATCH_MAX rays) so that repeated
+    calls pay neither the allocation nor the first touch of fresh pages."""
     if n > _SCRATCH_MAX:
-        return np.empty((n, 8), np.float32)
+        return _RayBuffer(n)
     buf = getattr(_scratch, "rays", None)
-    if buf is None or len(buf) < n:
-        buf = _scratch.rays = np.empty((max(n, 1024), 8), np.float32)
-    return buf[:n]
+    if buf is None or len(buf.records) < n:
+        buf = _scratch.rays = _RayBuffer(max(n, 1024))
+    return buf
 
 
 def _rays(rays, tnear, tfar):
@@ -108,18 +119,17 @@ def _rays(rays, tnear, tfar):
     shape = r.shape[:-1]
     n = math.prod(shape)
     r = np.ascontiguousarray(r.reshape(n, 6), dtype=np.float32)
-    out = _ray_buffer(n)
-    pairs = out.view(_RAY_PAIRS).reshape(n, 2)
-    pairs["xyz"] = r.view("V12").reshape(n, 2)
+    buf = _ray_buffer(n)
+    buf.xyz[:n] = r.view(_V12).reshape(n, 2)
     for col, value, name in ((0, tnear, "tnear"), (1, tfar, "tfar")):
         if np.ndim(value) == 0:
-            pairs["t"][:, col] = value
+            buf.t[:n, col] = value
         else:
             try:
-                pairs["t"][:, col] = np.broadcast_to(np.asarray(value, np.float32), shape).reshape(n)
+                buf.t[:n, col] = np.broadcast_to(np.asarray(value, np.float32), shape).reshape(n)
             except ValueError:
                 raise Error("invalid argument", f"{name} of shape {np.shape(value)} does not fit rays {shape}") from None
-    return out, shape
+    return buf.records[:n], shape
 
 
 def _triangle_normals(vertices, triangles):
