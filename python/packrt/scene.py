@@ -150,8 +150,13 @@ class Scene:
     triangles (T, 3) integers indexing them; spec any name of `packrt list` with options
     ("quad:float3-soa4,leaf=4", ...), None for DEFAULT_SPEC. The mesh is validated by the
     library: NaN or infinite vertices, indices out of range, no triangles and unknown specs
-    raise packrt.Error with its message.
+    raise packrt.Error with its message. Every query takes threads= (0: all cores) or
+    Open3D's name for it, nthreads=.
     """
+
+    def __repr__(self):
+        tris = self.stats()["triangles"]
+        return f"packrt.Scene(spec={self.spec!r}, triangles={tris}{'' if self.vertices is not None else ', no mesh'})"
 
     def __init__(self, vertices, triangles, spec=None, threads=0):
         v = np.asarray(vertices)
@@ -456,8 +461,13 @@ def _pinhole(*args, **kw):
         k = np.array([[f, 0, 0.5 * w], [0, f, 0.5 * h], [0, 0, 1]])
         # World-to-camera rotation (rows: camera axes), as Open3D builds it from eye/center/up.
         r = np.empty((3, 3))
-        r[2] = (center - eye) / np.linalg.norm(center - eye)
-        r[0] = np.cross(up / np.linalg.norm(up), r[2])
+        with np.errstate(invalid="ignore", divide="ignore"):  # checked just below
+            r[2] = (center - eye) / np.linalg.norm(center - eye)
+            r[0] = np.cross(up / np.linalg.norm(up), r[2])
+        if not np.isfinite(r).all() or np.linalg.norm(r[0]) < 1e-9:
+            # Open3D answers NaN rays here (its issue 6471); say what is wrong instead.
+            raise Error("invalid argument", f"camera eye {eye.tolist()}, center {center.tolist()} and up "
+                        f"{up.tolist()}: eye must differ from center and up must not be parallel to the view")
         r[0] /= np.linalg.norm(r[0])
         r[1] = np.cross(r[2], r[0])
         ext = np.eye(4)

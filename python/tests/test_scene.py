@@ -147,6 +147,9 @@ def test_bad_meshes_and_specs_raise_packrt_error_with_the_reason(bad, match):
     lambda s: s.cast_rays(np.zeros((4, 6)), threads=-1),
     lambda s: s.test_occlusions(np.zeros((4, 7))),
     lambda s: packrt.Scene.load("/nonexistent/file.prt"),
+    lambda s: packrt.Scene.create_rays_pinhole(60, [0, 0, 0], [0, 0, 0], [0, 1, 0], 4, 4),
+    lambda s: packrt.Scene.create_rays_pinhole(60, [0, 0, 0], [0, 1, 0], [0, 1, 0], 4, 4),
+    lambda s: packrt.Scene.create_rays_pinhole(60, [0, 0, 0], [0, 0, 1], [0, 1, 0], 0, 4),
 ])
 def test_bad_queries_raise_packrt_error(call):
     with pytest.raises(packrt.Error):
@@ -180,6 +183,7 @@ def test_stats_split_bytes_into_tree_and_geometry():
     assert st["bytes"] == st["bytes_tree"] + st["bytes_geometry"] + st["bytes_other"]
     assert st["bytes_per_triangle_tree"] == pytest.approx(st["bytes_tree"] / len(t))
     assert st["bytes_per_triangle"] == pytest.approx(st["bytes"] / len(t))
+    assert repr(packrt.Scene(v, t, spec="aabb:float3")).startswith("packrt.Scene(spec='aabb:float3")
 
 
 def test_from_file_reads_a_ply_and_generate_makes_a_closed_sphere(tmp_path):
