@@ -464,7 +464,7 @@ def _pinhole(*args, **kw):
         with np.errstate(invalid="ignore", divide="ignore"):  # checked just below
             r[2] = (center - eye) / np.linalg.norm(center - eye)
             r[0] = np.cross(up / np.linalg.norm(up), r[2])
-        if not np.isfinite(r).all() or np.linalg.norm(r[0]) < 1e-9:
+        if not np.isfinite(r[[0, 2]]).all() or np.linalg.norm(r[0]) < 1e-9:
             # Open3D answers NaN rays here (its issue 6471); say what is wrong instead.
             raise Error("invalid argument", f"camera eye {eye.tolist()}, center {center.tolist()} and up "
                         f"{up.tolist()}: eye must differ from center and up must not be parallel to the view")

@@ -35,8 +35,9 @@ def test_depth_example_writes_a_png_of_the_mesh(tmp_path):
     v, t = R.cube()
     R.write_ply(tmp_path / "c.ply", v, t)
     out = tmp_path / "d.png"
-    subprocess.run([sys.executable, EXAMPLE, str(tmp_path / "c.ply"), "-o", str(out), "--size", "64x48"],
-                   check=True, capture_output=True)
+    run = subprocess.run([sys.executable, EXAMPLE, str(tmp_path / "c.ply"), "-o", str(out), "--size", "64x48"],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
     img = read_png_gray(out)
     assert img.shape == (48, 64)
     assert img[24, 32] > 0 and img[0, 0] == 0 and img.max() == 255
