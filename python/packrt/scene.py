@@ -189,6 +189,9 @@ class Scene:
 
     def _set_accel(self, accel, vertices=None, triangles=None):
         self._accel = ffi.gc(accel, lib.prt_accel_free)
+        self._set_mesh(vertices, triangles)
+
+    def _set_mesh(self, vertices, triangles):
         self.vertices, self.triangles = vertices, triangles
         # Normals come from the mesh; without one (a loaded file) or when hits name positions
         # in the accel's own order (ids=none) there are none.
@@ -237,10 +240,16 @@ class Scene:
         pa = ffi.new("prt_accel **")
         _check(lib.prt_accel_open(str(path).encode(), o, pa))
         self = cls.__new__(cls)
+        self._set_accel(pa[0])
         if vertices is not None:
-            vertices = np.ascontiguousarray(vertices, np.float32)
-            triangles = np.ascontiguousarray(triangles, np.uint32)
-        self._set_accel(pa[0], vertices, triangles)
+            # The mesh only supplies normals: it must be the one the file was built from.
+            v, t = np.asarray(vertices), np.asarray(triangles)
+            if v.ndim != 2 or v.shape[1:] != (3,) or t.ndim != 2 or t.shape[1:] != (3,) or t.dtype.kind not in "iu":
+                raise Error("invalid argument", f"vertices {v.shape} and triangles {t.shape} must be (V, 3) and (T, 3)")
+            if len(t) != self.stats()["triangles"] or (t.size and (t.min() < 0 or t.max() >= len(v))):
+                raise Error("invalid argument", f"{path} holds {self.stats()['triangles']} triangles: the mesh given "
+                            f"({len(t)} triangles over {len(v)} vertices) is not the one it was built from")
+            self._set_mesh(np.ascontiguousarray(v, np.float32), np.ascontiguousarray(t, np.uint32))
         return self
 
     @property

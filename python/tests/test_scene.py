@@ -170,6 +170,8 @@ def test_save_load_and_open_answer_as_the_built_scene(tmp_path):
         assert np.array_equal(got[k], want[k])
     with_mesh = packrt.Scene.open(tmp_path / "s.prt", cache_bytes=1 << 20, vertices=v, triangles=t)
     assert np.array_equal(with_mesh.cast_rays(rays)["primitive_normals"], want["primitive_normals"])
+    with pytest.raises(packrt.Error, match="not the one"):
+        packrt.Scene.load(tmp_path / "s.prt", vertices=v, triangles=t[:-1])
     (tmp_path / "bad.prt").write_bytes(b"PRT" + bytes(100))
     with pytest.raises(packrt.Error):
         packrt.Scene.load(tmp_path / "bad.prt")
