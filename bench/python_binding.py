@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The cost of the Python binding: rays per second through packrt.Scene.cast_rays against the
 same rays through prt_intersect_stream called directly (cffi, preallocated prt_ray/prt_hit
-arrays, only the C call timed), at 1K, 64K and 1M rays, interleaved in one process; median of
+arrays, only the C call timed; "C fresh": the same call writing into a newly allocated hit
+array, as cast_rays must), at 1K, 64K and 1M rays, interleaved in one process; median of
 --runs. Results: docs/results/python.md.
 
     PACKRT_LIBRARY=build/libpackrt.so /usr/bin/python3 bench/python_binding.py [--runs 9]
@@ -46,7 +47,7 @@ def main():
     st = scene.stats()
     print(f"library {packrt.library_path}; {args.kind} {st['triangles']} triangles, {st['spec']}, "
           f"median of {args.runs}")
-    print(f"{'rays':>8} {'thr':>3} {'C Mrays/s':>10} {'Py Mrays/s':>10} {'Py/C':>6} {'C us':>9} {'Py us':>9} {'overhead us':>11} {'no-normals':>10} {'overhead us':>12}")
+    print(f"{'rays':>8} {'thr':>3} {'C Mrays/s':>10} {'Py Mrays/s':>10} {'Py/C':>6} {'C us':>9} {'Py us':>9} {'overhead us':>11} {'no-normals':>10} {'overhead us':>12} {'C fresh':>10}")
     # 1K rays on one thread (the binding's own cost, without waking OpenMP's team), then 1K,
     # 64K and 1M rays of the same view on --threads.
     for side, threads in ((32, 1), (32, args.threads), (256, args.threads), (1024, args.threads)):
@@ -57,12 +58,18 @@ def main():
         work = pristine.copy()
         hits = np.empty((n, 5), np.float32)
         c_rays, c_hits = ffi.from_buffer("prt_ray[]", work), ffi.from_buffer("prt_hit[]", hits)
-        tc, tp, tl = [], [], []
+        tc, tf, tp, tl = [], [], [], []
         for _ in range(args.runs):
             np.copyto(work, pristine)  # the stream shrinks tfar: fresh rays, outside the clock
             t0 = time.perf_counter()
             lib.prt_intersect_stream(scene._accel, c_rays, c_hits, n, threads)
             tc.append(time.perf_counter() - t0)
+            np.copyto(work, pristine)  # again, into a fresh hit array as cast_rays must return one
+            t0 = time.perf_counter()
+            fresh = np.empty((n, 5), np.float32)
+            lib.prt_intersect_stream(scene._accel, c_rays, ffi.from_buffer("prt_hit[]", fresh), n, threads)
+            tf.append(time.perf_counter() - t0)
+            del fresh
             t0 = time.perf_counter()
             ans = scene.cast_rays(rays6, threads=threads)
             tp.append(time.perf_counter() - t0)
@@ -70,9 +77,9 @@ def main():
             scene.cast_rays(rays6, threads=threads, normals=False)
             tl.append(time.perf_counter() - t0)
         assert ans["t_hit"].tobytes() == hits[:, 0].tobytes()  # the same answers, bit for bit
-        c, p, q = np.median(tc), np.median(tp), np.median(tl)
+        c, f, p, q = np.median(tc), np.median(tf), np.median(tp), np.median(tl)
         print(f"{n:>8} {threads or os.cpu_count():>3} {n / c / 1e6:>10.2f} {n / p / 1e6:>10.2f} {c / p:>6.3f} {c * 1e6:>9.1f} {p * 1e6:>9.1f} "
-              f"{(p - c) * 1e6:>11.1f} {c / q:>10.3f} {(q - c) * 1e6:>12.1f}")
+              f"{(p - c) * 1e6:>11.1f} {c / q:>10.3f} {(q - c) * 1e6:>12.1f} {c / f:>10.3f}")
 
     if os.path.exists(ply):
         print(f"\n{args.cli} bench (same mesh and spec; its random workload goes through prt_intersect_stream):")
