@@ -177,6 +177,15 @@ def test_save_load_and_open_answer_as_the_built_scene(tmp_path):
         packrt.Scene.load(tmp_path / "bad.prt")
 
 
+def test_open_reads_an_out_of_core_block_file_through_a_small_cache(tmp_path):
+    v, t = R.icosphere(3)
+    packrt.Scene(v, t, spec="ooc").save(tmp_path / "o.prt")
+    scene = packrt.Scene.open(tmp_path / "o.prt", cache_bytes=1 << 20, vertices=v, triangles=t)
+    assert scene.spec.startswith("ooc")
+    rays = R.random_rays(2000, seed=12)
+    check_against_reference(scene.cast_rays(rays), rays, v, t)
+
+
 def test_stats_split_bytes_into_tree_and_geometry():
     v, t = R.icosphere(3)
     st = packrt.Scene(v, t).stats()
