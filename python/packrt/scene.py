@@ -154,6 +154,8 @@ class Scene:
     Open3D's name for it, nthreads=.
     """
 
+    INVALID_ID = INVALID_ID  # as Open3D's RaycastingScene.INVALID_ID
+
     def __repr__(self):
         tris = self.stats()["triangles"]
         return f"packrt.Scene(spec={self.spec!r}, triangles={tris}{'' if self.vertices is not None else ', no mesh'})"

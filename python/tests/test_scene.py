@@ -29,6 +29,7 @@ def check_against_reference(ans, rays, v, t, tnear=0.0, tfar=np.inf):
     np.testing.assert_allclose(ans["primitive_normals"][hit], unit_normals(v, t)[rprim[hit]], atol=1e-5)
     assert (ans["geometry_ids"][hit] == 0).all()
     assert np.isinf(ans["t_hit"][miss]).all() and (ans["t_hit"][miss] > 0).all()
+    assert packrt.Scene.INVALID_ID == packrt.INVALID_ID == 0xFFFFFFFF
     assert (prim[miss] == packrt.INVALID_ID).all() and (ans["geometry_ids"][miss] == packrt.INVALID_ID).all()
     assert (ans["primitive_normals"][miss] == 0).all()
 
