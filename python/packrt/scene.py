@@ -143,10 +143,36 @@ def _triangle_normals(vertices, triangles):
     return np.concatenate([n, np.zeros((1, 3))]).astype(np.float32)
 
 
+def _mesh_arrays(vertices, triangles):
+    """Validated (V, 3) float32 vertices and (T, 3) uint32 triangles, contiguous."""
+    v = np.asarray(vertices)
+    t = np.asarray(triangles)
+    if v.dtype.kind != "f" or v.ndim != 2 or v.shape[1] != 3:
+        raise Error("invalid argument", f"vertices must be a (V, 3) float array, not {v.shape} {v.dtype}")
+    if t.dtype.kind not in "iu" or t.ndim != 2 or t.shape[1] != 3:
+        raise Error("invalid argument", f"triangles must be a (T, 3) integer array, not {t.shape} {t.dtype}")
+    if t.size and (t.min() < 0 or t.max() >= len(v)):
+        bad = int(np.flatnonzero((t < 0) | (t >= len(v)))[0])
+        raise Error("invalid mesh", f"triangle {bad // 3} has vertex index {int(t.flat[bad])}, outside 0..{len(v) - 1}")
+    return np.ascontiguousarray(v, dtype=np.float32), np.ascontiguousarray(t, dtype=np.uint32)
+
+
+def _mesh_of(mesh):
+    """(vertices, triangles) of an Open3D tensor or legacy TriangleMesh or a trimesh.Trimesh."""
+    if hasattr(mesh, "vertex") and hasattr(mesh, "triangle"):  # open3d.t.geometry.TriangleMesh
+        return mesh.vertex.positions.numpy(), mesh.triangle.indices.numpy()
+    if hasattr(mesh, "faces"):  # trimesh
+        return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    if hasattr(mesh, "triangles"):  # open3d.geometry.TriangleMesh
+        return np.asarray(mesh.vertices), np.asarray(mesh.triangles)
+    raise Error("invalid argument", f"add_triangles takes (vertices, triangles) or a mesh, not {type(mesh).__name__}")
+
+
 class Scene:
     """A triangle mesh built into a packrt representation, answering ray and point queries.
 
-    Scene(vertices, triangles, spec=None, threads=0): vertices (V, 3) float32/float64,
+    Scene(vertices, triangles, spec=None, threads=0), or Scene(spec=None) and then
+    add_triangles as Open3D's RaycastingScene: vertices (V, 3) float32/float64,
     triangles (T, 3) integers indexing them; spec any name of `packrt list` with options
     ("quad:float3-soa4,leaf=4", ...), None for DEFAULT_SPEC. The mesh is validated by the
     library: NaN or infinite vertices, indices out of range, no triangles and unknown specs
@@ -160,25 +186,67 @@ class Scene:
         tris = self.stats()["triangles"]
         return f"packrt.Scene(spec={self.spec!r}, triangles={tris}{'' if self.vertices is not None else ', no mesh'})"
 
-    def __init__(self, vertices, triangles, spec=None, threads=0):
-        v = np.asarray(vertices)
-        t = np.asarray(triangles)
-        if v.dtype.kind != "f" or v.ndim != 2 or v.shape[1] != 3:
-            raise Error("invalid argument", f"vertices must be a (V, 3) float array, not {v.shape} {v.dtype}")
-        if t.dtype.kind not in "iu" or t.ndim != 2 or t.shape[1] != 3:
-            raise Error("invalid argument", f"triangles must be a (T, 3) integer array, not {t.shape} {t.dtype}")
-        if t.size and (t.min() < 0 or t.max() >= len(v)):
-            bad = int(np.flatnonzero((t < 0) | (t >= len(v)))[0])
-            raise Error("invalid mesh", f"triangle {bad // 3} has vertex index {int(t.flat[bad])}, "
-                        f"outside 0..{len(v) - 1}")
-        v32 = np.ascontiguousarray(v, dtype=np.float32)
-        t32 = np.ascontiguousarray(t, dtype=np.uint32)
+    def __init__(self, vertices=None, triangles=None, spec=None, threads=0):
+        self._spec_wanted, self._build_threads = spec, threads
+        self._parts = []  # (vertices, triangles) of each add_triangles geometry
+        self._offsets = None  # first triangle of each geometry, and the total, when several
+        self._accel = None
+        self.vertices = self.triangles = self._normals = None
+        if vertices is None and triangles is None:
+            return  # Open3D's way: Scene(), then add_triangles
+        self._build(*_mesh_arrays(vertices, triangles))
+
+    def add_triangles(self, vertices, triangles=None):
+        """Add a mesh as a new geometry, as Open3D's add_triangles: (V, 3) vertices and (T, 3)
+        triangles, or one mesh object (Open3D's tensor or legacy TriangleMesh, trimesh's
+        Trimesh). Returns its geometry id (0, 1, ...), which hits report in geometry_ids,
+        with primitive_ids counted within that geometry. The scene is built again, all
+        geometries in one representation, at its next query; geometry ids are not saved."""
+        if self._accel is not None and not self._parts:
+            if self.vertices is None:
+                raise Error("unsupported", "a scene loaded from a file without its mesh takes no more triangles")
+            self._parts.append((self.vertices, self.triangles))  # what it was built from: geometry 0
+        if triangles is None:
+            vertices, triangles = _mesh_of(vertices)
+        self._parts.append(_mesh_arrays(vertices, triangles))
+        self._accel = None
+        return len(self._parts) - 1
+
+    @property
+    def _a(self):
+        """The accel, built first from the geometries added since the last build."""
+        if self._accel is None:
+            if not self._parts:
+                raise Error("invalid argument", "the scene has no triangles yet (add_triangles)")
+            first = np.cumsum([0] + [len(v) for v, _ in self._parts])
+            vertices = np.concatenate([v for v, _ in self._parts])
+            triangles = np.concatenate([t + np.uint32(f) for (_, t), f in zip(self._parts, first)])
+            counts = [len(t) for _, t in self._parts]
+            self._build(vertices, triangles)
+            self._offsets = np.cumsum([0] + counts).astype(np.int64) if len(counts) > 1 else None
+        return self._accel
+
+    def _local_ids(self, prim):
+        """(geometry_ids, primitive_ids within the geometry) of scene-wide triangle ids, with
+        INVALID_ID kept; None for a scene of one geometry (the ids are already local)."""
+        if self._offsets is None:
+            return None
+        miss = prim == INVALID_ID
+        g = np.searchsorted(self._offsets, prim, side="right") - 1
+        g[miss] = 0
+        local = (prim - self._offsets[g]).astype(np.uint32)
+        g = g.astype(np.uint32)
+        g[miss] = INVALID_ID
+        local[miss] = INVALID_ID
+        return g, local
+
+    def _build(self, v32, t32):
         pm = ffi.new("prt_mesh **")
         _check(lib.prt_mesh_create(len(v32), len(t32), pm))
         mesh = ffi.gc(pm[0], lib.prt_mesh_free)
         ffi.memmove(mesh.vertices, v32, v32.nbytes)
         ffi.memmove(mesh.triangles, t32, t32.nbytes)
-        self._init_built(mesh, spec, threads, v32, t32)
+        self._init_built(mesh, self._spec_wanted, self._build_threads, v32, t32)
 
     def _init_built(self, mesh, spec, threads, vertices, triangles):
         opts = ffi.new("prt_build_options *", {"threads": _threads(threads, None)})
@@ -209,7 +277,7 @@ class Scene:
         mesh = ffi.gc(pm[0], lib.prt_mesh_free)
         v = np.frombuffer(ffi.buffer(mesh.vertices, 12 * mesh.vertex_count), np.float32).reshape(-1, 3).copy()
         t = np.frombuffer(ffi.buffer(mesh.triangles, 12 * mesh.triangle_count), np.uint32).reshape(-1, 3).copy()
-        self = cls.__new__(cls)
+        self = cls(spec=spec, threads=threads)
         self._init_built(mesh, spec, threads, v, t)
         return self
 
@@ -241,7 +309,7 @@ class Scene:
         o = ffi.new("prt_open_options *", {"cache_bytes": int(cache_bytes), "fetchers": int(fetchers)})
         pa = ffi.new("prt_accel **")
         _check(lib.prt_accel_open(str(path).encode(), o, pa))
-        self = cls.__new__(cls)
+        self = cls()
         self._set_accel(pa[0])
         if vertices is not None:
             # The mesh only supplies normals: it must be the one the file was built from.
@@ -257,17 +325,17 @@ class Scene:
     @property
     def spec(self):
         """The canonical spec of the representation, every option spelled out."""
-        return ffi.string(lib.prt_accel_spec(self._accel)).decode()
+        return ffi.string(lib.prt_accel_spec(self._a)).decode()
 
     def save(self, path):
         """Write a .prt file (docs/formats.md) that Scene.load maps back without a rebuild."""
-        _check(lib.prt_accel_save(self._accel, str(path).encode()))
+        _check(lib.prt_accel_save(self._a, str(path).encode()))
 
     def stats(self):
         """Memory and build figures: spec, triangles, bytes (tree, geometry, other) in all
         and per triangle, nodes, leaves, depth, build seconds, vertex error of lossy specs."""
         s = ffi.new("prt_stats *")
-        lib.prt_accel_stats(self._accel, s)
+        lib.prt_accel_stats(self._a, s)
         tris = max(s.triangles, 1)
         total = s.bytes_tree + s.bytes_geometry + s.bytes_other
         return {
@@ -292,7 +360,7 @@ class Scene:
     def bounds(self):
         """(lo, hi): the bounds of the triangles the scene can hit."""
         lo, hi = ffi.new("float[3]"), ffi.new("float[3]")
-        lib.prt_accel_bounds(self._accel, lo, hi)
+        lib.prt_accel_bounds(self._a, lo, hi)
         return np.array(list(lo), np.float32), np.array(list(hi), np.float32)
 
     # ---- ray queries --------------------------------------------------------------------
@@ -303,14 +371,14 @@ class Scene:
         Returns a dict of arrays of the leading shape: t_hit (float32, inf on a miss),
         primitive_ids (uint32, INVALID_ID on a miss), primitive_uvs (..., 2) (u weights
         vertex 1, v vertex 2), primitive_normals (..., 3) (unit geometric normal, zeros on a
-        miss; None for a scene loaded without its mesh), geometry_ids (0 on a hit, INVALID_ID
-        on a miss). t_hit, primitive_ids, primitive_uvs and geometry_ids are views of one
+        miss; None for a scene loaded without its mesh), geometry_ids (0 on a hit, or the
+        add_triangles geometry; INVALID_ID on a miss). t_hit, primitive_ids, primitive_uvs and geometry_ids are views of one
         buffer. normals=False leaves primitive_normals None and saves gathering them (a tenth
         of the call's time at 1M rays: docs/results/python.md)."""
         buf, shape = _rays(rays, tnear, tfar)
         n = len(buf)
         hits = np.empty((n, 5), np.float32)
-        lib.prt_intersect_stream(self._accel, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("prt_hit[]", hits),
+        lib.prt_intersect_stream(self._a, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("prt_hit[]", hits),
                                  n, _threads(threads, nthreads))
         words = hits.view(np.uint32)
         prim, geom = words[:, 3], words[:, 4]
@@ -322,6 +390,9 @@ class Scene:
             "primitive_uvs": hits[:, 1:3].reshape(shape + (2,)),
             "primitive_normals": self._gather_normals(prim, shape) if normals else None,
         }
+        local = self._local_ids(prim)
+        if local is not None:  # several geometries: ids within each (new arrays)
+            ans["geometry_ids"], ans["primitive_ids"] = (x.reshape(shape) for x in local)
         return ans
 
     def _gather_normals(self, prim, shape):
@@ -339,7 +410,7 @@ class Scene:
         """True for each ray of (..., 6) that hits anything with t in [tnear, tfar]."""
         buf, shape = _rays(rays, tnear, tfar)
         out = np.empty(len(buf), np.uint8)
-        lib.prt_occluded_stream(self._accel, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("uint8_t[]", out),
+        lib.prt_occluded_stream(self._a, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("uint8_t[]", out),
                                 len(buf), _threads(threads, nthreads))
         return out.view(np.bool_).reshape(shape)
 
@@ -359,7 +430,7 @@ class Scene:
 
     def _all_stream(self, buf, counts, offsets, hits, threads):
         f = _fn("prt_intersect_all_stream")
-        _check(f(self._accel, ffi.from_buffer("prt_ray[]", buf), len(buf), ffi.from_buffer("uint32_t[]", counts),
+        _check(f(self._a, ffi.from_buffer("prt_ray[]", buf), len(buf), ffi.from_buffer("uint32_t[]", counts),
                  ffi.NULL if offsets is None else ffi.from_buffer("uint64_t[]", offsets),
                  ffi.NULL if hits is None else ffi.from_buffer("prt_hit[]", hits), threads))
 
@@ -375,7 +446,7 @@ class Scene:
         """Every crossing of every ray, nearest first, as Open3D lists them: ray_splits
         (n + 1, uint32; ray i's crossings are [ray_splits[i], ray_splits[i+1])), ray_ids
         (index of the ray in the flattened rays), t_hit, primitive_ids, primitive_uvs,
-        geometry_ids (all 0)."""
+        geometry_ids."""
         buf, _ = _rays(rays, tnear, tfar)
         threads = _threads(threads, nthreads)
         n = len(buf)
@@ -387,7 +458,7 @@ class Scene:
         hits = np.empty(total, _HIT)
         counts2 = np.empty(n, np.uint32)
         self._all_stream(buf, counts2, offsets, hits, threads)
-        return {
+        ans = {
             "ray_splits": offsets.astype(np.uint32),
             "ray_ids": np.repeat(np.arange(n, dtype=np.uint32), counts),
             "t_hit": hits["t"].copy(),
@@ -395,6 +466,10 @@ class Scene:
             "primitive_uvs": np.stack([hits["u"], hits["v"]], axis=-1),
             "geometry_ids": np.zeros(total, np.uint32),
         }
+        local = self._local_ids(ans["primitive_ids"])
+        if local is not None:
+            ans["geometry_ids"], ans["primitive_ids"] = local
+        return ans
 
     def compute_closest_points(self, query_points, threads=0, nthreads=None):
         """The nearest surface point to each of (..., 3) points: points (..., 3),
@@ -410,11 +485,14 @@ class Scene:
             "primitive_uvs": np.stack([out["u"], out["v"]], axis=-1).reshape(shape + (2,)),
             "primitive_normals": self._gather_normals(prim, shape),
         }
+        local = self._local_ids(prim)
+        if local is not None:
+            ans["geometry_ids"], ans["primitive_ids"] = (x.reshape(shape) for x in local)
         return ans
 
     def _closest(self, p, threads, nthreads):
         out = np.empty(len(p), _CLOSEST)
-        _check(_fn("prt_closest_points")(self._accel, ffi.from_buffer("float[]", p), len(p), math.inf,
+        _check(_fn("prt_closest_points")(self._a, ffi.from_buffer("float[]", p), len(p), math.inf,
                                          ffi.from_buffer("prt_closest[]", out), _threads(threads, nthreads)))
         return out
 
@@ -428,14 +506,14 @@ class Scene:
         (Open3D's vote count) is accepted and ignored: the library decides containment."""
         p, shape = _points(query_points)
         out = np.empty(len(p), np.float32)
-        _check(_fn("prt_signed_distance")(self._accel, ffi.from_buffer("float[]", p), len(p), math.inf,
+        _check(_fn("prt_signed_distance")(self._a, ffi.from_buffer("float[]", p), len(p), math.inf,
                                           ffi.from_buffer("float[]", out), _threads(threads, nthreads)))
         return out.reshape(shape)
 
     def _contains(self, query_points, threads, nthreads):
         p, shape = _points(query_points)
         out = np.empty(len(p), np.uint8)
-        _check(_fn("prt_contains")(self._accel, ffi.from_buffer("float[]", p), len(p),
+        _check(_fn("prt_contains")(self._a, ffi.from_buffer("float[]", p), len(p),
                                    ffi.from_buffer("uint8_t[]", out), _threads(threads, nthreads)))
         return (out & PRT_INSIDE).astype(bool).reshape(shape)
 
@@ -449,7 +527,7 @@ class Scene:
         closed outward-wound mesh, 0 outside (a packrt addition)."""
         p, shape = _points(query_points)
         out = np.empty(len(p), np.float32)
-        _check(_fn("prt_winding_number")(self._accel, ffi.from_buffer("float[]", p), len(p),
+        _check(_fn("prt_winding_number")(self._a, ffi.from_buffer("float[]", p), len(p),
                                          ffi.from_buffer("float[]", out), _threads(threads, nthreads)))
         return out.reshape(shape)
 

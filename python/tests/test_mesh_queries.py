@@ -156,3 +156,23 @@ def test_a_library_without_mesh_queries_says_so():
                  lambda: scene.compute_occupancy(np.zeros(3))):
         with pytest.raises(packrt.Error, match="mesh queries"):
             call()
+
+
+@needs_queries
+def test_point_and_crossing_queries_name_add_triangles_geometries():
+    a_v, a_t = R.cube(0.5)
+    b_v, b_t = R.icosphere(2, radius=0.5)
+    b_v = b_v + [2.0, 0, 0]
+    scene = packrt.Scene()
+    scene.add_triangles(a_v, a_t)
+    scene.add_triangles(b_v, b_t)
+    p = np.array([[-0.9, 0.1, 0.2], [2.9, 0.1, 0.0], [0.1, 0.0, 0.0], [2.1, 0.05, 0.0]], np.float32)
+    ans = scene.compute_closest_points(p)
+    assert ans["geometry_ids"].tolist() == [0, 1, 0, 1]
+    assert (ans["primitive_ids"][[1, 3]] < len(b_t)).all()
+    d_a = R.point_triangle(p[[0, 2]], a_v, a_t)[1]
+    assert np.allclose(d_a[[0, 1], ans["primitive_ids"][[0, 2]]], d_a.min(axis=1), atol=1e-6)
+    rays = np.array([[-3, 0.1, 0.05, 1, 0, 0]], np.float32)  # through the cube, then the sphere
+    hits = scene.list_intersections(rays)
+    assert hits["geometry_ids"].tolist() == [0, 0, 1, 1]
+    assert (hits["primitive_ids"][:2] < len(a_t)).all() and (hits["primitive_ids"][2:] < len(b_t)).all()

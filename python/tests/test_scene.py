@@ -1,5 +1,7 @@
 """packrt.Scene's ray queries against the double-precision brute force (reference.py), on a
 cube, an icosphere and a triangle soup: hits, misses, shapes, dtypes, t intervals, files."""
+import types
+
 import numpy as np
 import pytest
 
@@ -235,3 +237,38 @@ def test_create_rays_pinhole_matches_open3d_geometry():
     scene = packrt.Scene(plane_v, np.array([[0, 1, 2], [0, 2, 3]]))
     straight = packrt.Scene.create_rays_pinhole(fov, [0, 0, 0], [0, 0, 4], up, w, h)
     assert np.allclose(scene.cast_rays(straight)["t_hit"], 4.0, rtol=1e-6)
+
+
+def test_add_triangles_makes_geometries_with_their_own_ids():
+    cube_v, cube_t = R.cube(0.5)
+    sphere_v, sphere_t = R.icosphere(2, radius=0.5)
+    sphere_v = sphere_v + [2.0, 0, 0]
+    soup_v, soup_t = R.soup(50, seed=3)
+    soup_v = soup_v * 0.3 + [-2.0, 0, 0]
+    scene = packrt.Scene()
+    with pytest.raises(packrt.Error, match="no triangles"):
+        scene.cast_rays(np.zeros(6))
+    assert scene.add_triangles(cube_v, cube_t) == 0
+    assert scene.add_triangles(types.SimpleNamespace(vertices=sphere_v, faces=sphere_t)) == 1
+    assert scene.add_triangles(soup_v, soup_t) == 2
+    # The brute force on the three meshes together, with scene-wide triangle ids.
+    v = np.concatenate([cube_v, sphere_v, soup_v])
+    t = np.concatenate([cube_t, sphere_t + len(cube_v), soup_t + len(cube_v) + len(sphere_v)])
+    first = np.array([0, len(cube_t), len(cube_t) + len(sphere_t)])
+    rng = np.random.default_rng(13)
+    o = np.concatenate([rng.uniform(-3, 3, (3000, 1)), rng.uniform(-1, 1, (3000, 1)), np.full((3000, 1), 4.0)], 1)
+    rays = np.concatenate([o, np.tile([0, 0, -1.0], (3000, 1)) + rng.normal(0, 0.05, (3000, 3))], 1).astype(np.float32)
+    ans = scene.cast_rays(rays)
+    _, rprim, _, _, amb = R.closest_hits(rays, v, t)
+    hit = ~amb & (rprim >= 0)
+    geom = np.searchsorted(first, rprim[hit], side="right") - 1
+    assert set(geom) == {0, 1, 2}
+    assert np.array_equal(ans["geometry_ids"][hit], geom)
+    assert np.array_equal(ans["primitive_ids"][hit], rprim[hit] - first[geom])
+    miss = ~amb & (rprim < 0)
+    assert miss.any() and (ans["geometry_ids"][miss] == packrt.INVALID_ID).all()
+    assert (ans["primitive_ids"][miss] == packrt.INVALID_ID).all()
+    # A scene built from arrays takes more geometries too: its mesh is geometry 0.
+    grown = packrt.Scene(cube_v, cube_t)
+    assert grown.add_triangles(sphere_v, sphere_t) == 1
+    assert set(grown.cast_rays(rays)["geometry_ids"][hit]) <= {0, 1, packrt.INVALID_ID}
