@@ -183,6 +183,8 @@ class Scene:
     INVALID_ID = INVALID_ID  # as Open3D's RaycastingScene.INVALID_ID
 
     def __repr__(self):
+        if self._accel is None and not self._parts:
+            return "packrt.Scene(no triangles)"
         tris = self.stats()["triangles"]
         return f"packrt.Scene(spec={self.spec!r}, triangles={tris}{'' if self.vertices is not None else ', no mesh'})"
 
@@ -311,6 +313,7 @@ class Scene:
         _check(lib.prt_accel_open(str(path).encode(), o, pa))
         self = cls()
         self._set_accel(pa[0])
+        self._spec_wanted = self.spec  # add_triangles builds again with the file's representation
         if vertices is not None:
             # The mesh only supplies normals: it must be the one the file was built from.
             v, t = np.asarray(vertices), np.asarray(triangles)

@@ -246,6 +246,7 @@ def test_add_triangles_makes_geometries_with_their_own_ids():
     soup_v, soup_t = R.soup(50, seed=3)
     soup_v = soup_v * 0.3 + [-2.0, 0, 0]
     scene = packrt.Scene()
+    assert repr(scene) == "packrt.Scene(no triangles)"
     with pytest.raises(packrt.Error, match="no triangles"):
         scene.cast_rays(np.zeros(6))
     assert scene.add_triangles(cube_v, cube_t) == 0
