@@ -173,6 +173,10 @@ def test_save_load_and_open_answer_as_the_built_scene(tmp_path):
         assert np.array_equal(got[k], want[k])
     with_mesh = packrt.Scene.open(tmp_path / "s.prt", cache_bytes=1 << 20, vertices=v, triangles=t)
     assert np.array_equal(with_mesh.cast_rays(rays)["primitive_normals"], want["primitive_normals"])
+    assert with_mesh.add_triangles(*R.cube(0.1)) == 1  # built again, in the file's representation
+    assert with_mesh.spec == scene.spec and with_mesh.stats()["triangles"] == len(t) + 12
+    with pytest.raises(packrt.Error, match="no more triangles"):
+        loaded.add_triangles(*R.cube())
     with pytest.raises(packrt.Error, match="not the one"):
         packrt.Scene.load(tmp_path / "s.prt", vertices=v, triangles=t[:-1])
     (tmp_path / "bad.prt").write_bytes(b"PRT" + bytes(100))
