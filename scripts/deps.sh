@@ -5,9 +5,13 @@
 # for the headless viewer test)
 set -euo pipefail
 pkgs=(cmake make gcc pkg-config zlib1g-dev liblz4-dev libmeshoptimizer-dev libembree-dev libpng-dev libsdl2-dev)
+# python3-numpy, python3-cffi: the Python package in python/ (run time, with /usr/bin/python3).
+pkgs+=(python3-numpy python3-cffi)
 # libomp-14-dev: clang's OpenMP for the libFuzzer build (gcc uses its own libgomp);
 # python3: the CLI tests read .hits, PNG and JSON output with it.
 if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev libomp-14-dev xvfb xauth python3); fi
+# python3-pytest: the Python package's tests (ctest python_tests).
+if [ "${1:-}" = "--test" ]; then pkgs+=(python3-pytest); fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
