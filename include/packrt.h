@@ -314,6 +314,15 @@ void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size
 void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n,
                          int threads);
 
+/* Closest hits (any hits) for n rays given as 6 floats each, origin xyz then direction
+ * xyz (Open3D's and trimesh's layout: no prt_ray records to build), on threads, answered
+ * as prt_intersect_stream (prt_occluded_stream) answers the same rays. tnear: NULL for 0,
+ * else one value (tnear_stride 0) or one a ray (stride 1); tfar likewise, NULL for +inf. */
+void prt_intersect_rays6(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                         const float *tfar, size_t tfar_stride, prt_hit *hits, int threads);
+void prt_occluded_rays6(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                        const float *tfar, size_t tfar_stride, uint8_t *occluded, int threads);
+
 /* Save to a .prt file (format: docs/formats.md). */
 prt_status prt_accel_save(const prt_accel *a, const char *path);
 

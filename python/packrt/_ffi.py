@@ -57,6 +57,10 @@ void prt_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n, int threads);
 void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n,
                          int threads);
+void prt_intersect_rays6(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                         const float *tfar, size_t tfar_stride, prt_hit *hits, int threads);
+void prt_occluded_rays6(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                        const float *tfar, size_t tfar_stride, uint8_t *occluded, int threads);
 prt_status prt_accel_save(const prt_accel *a, const char *path);
 prt_status prt_accel_load(const char *path, prt_accel **out);
 typedef struct prt_open_options { uint64_t cache_bytes; int fetchers; } prt_open_options;

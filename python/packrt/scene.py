@@ -132,6 +132,27 @@ def _rays(rays, tnear, tfar):
     return buf.records[:n], shape
 
 
+def _rays6(rays, tnear, tfar):
+    """(..., 6) rays as the library's rays6 arguments, with no records made here: a
+    contiguous float32 (n, 6) array (no copy when it is one already), tnear and tfar each as
+    (pointer, stride) (stride 0: one value for every ray), and the leading shape."""
+    r = _floats(rays, 6, "rays")
+    shape = r.shape[:-1]
+    n = math.prod(shape)
+    r = np.ascontiguousarray(r.reshape(n, 6), dtype=np.float32)
+    args = [ffi.from_buffer("float[]", r), n]  # from_buffer keeps its array alive
+    for value, name in ((tnear, "tnear"), (tfar, "tfar")):
+        if np.ndim(value) == 0:
+            v = np.full(1, value, np.float32)
+        else:
+            try:
+                v = np.ascontiguousarray(np.broadcast_to(np.asarray(value, np.float32), shape).reshape(n))
+            except ValueError:
+                raise Error("invalid argument", f"{name} of shape {np.shape(value)} does not fit rays {shape}") from None
+        args += [ffi.from_buffer("float[]", v), 0 if np.ndim(value) == 0 else 1]
+    return args, shape
+
+
 def _triangle_normals(vertices, triangles):
     """Unit geometric normals (right-hand rule over the triangle's vertex order) of every
     triangle plus a last row of zeros for misses and degenerate triangles, float32."""
@@ -378,11 +399,10 @@ class Scene:
         add_triangles geometry; INVALID_ID on a miss). t_hit, primitive_ids, primitive_uvs and geometry_ids are views of one
         buffer. normals=False leaves primitive_normals None and saves gathering them (a tenth
         of the call's time at 1M rays: docs/results/python.md)."""
-        buf, shape = _rays(rays, tnear, tfar)
-        n = len(buf)
+        args, shape = _rays6(rays, tnear, tfar)
+        n = args[1]
         hits = np.empty((n, 5), np.float32)
-        lib.prt_intersect_stream(self._a, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("prt_hit[]", hits),
-                                 n, _threads(threads, nthreads))
+        lib.prt_intersect_rays6(self._a, *args, ffi.from_buffer("prt_hit[]", hits), _threads(threads, nthreads))
         words = hits.view(np.uint32)
         prim, geom = words[:, 3], words[:, 4]
         np.copyto(geom, INVALID_ID, where=prim == INVALID_ID)  # the library leaves geom 0 on a miss
@@ -411,10 +431,9 @@ class Scene:
 
     def test_occlusions(self, rays, tnear=0.0, tfar=np.inf, threads=0, nthreads=None):
         """True for each ray of (..., 6) that hits anything with t in [tnear, tfar]."""
-        buf, shape = _rays(rays, tnear, tfar)
-        out = np.empty(len(buf), np.uint8)
-        lib.prt_occluded_stream(self._a, ffi.from_buffer("prt_ray[]", buf), ffi.from_buffer("uint8_t[]", out),
-                                len(buf), _threads(threads, nthreads))
+        args, shape = _rays6(rays, tnear, tfar)
+        out = np.empty(args[1], np.uint8)
+        lib.prt_occluded_rays6(self._a, *args, ffi.from_buffer("uint8_t[]", out), _threads(threads, nthreads))
         return out.view(np.bool_).reshape(shape)
 
     @staticmethod

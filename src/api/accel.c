@@ -170,6 +170,44 @@ void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occlu
             occluded[i] = prt_occluded1(a, &rays[i]);
 }
 
+/* Rays [first, first + count) of a (n, 6) array as records: tnear and tfar from their
+ * arrays (stride 1), one value (stride 0) or the defaults (NULL). */
+static void rays6_records(const float *rays6, const float *tnear, size_t tnear_stride, const float *tfar,
+                          size_t tfar_stride, size_t first, size_t count, prt_ray *out) {
+    for (size_t i = 0; i < count; i++) {
+        const float *r = rays6 + 6 * (first + i);
+        out[i] = (prt_ray){{r[0], r[1], r[2]},
+                           tnear ? tnear[(first + i) * tnear_stride] : 0.0f,
+                           {r[3], r[4], r[5]},
+                           tfar ? tfar[(first + i) * tfar_stride] : INFINITY};
+    }
+}
+
+/* prt_intersect_rays6 (hits) and prt_occluded_rays6 (occluded): each chunk's records are
+ * made on the thread that traces them, where they stay in cache. */
+static void rays6_stream(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                         const float *tfar, size_t tfar_stride, prt_hit *hits, uint8_t *occluded, int threads) {
+#pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 1) if (n > STREAM_CHUNK)
+    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++) {
+        prt_ray rays[STREAM_CHUNK];
+        const size_t first = c * STREAM_CHUNK, count = n - first < STREAM_CHUNK ? n - first : STREAM_CHUNK;
+        rays6_records(rays6, tnear, tnear_stride, tfar, tfar_stride, first, count, rays);
+        if (hits) intersect_run(a, rays, hits + first, count);
+        else
+            for (size_t i = 0; i < count; i++) occluded[first + i] = prt_occluded1(a, &rays[i]);
+    }
+}
+
+void prt_intersect_rays6(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                         const float *tfar, size_t tfar_stride, prt_hit *hits, int threads) {
+    rays6_stream(a, rays6, n, tnear, tnear_stride, tfar, tfar_stride, hits, NULL, threads);
+}
+
+void prt_occluded_rays6(const prt_accel *a, const float *rays6, size_t n, const float *tnear, size_t tnear_stride,
+                        const float *tfar, size_t tfar_stride, uint8_t *occluded, int threads) {
+    rays6_stream(a, rays6, n, tnear, tnear_stride, tfar, tfar_stride, NULL, occluded, threads);
+}
+
 /* --- Levels of detail and caches ---------------------------------------------------- */
 
 bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h) {
