@@ -83,8 +83,8 @@ static void frame_vertices(const anim *a, size_t f, float *out) {
 
 static bool mesh_name(const char *n) {
     size_t l = strlen(n);
-    const char *ext[] = {".ply", ".ply.gz", ".obj", ".obj.gz"};
-    for (size_t i = 0; i < 4; i++) {
+    const char *ext[] = {".ply", ".ply.gz", ".obj", ".obj.gz", ".stl", ".off", ".glb", ".gltf"};
+    for (size_t i = 0; i < sizeof ext / sizeof *ext; i++) {
         size_t m = strlen(ext[i]);
         if (l > m && !strcasecmp(n + l - m, ext[i])) return true;
     }
