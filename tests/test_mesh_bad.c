@@ -125,8 +125,8 @@ TEST(test_empty_input_is_a_format_error) {
 TEST(test_neither_ply_nor_obj_is_a_format_error) {
     static const unsigned char png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n',
                                         0,    0,   0,   13,  'I',  'H',  'D',  'R'};
-    expect_failure(png, sizeof png, PRT_ERROR_FORMAT, "not a PLY or OBJ file", NULL);
-    expect_text_failure("{\"json\": true}\n", PRT_ERROR_FORMAT, "not a PLY or OBJ file", NULL);
+    expect_failure(png, sizeof png, PRT_ERROR_FORMAT, "not a PLY, OBJ, STL, OFF or glTF file", NULL);
+    expect_text_failure("{\"json\": true}\n", PRT_ERROR_FORMAT, "not a PLY, OBJ, STL, OFF or glTF file", NULL);
 }
 
 #define PLY_HEAD(nv, nf)                                                                           \

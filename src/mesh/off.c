@@ -93,15 +93,16 @@ static prt_status header(off_reader *r) {
     return PRT_OK;
 }
 
-/* Uncompressed input: the least bytes the counts need ("0 0 0\n" a vertex, "3 0 0 0\n" a
- * face), checked before anything is allocated. */
+/* Uncompressed input: the least bytes the counts need ("0 0 0\n" a vertex, 6 bytes a face:
+ * a shorter line is no face, reported as such when reached), checked before anything is
+ * allocated. */
 static prt_status check_size(off_reader *r, size_t *vreserve, size_t *freserve) {
     mesh_source *s = r->s;
     *vreserve = (size_t)PRT_MIN(r->nv, (uint64_t)1 << 16);
     *freserve = (size_t)PRT_MIN(r->nf, (uint64_t)1 << 16);
     if (s->total == UINT64_MAX) return PRT_OK;
     uint64_t at = mesh_source_offset(s, s->cur), left = s->total - at;
-    uint64_t need = r->nv * 6 + r->nf * 8; /* nv < 2^32; nf < 2^63 */
+    uint64_t need = r->nv * 6 + r->nf * 6; /* nv < 2^32; nf < 2^56 */
     if (r->nf > (uint64_t)1 << 56 || need - 1 > left) /* the last line may lack its newline */
         return prt__fail(PRT_ERROR_FORMAT,
                          "%s: truncated: the header announces %llu vertices and %llu faces, which "

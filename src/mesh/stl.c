@@ -108,6 +108,9 @@ static bool kw_is(const char *t, size_t n, const char *lit) {
 
 static prt_status unexpected(mesh_source *s, const char *t, size_t n, const char *expected) {
     char q[MESH_QUOTE_SIZE];
+    if (s->unterminated) /* the last line, without its newline: most likely cut short */
+        return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: truncated: the file ends in '%s' (expected %s)",
+                         s->name, s->line, mesh_quote(t, n, q), expected);
     return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: unexpected '%s' (expected %s)", s->name,
                      s->line, n ? mesh_quote(t, n, q) : "end of line", expected);
 }
