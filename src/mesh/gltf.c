@@ -53,6 +53,12 @@ static prt_status bad(gltf *g, const char *fmt, const char *what, long i) {
     return prt__fail(PRT_ERROR_FORMAT, "%s: glTF: %s", g->name, msg);
 }
 
+/* glTF data is little-endian, as every host packrt targets (checked at compile time). */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "the glTF reader's copy of index lists assumes a little-endian host"
+#endif
+#define PRT_LE32_TO_HOST(x) (x)
+
 PRT_INLINE uint32_t le32(const uint8_t *p) {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
@@ -62,16 +68,21 @@ static prt_status read_all(gltf *g, const uint8_t **data, size_t *size) {
     mesh_source *s = g->s;
     prt_status st = mesh_source_fill(s, 1);
     if (st != PRT_OK) return st;
-    if (s->eof && mesh_source_offset(s, s->cur) == 0) {
+    /* A file of known size: the source's window made to hold all of it (one read, no copy). */
+    if (s->total != UINT64_MAX && s->total <= MESH_SOURCE_MAX_WINDOW && mesh_source_offset(s, s->cur) == 0 &&
+        (st = mesh_source_fill(s, (size_t)s->total)) != PRT_OK)
+        return st;
+    if ((s->eof || mesh_source_avail(s) == s->total) && mesh_source_offset(s, s->cur) == 0) {
         *data = s->cur, *size = mesh_source_avail(s);
         return PRT_OK;
     }
-    size_t n = 0, cap = s->total != UINT64_MAX && s->total < SIZE_MAX ? (size_t)s->total : 0;
+    /* The known size first (one allocation), else growth by doubling (gzip, pipes). */
+    size_t n = 0, cap = 0, first = s->total != UINT64_MAX && s->total < SIZE_MAX ? (size_t)s->total : 0;
     for (;;) {
         size_t avail = mesh_source_avail(s);
         if (!avail) break;
         if (n + avail > cap) {
-            cap = PRT_MAX(n + avail, 2 * cap);
+            cap = PRT_MAX(PRT_MAX(n + avail, 2 * cap), first);
             uint8_t *q = prt__realloc(g->file, cap);
             if (!q) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory reading %zu bytes", g->name, cap);
             g->file = q;
@@ -356,7 +367,24 @@ static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, u
     }
     a->nv += P.count;
     if ((st = mesh_arrays_reserve_triangles(a, tris, 0)) != PRT_OK) return st;
-    for (size_t t = 0; t < tris; t++) {
+    size_t t = 0;
+    if (mode == 4 && has_idx && I.comp == 5125 && I.stride == 4 && !flip && !a->stream) {
+        /* The usual layout (packed uint32 triangle lists): copied, then offset and checked
+         * in one pass that vectorises; a bad index is found again below for its message. */
+        uint32_t *o = a->t + 3 * a->nt, top = 0;
+        memcpy(o, I.base, 12 * tris);
+        for (size_t i = 0; i < 3 * tris; i++) {
+            uint32_t v = PRT_LE32_TO_HOST(o[i]);
+            top = v > top ? v : top;
+            o[i] = v + (uint32_t)base;
+        }
+        if (top < P.count) {
+            for (size_t i = 0; i < tris; i++) a->tm[a->nt + i] = (uint16_t)g->instances;
+            a->nt += tris;
+            t = tris;
+        }
+    }
+    for (; t < tris; t++) {
         size_t c[3];
         if (mode == 4) c[0] = 3 * t, c[1] = 3 * t + 1, c[2] = 3 * t + 2;
         else if (mode == 5) c[0] = t, c[1] = t + 1 + t % 2, c[2] = t + 2 - t % 2;

@@ -22,18 +22,75 @@ static prt_status nonfinite(mesh_source *s, const char *where, uint64_t pos, uin
                      'x' + axis, (double)value);
 }
 
-/* Weld the three corners in c (9 floats, finite) and append the triangle. */
-PRT_INLINE prt_status emit(weld_table *w, mesh_arrays *a, const float *c, size_t expect) {
+/* Append the triangle of corners c (9 floats, finite), welded; h: their weld_table_hash. */
+PRT_INLINE prt_status emit(weld_table *w, mesh_arrays *a, const float *c, const uint64_t *h,
+                           size_t expect) {
     if (PRT_UNLIKELY(a->nt == a->tcap) || a->stream) {
         prt_status st = mesh_arrays_triangle_room(a, 1, expect);
         if (st != PRT_OK) return st;
     }
     uint32_t idx[3];
     for (int k = 0; k < 3; k++) {
-        prt_status st = weld_table_corner(w, a, c + 3 * k, &idx[k]);
+        prt_status st = weld_table_corner(w, a, c + 3 * k, h[k], &idx[k]);
         if (st != PRT_OK) return st;
     }
     memcpy(a->t + 3 * a->nt++, idx, sizeof idx);
+    return PRT_OK;
+}
+
+/* Triangles decoded at a time: welding is a random access per corner not in the weld
+ * cache, and prefetching a batch's slots before welding them overlaps those misses. */
+#define BATCH 256
+
+/* The count triangles after the header, a batch at a time: decoded and checked, hashed,
+ * then welded. c, h, idx: room for BATCH triangles' corners. */
+static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w, uint32_t count,
+                                   float *c, uint64_t *h, uint32_t *idx) {
+    prt_status st;
+    for (uint32_t t = 0; t < count;) {
+        if (mesh_source_avail(s) < 50) {
+            if ((st = mesh_source_fill(s, 50)) != PRT_OK) return st;
+            if (mesh_source_avail(s) < 50)
+                return prt__fail(PRT_ERROR_FORMAT,
+                                 "%s: byte %llu: truncated: the data ends in triangle %u of the %u "
+                                 "the header announces",
+                                 s->name, (unsigned long long)mesh_source_offset(s, s->end), t,
+                                 count);
+        }
+        uint32_t batch = (uint32_t)PRT_MIN((size_t)(count - t), mesh_source_avail(s) / 50);
+        batch = PRT_MIN(batch, (uint32_t)BATCH);
+        uint32_t bad = 0;
+        for (uint32_t i = 0; i < batch; i++) {
+            const uint8_t *q = s->cur + 50 * (size_t)i + 12;
+            for (int k = 0; k < 9; k++) {
+                uint32_t b = load_le32(q + 4 * k);
+                bad |= (uint32_t)((b & 0x7f800000u) == 0x7f800000u);
+                memcpy(&c[9 * i + k], &b, 4);
+            }
+        }
+        if (PRT_UNLIKELY(bad))
+            for (uint32_t i = 0; i < 9 * batch; i++)
+                if (!isfinite(c[i]))
+                    return nonfinite(s, "byte", mesh_source_offset(s, s->cur + 50 * (i / 9) + 12 + 4 * (i % 9)),
+                                     t + i / 9, (int)(i % 9 / 3), (int)(i % 3), c[i]);
+        /* Corners the cache knows are resolved at once; the others' slots are prefetched
+         * here, a batch ahead of the sequential pass that welds them. */
+        for (uint32_t i = 0; i < 3 * batch; i++) {
+            h[i] = weld_table_hash(c + 3 * i);
+            idx[i] = weld_table_cached(w, c + 3 * i, h[i]);
+        }
+        for (uint32_t i = 0; i < batch; i++) {
+            if (PRT_UNLIKELY(a->nt == a->tcap) || a->stream) {
+                if ((st = mesh_arrays_triangle_room(a, 1, count)) != PRT_OK) return st;
+            }
+            for (uint32_t k = 3 * i; k < 3 * i + 3; k++)
+                if (idx[k] == UINT32_MAX && (st = weld_table_corner(w, a, c + 3 * k, h[k], &idx[k])) != PRT_OK)
+                    return st;
+            memcpy(a->t + 3 * a->nt++, idx + 3 * i, 3 * sizeof(uint32_t));
+        }
+        s->cur += 50 * (size_t)batch;
+        t += batch;
+    }
     return PRT_OK;
 }
 
@@ -58,39 +115,20 @@ static prt_status binary(mesh_source *s, mesh_arrays *a, weld_table *w) {
     if (count == 0)
         return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the header announces 0", s->name);
     size_t reserve = s->total != UINT64_MAX ? count : PRT_MIN((size_t)count, UNPROVEN_TRIANGLES);
-    /* Closed meshes have about half as many vertices as triangles. */
+    /* Closed meshes have about half as many vertices as triangles (a little more when
+     * open): reserving a bit over half spares most meshes a doubling. */
+    size_t vexpect = reserve / 2 + reserve / 32 + 16;
     if ((st = mesh_arrays_reserve_triangles(a, reserve, count)) != PRT_OK ||
-        (st = mesh_arrays_vertex_room(a, reserve / 2 + 16, 0)) != PRT_OK)
+        (st = mesh_arrays_vertex_room(a, vexpect, 0)) != PRT_OK ||
+        (st = weld_table_reserve(w, vexpect, s->name)) != PRT_OK)
         return st;
-    for (uint32_t t = 0; t < count;) {
-        if (mesh_source_avail(s) < 50) {
-            if ((st = mesh_source_fill(s, 50)) != PRT_OK) return st;
-            if (mesh_source_avail(s) < 50)
-                return prt__fail(PRT_ERROR_FORMAT,
-                                 "%s: byte %llu: truncated: the data ends in triangle %u of the %u "
-                                 "the header announces",
-                                 s->name, (unsigned long long)mesh_source_offset(s, s->end), t,
-                                 count);
-        }
-        uint32_t batch = (uint32_t)PRT_MIN((size_t)(count - t), mesh_source_avail(s) / 50);
-        for (uint32_t i = 0; i < batch; i++, t++) {
-            const uint8_t *q = s->cur + 12;
-            float c[9];
-            uint32_t bad = 0;
-            for (int k = 0; k < 9; k++) {
-                uint32_t b = load_le32(q + 4 * k);
-                bad |= (uint32_t)((b & 0x7f800000u) == 0x7f800000u);
-                memcpy(&c[k], &b, 4);
-            }
-            if (PRT_UNLIKELY(bad))
-                for (int k = 0; k < 9; k++)
-                    if (!isfinite(c[k]))
-                        return nonfinite(s, "byte", mesh_source_offset(s, q + 4 * k), t, k / 3,
-                                         k % 3, c[k]);
-            if ((st = emit(w, a, c, count)) != PRT_OK) return st;
-            s->cur += 50;
-        }
-    }
+    float *c = prt__alloc(BATCH * 9 * sizeof *c);
+    uint64_t *h = prt__alloc(BATCH * 3 * sizeof *h);
+    uint32_t *idx = prt__alloc(BATCH * 3 * sizeof *idx);
+    if (!c || !h || !idx) st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory", s->name);
+    else st = binary_triangles(s, a, w, count, c, h, idx);
+    prt__free(c), prt__free(h), prt__free(idx);
+    if (st != PRT_OK) return st;
     if ((st = mesh_source_fill(s, 1)) != PRT_OK) return st;
     if (mesh_source_avail(s))
         return prt__fail(PRT_ERROR_FORMAT,
@@ -185,7 +223,8 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
             continue;
         }
         if (state == LOOP_DONE && kw_is(t, n, "endfacet")) {
-            if ((st = emit(w, a, c, 0)) != PRT_OK) return st;
+            uint64_t h[3] = {weld_table_hash(c), weld_table_hash(c + 3), weld_table_hash(c + 6)};
+            if ((st = emit(w, a, c, h, 0)) != PRT_OK) return st;
             facets++;
             state = IN_SOLID;
             continue;
