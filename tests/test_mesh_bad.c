@@ -88,7 +88,8 @@ TEST(test_every_mesh_in_the_good_corpus_loads) {
         const char *ext = strchr(e->d_name, '.');
         if (e->d_name[0] == '.' || !ext ||
             !(!strcmp(ext, ".ply") || !strcmp(ext, ".obj") || !strcmp(ext, ".ply.gz") ||
-              !strcmp(ext, ".obj.gz")))
+              !strcmp(ext, ".obj.gz") || !strcmp(ext, ".stl") || !strcmp(ext, ".off") ||
+              !strcmp(ext, ".gltf") || !strcmp(ext, ".glb")))
             continue;
         char path[1024];
         snprintf(path, sizeof path, "%s/%s", GOOD, e->d_name);

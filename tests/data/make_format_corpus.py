@@ -151,6 +151,24 @@ def two_instances(doc):
 
 
 put(GOOD, "quad_three_instances.gltf", embedded(*gltf_doc(extra=two_instances)))
+put(GOOD, "quad_mirrored.gltf", embedded(*gltf_doc(nodes=[{"mesh": 0, "scale": [-1, 1, 1]}])))
+
+
+def vertex_colours(doc):
+    cb = b"".join(struct.pack("<4B", *c) for c in [(255, 0, 0, 255), (0, 255, 0, 255), (0, 0, 255, 255), (255, 255, 255, 255)])
+    n = doc["buffers"][0]["byteLength"]
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": n, "byteLength": len(cb)})
+    doc["accessors"].append({"bufferView": 2, "componentType": 5121, "normalized": True, "count": 4, "type": "VEC4"})
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 2
+    doc["meshes"][0]["primitives"][0]["material"] = 0
+    doc["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 1, 1]}}]
+    doc["buffers"][0]["byteLength"] = n + len(cb)
+    doc["_extra_bytes"] = base64.b64encode(cb).decode()
+
+
+d, b = gltf_doc(extra=vertex_colours)
+b += base64.b64decode(d.pop("_extra_bytes"))
+put(GOOD, "quad_vertex_colours.glb", glb(d, b))
 
 
 def out_of_view(doc):
