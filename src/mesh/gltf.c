@@ -9,15 +9,18 @@
 #include "mesh/json.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
+#include <unistd.h>
 
 #define GLB_JSON 0x4E4F534Au
 #define GLB_BIN 0x004E4942u
 #define MAX_DEPTH 64 /* node nesting */
 
 typedef struct gbuf {
-    const uint8_t *data;
+    const uint8_t *data; /* NULL: in the file at file_off (a GLB's BIN chunk, read on demand) */
+    uint64_t file_off;
     uint64_t size; /* the byteLength declared (data holds at least that) */
     uint8_t *owned;
 } gbuf;
@@ -30,8 +33,11 @@ typedef struct gltf {
     long root;
     gbuf *buf;
     size_t nbuf;
-    const uint8_t *bin; /* GLB's BIN chunk */
+    const uint8_t *bin; /* GLB's BIN chunk, when in memory */
     uint64_t bin_size;
+    int fd;             /* else the GLB file, its BIN chunk read at bin_off as accessors need it */
+    uint64_t bin_off;
+    uint8_t *temp[3];   /* the current primitive's accessors read from the file */
     uint8_t *file; /* the whole input, when it had to be copied */
     bool colors;
     uint32_t instances;
@@ -41,7 +47,8 @@ typedef struct gltf {
 
 /* A checked accessor: element i's component k lives at base + i * stride + k * csize. */
 typedef struct gacc {
-    const uint8_t *base;
+    const uint8_t *base; /* NULL until fetched, for an accessor of a file-backed buffer */
+    uint64_t file_off;
     size_t stride, count;
     int comp, ncomp, csize;
     bool normalized;
@@ -177,12 +184,12 @@ static prt_status load_buffers(gltf *g) {
             return bad(g, "%s of buffer %ld missing or not an integer", "byteLength", (long)i);
         long uri = json_get(d, b, "uri");
         if (uri < 0) {
-            if (i != 0 || !g->bin)
+            if (i != 0 || (!g->bin && g->fd < 0))
                 return bad(g, "buffer %2$ld has no %1$s and is not the GLB's BIN chunk", "uri", (long)i);
             if (gb->size > g->bin_size)
                 return prt__fail(PRT_ERROR_FORMAT, "%s: glTF: buffer 0 declares %llu bytes, the BIN chunk holds %llu",
                                  g->name, (unsigned long long)gb->size, (unsigned long long)g->bin_size);
-            gb->data = g->bin;
+            gb->data = g->bin, gb->file_off = g->bin_off;
             continue;
         }
         if (d->tok[uri].type != JSON_STRING) return bad(g, "buffer %2$ld: %1$s is not a string", "uri", (long)i);
@@ -254,10 +261,34 @@ static prt_status accessor(gltf *g, uint64_t i, unsigned ncomp_ok, const char *r
                          g->name, (unsigned long long)i, (unsigned long long)count, (unsigned long long)elem,
                          (unsigned long long)stride, (unsigned long long)off, (unsigned long long)view_i,
                          (unsigned long long)vlen);
-    out->base = b->data + voff + off;
+    out->base = b->data ? b->data + voff + off : NULL;
+    out->file_off = b->file_off + voff + off;
     out->stride = (size_t)stride, out->count = (size_t)count;
     out->comp = (int)comp, out->ncomp = ncomp, out->csize = csize;
     out->normalized = json_get(d, acc, "normalized") >= 0 && d->tok[json_get(d, acc, "normalized")].type == JSON_TRUE;
+    return PRT_OK;
+}
+
+/* Give a file-backed accessor its bytes: read into dst when given (the mesh's own arrays,
+ * so the common layouts are read straight to where they belong), else into a temporary
+ * buffer that lives until the primitive is done. */
+static prt_status fetch(gltf *g, gacc *A, void *dst, int slot) {
+    if (A->base || !A->count) return PRT_OK;
+    size_t span = (A->count - 1) * A->stride + (size_t)A->ncomp * (size_t)A->csize;
+    if (!dst) {
+        dst = g->temp[slot] = prt__alloc(span);
+        if (!dst) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for %zu bytes of an accessor", g->name, span);
+    }
+    for (size_t done = 0; done < span;) {
+        ssize_t r = pread(g->fd, (uint8_t *)dst + done, span - done, (off_t)(A->file_off + done));
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0)
+            return prt__fail(r < 0 ? PRT_ERROR_IO : PRT_ERROR_FORMAT, "%s: byte %llu: %s", g->name,
+                             (unsigned long long)(A->file_off + done),
+                             r < 0 ? strerror(errno) : "the file ends early (was it changed while read?)");
+        done += (size_t)r;
+    }
+    A->base = dst;
     return PRT_OK;
 }
 
@@ -307,7 +338,7 @@ static prt_status base_color(gltf *g, long prim, float rgb[3], bool *set) {
 }
 
 /* One primitive of one instance, with transform M (column-major 4x4). */
-static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i, size_t pi) {
+static prt_status primitive_body(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i, size_t pi) {
     json_doc *d = &g->d;
     mesh_arrays *a = g->a;
     uint64_t mode = 4, pos_i, idx_i, col_i;
@@ -347,6 +378,11 @@ static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, u
     /* Vertices, transformed; the first of this primitive is base. */
     if ((st = mesh_arrays_vertex_room(a, P.count, 0)) != PRT_OK) return st;
     size_t base = a->nv;
+    /* From a file: packed positions straight into the vertex array (transformed in place
+     * below: each vertex is read whole before it is written). */
+    if ((st = fetch(g, &P, P.stride == 12 ? a->v + 3 * base : NULL, 0)) != PRT_OK ||
+        (has_col && (st = fetch(g, &C, NULL, 1)) != PRT_OK))
+        return st;
     for (size_t v = 0; v < P.count; v++) {
         double x = comp_value(&P, v, 0), y = comp_value(&P, v, 1), z = comp_value(&P, v, 2);
         float *o = a->v + 3 * (base + v);
@@ -369,20 +405,26 @@ static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, u
     if ((st = mesh_arrays_reserve_triangles(a, tris, 0)) != PRT_OK) return st;
     size_t t = 0;
     if (mode == 4 && has_idx && I.comp == 5125 && I.stride == 4 && !flip && !a->stream) {
-        /* The usual layout (packed uint32 triangle lists): copied, then offset and checked
-         * in one pass that vectorises; a bad index is found again below for its message. */
+        /* The usual layout (packed uint32 triangle lists): copied (or read from the file)
+         * into place, then offset and checked in one pass that vectorises. */
         uint32_t *o = a->t + 3 * a->nt, top = 0;
-        memcpy(o, I.base, 12 * tris);
+        if ((st = fetch(g, &I, o, 2)) != PRT_OK) return st;
+        if (I.base != (const uint8_t *)o) memcpy(o, I.base, 12 * tris);
         for (size_t i = 0; i < 3 * tris; i++) {
             uint32_t v = PRT_LE32_TO_HOST(o[i]);
             top = v > top ? v : top;
             o[i] = v + (uint32_t)base;
         }
-        if (top < P.count) {
-            for (size_t i = 0; i < tris; i++) a->tm[a->nt + i] = (uint16_t)g->instances;
-            a->nt += tris;
-            t = tris;
-        }
+        if (top >= P.count)
+            for (size_t i = 0;; i++)
+                if (o[i] - (uint32_t)base >= P.count)
+                    return prt__fail(PRT_ERROR_MESH, "%s: glTF: mesh %llu primitive %zu: index %zu is %u, but POSITION has %zu vertices",
+                                     g->name, (unsigned long long)mesh_i, pi, i, o[i] - (uint32_t)base, P.count);
+        for (size_t i = 0; i < tris; i++) a->tm[a->nt + i] = (uint16_t)g->instances;
+        a->nt += tris;
+        t = tris;
+    } else if (has_idx && (st = fetch(g, &I, NULL, 2)) != PRT_OK) {
+        return st;
     }
     for (; t < tris; t++) {
         size_t c[3];
@@ -404,6 +446,12 @@ static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, u
     }
     g->triangles += tris;
     return PRT_OK;
+}
+
+static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i, size_t pi) {
+    prt_status st = primitive_body(g, prim, M, flip, mesh_i, pi);
+    for (int k = 0; k < 3; k++) prt__free(g->temp[k]), g->temp[k] = NULL;
+    return st;
 }
 
 static prt_status mesh_instance(gltf *g, uint64_t mesh_i, const double M[16]) {
@@ -550,11 +598,38 @@ static prt_status scene(gltf *g) {
     return PRT_OK;
 }
 
+/* A GLB file of known size: only its header, JSON chunk and BIN chunk header are read
+ * here; the BIN chunk stays in the file, read by fetch as accessors need it, so the peak
+ * is the mesh and the JSON, not the file too. */
+static prt_status glb_head(gltf *g, const uint8_t **data, size_t *size) {
+    mesh_source *s = g->s;
+    prt_status st = mesh_source_fill(s, 20);
+    if (st != PRT_OK || mesh_source_avail(s) < 20 || s->total > SIZE_MAX) return st;
+    uint64_t want = 20 + (uint64_t)le32(s->cur + 12) + 8;
+    if (want > s->total) want = s->total;
+    if (want > MESH_SOURCE_MAX_WINDOW || (st = mesh_source_fill(s, (size_t)want)) != PRT_OK) return st;
+    if (mesh_source_avail(s) < want)
+        return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: the file ends at byte %zu, before its size %llu",
+                         g->name, mesh_source_avail(s), (unsigned long long)s->total);
+    if ((g->fd = open(g->path, O_RDONLY | O_CLOEXEC)) < 0)
+        return prt__fail(PRT_ERROR_IO, "%s: cannot open: %s", g->name, strerror(errno));
+    *data = s->cur, *size = (size_t)s->total; /* the bytes past the window are never read */
+    return PRT_OK;
+}
+
 static prt_status parse(gltf *g, bool glb) {
     const uint8_t *data = NULL;
     size_t size = 0;
-    prt_status st = read_all(g, &data, &size);
+    bool from_file = glb && g->path && g->s->total != UINT64_MAX && mesh_source_offset(g->s, g->s->cur) == 0;
+    prt_status st = from_file ? glb_head(g, &data, &size) : read_all(g, &data, &size);
     if (st != PRT_OK) return st;
+    if (from_file && g->fd < 0) { /* too short for a header, or a JSON chunk past 1 GiB */
+        if (mesh_source_avail(g->s) < 20)
+            return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: a GLB needs a 12-byte header and a chunk, the file has %zu bytes",
+                             g->name, mesh_source_avail(g->s));
+        from_file = false;
+        if ((st = read_all(g, &data, &size)) != PRT_OK) return st;
+    }
     const char *json = (const char *)data;
     size_t json_len_ = size;
     uint64_t json_at_ = 0;
@@ -574,7 +649,9 @@ static prt_status parse(gltf *g, bool glb) {
             if (le32(data + at + 4) == GLB_BIN) {
                 if (blen > size - at - 8)
                     return prt__fail(PRT_ERROR_FORMAT, "%s: byte %zu: the BIN chunk (%u bytes) reaches past the end of the file", g->name, at, blen);
-                g->bin = data + at + 8, g->bin_size = blen;
+                g->bin_size = blen;
+                if (from_file) g->bin_off = at + 8;
+                else g->bin = data + at + 8;
             }
         }
     }
@@ -602,12 +679,13 @@ static prt_status parse(gltf *g, bool glb) {
 }
 
 prt_status mesh_gltf_parse_arrays(mesh_source *s, bool glb, const char *path, mesh_arrays *a) {
-    gltf g = {.s = s, .a = a, .name = s->name, .path = path};
+    gltf g = {.s = s, .a = a, .name = s->name, .path = path, .fd = -1};
     prt_status st = parse(&g, glb);
     json_free(&g.d);
     for (size_t i = 0; i < g.nbuf; i++) prt__free(g.buf[i].owned);
     prt__free(g.buf);
     prt__free(g.file);
     prt__free(g.visited);
+    if (g.fd >= 0) close(g.fd);
     return st;
 }
