@@ -4,7 +4,7 @@
 # Usage: scripts/deps.sh [--test]   (--test adds clang for the libFuzzer targets and Xvfb
 # for the headless viewer test)
 set -euo pipefail
-pkgs=(cmake make gcc pkg-config zlib1g-dev liblz4-dev libmeshoptimizer-dev libembree-dev libpng-dev libsdl2-dev)
+pkgs=(cmake make gcc pkg-config zlib1g-dev liblz4-dev libmeshoptimizer-dev libembree-dev libpng-dev libsdl2-dev libassimp-dev)
 # libomp-14-dev: clang's OpenMP for the libFuzzer build (gcc uses its own libgomp);
 # python3: the CLI tests read .hits, PNG and JSON output with it.
 if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev libomp-14-dev xvfb xauth python3); fi

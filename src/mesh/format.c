@@ -41,6 +41,12 @@ static bool has_ext(const char *name, const char *ext) {
     return n > e && !strncasecmp(name + n - e, ext, e);
 }
 
+/* Formats left to Assimp, by extension only: their content is never sniffed, so input
+ * without such a name (the fuzz targets' included) never reaches Assimp's parsers. */
+static const char *const k_assimp[] = {".fbx", ".dae", ".3ds", ".blend", ".x", ".lwo", ".lws", ".ase", ".ms3d",
+                                       ".md2", ".md3", ".md5mesh", ".ac", ".dxf", ".x3d", ".3mf", ".b3d", ".smd",
+                                       ".cob", ".ogex", ".amf", ".irrmesh", ".nff", ".ifc", ".xgl", ".zgl"};
+
 static bool contains(const uint8_t *p, size_t n, const char *lit) {
     size_t m = strlen(lit);
     for (size_t i = 0; i + m <= n; i++)
@@ -95,6 +101,9 @@ prt_status mesh_format_detect(mesh_source *s, mesh_format *out) {
     else if (has_ext(name, ".glb")) *out = MESH_FORMAT_GLB;
     else if (has_ext(name, ".gltf")) *out = MESH_FORMAT_GLTF;
     else if (has_ext(name, ".ply")) *out = MESH_FORMAT_PLY;
+    else
+        for (size_t k = 0; k < sizeof k_assimp / sizeof *k_assimp; k++)
+            if (has_ext(name, k_assimp[k])) *out = MESH_FORMAT_ASSIMP;
     return PRT_OK;
 }
 
@@ -106,6 +115,7 @@ prt_status mesh_parse_format(mesh_source *s, mesh_format f, const char *path, me
     case MESH_FORMAT_OFF: return mesh_off_parse_arrays(s, a);
     case MESH_FORMAT_GLTF: return mesh_gltf_parse_arrays(s, false, path, a);
     case MESH_FORMAT_GLB: return mesh_gltf_parse_arrays(s, true, path, a);
+    case MESH_FORMAT_ASSIMP: return mesh_assimp_parse_arrays(s, path, a);
     case MESH_FORMAT_OBJ: break;
     }
     return mesh_obj_parse_arrays(s, a);
@@ -120,6 +130,6 @@ prt_status mesh_format_of_file(const char *path, mesh_format *out) {
 }
 
 const char *mesh_format_name(mesh_format f) {
-    static const char *const names[] = {"OBJ", "PLY", "binary STL", "ASCII STL", "OFF", "glTF", "GLB"};
+    static const char *const names[] = {"OBJ", "PLY", "binary STL", "ASCII STL", "OFF", "glTF", "GLB", "Assimp"};
     return (unsigned)f < sizeof names / sizeof *names ? names[f] : "?";
 }

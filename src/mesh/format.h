@@ -14,6 +14,7 @@ typedef enum mesh_format {
     MESH_FORMAT_OFF,
     MESH_FORMAT_GLTF, /* JSON */
     MESH_FORMAT_GLB,  /* binary container */
+    MESH_FORMAT_ASSIMP, /* by extension only: FBX, Collada, 3DS, ... (assimp.c) */
 } mesh_format;
 
 /* Look at the start of s (after gzip) and at its name's extension (".gz" ignored). Fails
@@ -29,10 +30,11 @@ const char *mesh_format_name(mesh_format f);
  * buffers are then refused). */
 prt_status mesh_parse_format(mesh_source *s, mesh_format f, const char *path, mesh_arrays *a);
 
-/* The parsers of the formats added to PLY and OBJ (stl.c, off.c, gltf.c), with
+/* The parsers of the formats added to PLY and OBJ (stl.c, off.c, gltf.c, assimp.c), with
  * mesh_ply_parse_arrays's contract. */
 prt_status mesh_stl_parse_arrays(mesh_source *s, bool binary, mesh_arrays *a);
 prt_status mesh_off_parse_arrays(mesh_source *s, mesh_arrays *a);
 prt_status mesh_gltf_parse_arrays(mesh_source *s, bool glb, const char *path, mesh_arrays *a);
+prt_status mesh_assimp_parse_arrays(mesh_source *s, const char *path, mesh_arrays *a);
 
 #endif

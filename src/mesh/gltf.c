@@ -70,39 +70,6 @@ PRT_INLINE uint32_t le32(const uint8_t *p) {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
-/* The whole stream in memory: a memory source's own window, else a copy. */
-static prt_status read_all(gltf *g, const uint8_t **data, size_t *size) {
-    mesh_source *s = g->s;
-    prt_status st = mesh_source_fill(s, 1);
-    if (st != PRT_OK) return st;
-    /* A file of known size: the source's window made to hold all of it (one read, no copy). */
-    if (s->total != UINT64_MAX && s->total <= MESH_SOURCE_MAX_WINDOW && mesh_source_offset(s, s->cur) == 0 &&
-        (st = mesh_source_fill(s, (size_t)s->total)) != PRT_OK)
-        return st;
-    if ((s->eof || mesh_source_avail(s) == s->total) && mesh_source_offset(s, s->cur) == 0) {
-        *data = s->cur, *size = mesh_source_avail(s);
-        return PRT_OK;
-    }
-    /* The known size first (one allocation), else growth by doubling (gzip, pipes). */
-    size_t n = 0, cap = 0, first = s->total != UINT64_MAX && s->total < SIZE_MAX ? (size_t)s->total : 0;
-    for (;;) {
-        size_t avail = mesh_source_avail(s);
-        if (!avail) break;
-        if (n + avail > cap) {
-            cap = PRT_MAX(PRT_MAX(n + avail, 2 * cap), first);
-            uint8_t *q = prt__realloc(g->file, cap);
-            if (!q) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory reading %zu bytes", g->name, cap);
-            g->file = q;
-        }
-        memcpy(g->file + n, s->cur, avail);
-        n += avail;
-        s->cur = s->end;
-        if ((st = mesh_source_fill(s, 1)) != PRT_OK) return st;
-    }
-    *data = g->file, *size = n;
-    return PRT_OK;
-}
-
 static int b64(uint8_t c) {
     return c >= 'A' && c <= 'Z' ? c - 'A' : c >= 'a' && c <= 'z' ? c - 'a' + 26 : c >= '0' && c <= '9' ? c - '0' + 52
          : c == '+' ? 62 : c == '/' ? 63 : -1;
@@ -621,14 +588,14 @@ static prt_status parse(gltf *g, bool glb) {
     const uint8_t *data = NULL;
     size_t size = 0;
     bool from_file = glb && g->path && g->s->total != UINT64_MAX && mesh_source_offset(g->s, g->s->cur) == 0;
-    prt_status st = from_file ? glb_head(g, &data, &size) : read_all(g, &data, &size);
+    prt_status st = from_file ? glb_head(g, &data, &size) : mesh_source_read_all(g->s, &data, &size, &g->file);
     if (st != PRT_OK) return st;
     if (from_file && g->fd < 0) { /* too short for a header, or a JSON chunk past 1 GiB */
         if (mesh_source_avail(g->s) < 20)
             return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: a GLB needs a 12-byte header and a chunk, the file has %zu bytes",
                              g->name, mesh_source_avail(g->s));
         from_file = false;
-        if ((st = read_all(g, &data, &size)) != PRT_OK) return st;
+        if ((st = mesh_source_read_all(g->s, &data, &size, &g->file)) != PRT_OK) return st;
     }
     const char *json = (const char *)data;
     size_t json_len_ = size;

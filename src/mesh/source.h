@@ -51,6 +51,12 @@ PRT_INLINE uint64_t mesh_source_offset(const mesh_source *s, const uint8_t *p) {
 bool mesh_source_can_rewind(const mesh_source *s);
 prt_status mesh_source_rewind(mesh_source *s);
 
+/* The whole stream, from its start, in memory: *data points into the source's window (a
+ * memory source, or a file of known size up to MESH_SOURCE_MAX_WINDOW, read in one go) or
+ * into *owned, a copy the caller frees with prt__free (gzip, pipes). Valid until the next
+ * fill, skip or close. */
+prt_status mesh_source_read_all(mesh_source *s, const uint8_t **data, size_t *size, uint8_t **owned);
+
 /* Consume n bytes, pulling as many windows as it takes; *short_read when the stream
  * ends first. */
 prt_status mesh_source_skip(mesh_source *s, uint64_t n, bool *short_read);
