@@ -3,7 +3,8 @@
  * wall time, triangles per second, ratio to the first file, and the peak of packrt's
  * allocations during a load. Not part of the build (bench/*.c only is); compile with
  *   cc -O2 -Iinclude bench/load_formats/load_formats.c build/libpackrt.a \
- *      $(pkg-config --libs liblz4) -lmeshoptimizer -lz -lpng -lm -fopenmp -lstdc++ -o load_formats
+ *      $(pkg-config --libs liblz4) -lmeshoptimizer -lz -lpng -lassimp -lm -fopenmp -lstdc++ -o load_formats
+ * (drop -lassimp for a build without Assimp) 
  * usage: load_formats RUNS FILE... */
 #include "packrt.h"
 
