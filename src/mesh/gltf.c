@@ -39,7 +39,7 @@ typedef struct gltf {
     uint64_t bin_off;
     uint8_t *temp[3];   /* the current primitive's accessors read from the file */
     uint8_t *file; /* the whole input, when it had to be copied */
-    bool colors;
+    bool colors, ids; /* ids: materials hold each triangle's instance */
     uint32_t instances;
     uint64_t triangles; /* emitted (a->nt restarts when streaming) */
     uint8_t *visited; /* per node */
@@ -387,7 +387,8 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
                 if (o[i] - (uint32_t)base >= P.count)
                     return prt__fail(PRT_ERROR_MESH, "%s: glTF: mesh %llu primitive %zu: index %zu is %u, but POSITION has %zu vertices",
                                      g->name, (unsigned long long)mesh_i, pi, i, o[i] - (uint32_t)base, P.count);
-        for (size_t i = 0; i < tris; i++) a->tm[a->nt + i] = (uint16_t)g->instances;
+        if (g->ids)
+            for (size_t i = 0; i < tris; i++) a->tm[a->nt + i] = (uint16_t)g->instances;
         a->nt += tris;
         t = tris;
     } else if (has_idx && (st = fetch(g, &I, NULL, 2)) != PRT_OK) {
@@ -409,7 +410,8 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
         if (flip) { uint32_t s = tri[1]; tri[1] = tri[2], tri[2] = s; }
         if ((a->nt == a->tcap || a->stream) && (st = mesh_arrays_triangle_room(a, 1, 0)) != PRT_OK) return st;
         memcpy(a->t + 3 * a->nt, tri, sizeof tri);
-        a->tm[a->nt++] = (uint16_t)g->instances;
+        if (g->ids) a->tm[a->nt] = (uint16_t)g->instances;
+        a->nt++;
     }
     g->triangles += tris;
     return PRT_OK;
@@ -639,7 +641,15 @@ static prt_status parse(gltf *g, bool glb) {
     }
     if ((st = load_buffers(g)) != PRT_OK || (st = any_colors(g, &g->colors)) != PRT_OK) return st;
     if (g->colors && (st = mesh_arrays_colors(g->a, true, false)) != PRT_OK) return st;
-    if ((st = mesh_arrays_materials(g->a)) != PRT_OK || (st = scene(g)) != PRT_OK) return st;
+    /* Geometry ids only when there can be two instances or more (nodes naming a mesh, or
+     * meshes when there are no nodes): one instance's ids would all be 0, and 2 bytes a
+     * triangle is a tenth of a mesh's memory. */
+    long nodes = json_get(d, 0, "nodes");
+    size_t with_mesh = 0;
+    for (size_t i = 0; i < json_len(d, nodes); i++) with_mesh += json_get(d, json_at(d, nodes, i), "mesh") >= 0;
+    if (!json_len(d, nodes)) with_mesh = json_len(d, json_get(d, 0, "meshes"));
+    g->ids = with_mesh > 1;
+    if ((g->ids && (st = mesh_arrays_materials(g->a)) != PRT_OK) || (st = scene(g)) != PRT_OK) return st;
     if (g->triangles == 0)
         return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the scene has no triangle primitives", g->name);
     return PRT_OK;
