@@ -428,7 +428,7 @@ prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n
  * below answer from what is loaded and stop at a voxel that is small enough.
  * --------------------------------------------------------------------------------- */
 
-/* Build from a mesh file (PLY or OBJ, as prt_mesh_load reads) into out_path. For "ooc" the
+/* Build from a mesh file (any format prt_mesh_load reads) into out_path. For "ooc" the
  * mesh is streamed (never held whole: o->memory_budget bounds the build); for any other
  * spec this is prt_mesh_load, prt_build and prt_accel_save in one. */
 prt_status prt_build_file(const char *mesh_path, const char *spec, const char *out_path, const prt_build_options *o);
