@@ -6,10 +6,9 @@
 #include "test.h"
 
 #include "mesh/ply_stream.h"
-#include "support/same_hits.h"
+#include "support/format_checks.h"
 
 #define GOOD PRT_SOURCE_DIR "/tests/data/good/"
-#define BAD PRT_SOURCE_DIR "/tests/data/bad/"
 
 static const float k_quad_v[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
 
@@ -168,39 +167,28 @@ TEST(test_sphere_from_glb_is_hit_as_from_ply_and_streams) {
     remove(ply);
 }
 
-static void expect_bad(const char *file, prt_status status, const char *fragment) {
-    char path[512];
-    snprintf(path, sizeof path, BAD "%s", file);
-    prt_mesh *m = (prt_mesh *)1;
-    prt_status st = prt_mesh_load(path, &m);
-    CHECK_MSG(st == status, "%s: %s (%s)", file, prt_status_string(st), prt_last_error());
-    CHECK(m == NULL);
-    CHECK_MSG(strstr(prt_last_error(), path) && strstr(prt_last_error(), fragment), "%s: %s", file,
-              prt_last_error());
-}
-
 TEST(test_every_bad_gltf_is_refused_naming_the_problem) {
-    expect_bad("gltf_accessor_outside_buffer_view.gltf", PRT_ERROR_FORMAT, "accessor 0 (5 elements of 12 bytes");
-    expect_bad("gltf_accessor_offset_past_buffer_view.gltf", PRT_ERROR_FORMAT, "reaches past its buffer view 1");
-    expect_bad("gltf_buffer_view_outside_buffer.gltf", PRT_ERROR_FORMAT, "buffer view 1 (bytes 48..+400) lies outside buffer 0");
-    expect_bad("gltf_index_out_of_range.gltf", PRT_ERROR_MESH, "index 2 is 4, but POSITION has 4 vertices");
-    expect_bad("gltf_index_count_not_multiple_of_3.gltf", PRT_ERROR_FORMAT, "not a multiple of 3");
-    expect_bad("gltf_nan_position.gltf", PRT_ERROR_MESH, "non-finite");
-    expect_bad("gltf_node_cycle.gltf", PRT_ERROR_FORMAT, "reached twice");
-    expect_bad("gltf_sparse_accessor_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "sparse");
-    expect_bad("gltf_draco_required_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "KHR_draco_mesh_compression");
-    expect_bad("gltf_version_1.gltf", PRT_ERROR_UNSUPPORTED, "'1.0'");
-    expect_bad("gltf_malformed_json.gltf", PRT_ERROR_FORMAT, "JSON byte");
-    expect_bad("gltf_bad_base64.gltf", PRT_ERROR_FORMAT, "base64");
-    expect_bad("gltf_base64_shorter_than_byte_length.gltf", PRT_ERROR_FORMAT, "declares 172 bytes");
-    expect_bad("gltf_external_buffer_missing.gltf", PRT_ERROR_IO, "no_such_buffer.bin");
-    expect_bad("gltf_absolute_buffer_path.gltf", PRT_ERROR_UNSUPPORTED, "relative");
-    expect_bad("glb_truncated.glb", PRT_ERROR_FORMAT, "truncated");
-    expect_bad("glb_lying_length.glb", PRT_ERROR_FORMAT, "says 4000 bytes");
-    expect_bad("glb_json_chunk_past_end.glb", PRT_ERROR_FORMAT, "JSON chunk");
-    expect_bad("glb_header_only.glb", PRT_ERROR_FORMAT, "truncated");
-    expect_bad("glb_buffer_longer_than_bin_chunk.glb", PRT_ERROR_FORMAT, "BIN chunk");
-    expect_bad("gltf_no_triangles.gltf", PRT_ERROR_MESH, "no triangles");
+    expect_bad_file("gltf_accessor_outside_buffer_view.gltf", PRT_ERROR_FORMAT, "accessor 0 (5 elements of 12 bytes");
+    expect_bad_file("gltf_accessor_offset_past_buffer_view.gltf", PRT_ERROR_FORMAT, "reaches past its buffer view 1");
+    expect_bad_file("gltf_buffer_view_outside_buffer.gltf", PRT_ERROR_FORMAT, "buffer view 1 (bytes 48..+400) lies outside buffer 0");
+    expect_bad_file("gltf_index_out_of_range.gltf", PRT_ERROR_MESH, "index 2 is 4, but POSITION has 4 vertices");
+    expect_bad_file("gltf_index_count_not_multiple_of_3.gltf", PRT_ERROR_FORMAT, "not a multiple of 3");
+    expect_bad_file("gltf_nan_position.gltf", PRT_ERROR_MESH, "non-finite");
+    expect_bad_file("gltf_node_cycle.gltf", PRT_ERROR_FORMAT, "reached twice");
+    expect_bad_file("gltf_sparse_accessor_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "sparse");
+    expect_bad_file("gltf_draco_required_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "KHR_draco_mesh_compression");
+    expect_bad_file("gltf_version_1.gltf", PRT_ERROR_UNSUPPORTED, "'1.0'");
+    expect_bad_file("gltf_malformed_json.gltf", PRT_ERROR_FORMAT, "JSON byte");
+    expect_bad_file("gltf_bad_base64.gltf", PRT_ERROR_FORMAT, "base64");
+    expect_bad_file("gltf_base64_shorter_than_byte_length.gltf", PRT_ERROR_FORMAT, "declares 172 bytes");
+    expect_bad_file("gltf_external_buffer_missing.gltf", PRT_ERROR_IO, "no_such_buffer.bin");
+    expect_bad_file("gltf_absolute_buffer_path.gltf", PRT_ERROR_UNSUPPORTED, "relative");
+    expect_bad_file("glb_truncated.glb", PRT_ERROR_FORMAT, "truncated");
+    expect_bad_file("glb_lying_length.glb", PRT_ERROR_FORMAT, "says 4000 bytes");
+    expect_bad_file("glb_json_chunk_past_end.glb", PRT_ERROR_FORMAT, "JSON chunk");
+    expect_bad_file("glb_header_only.glb", PRT_ERROR_FORMAT, "truncated");
+    expect_bad_file("glb_buffer_longer_than_bin_chunk.glb", PRT_ERROR_FORMAT, "BIN chunk");
+    expect_bad_file("gltf_no_triangles.gltf", PRT_ERROR_MESH, "no triangles");
 }
 
 TEST(test_json_nesting_and_syntax_errors_are_format_errors) {

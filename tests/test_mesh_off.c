@@ -5,10 +5,9 @@
 #include "test.h"
 
 #include "support/meshes.h"
-#include "support/same_hits.h"
+#include "support/format_checks.h"
 
 #define GOOD PRT_SOURCE_DIR "/tests/data/good/"
-#define BAD PRT_SOURCE_DIR "/tests/data/bad/"
 
 static const float k_quad_v[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
 static const uint32_t k_quad_t[6] = {0, 1, 2, 0, 2, 3};
@@ -76,47 +75,25 @@ TEST(test_off_round_trip_gives_back_the_same_arrays) {
 }
 
 TEST(test_sphere_from_off_is_hit_as_from_ply) {
-    prt_mesh *s = NULL;
-    CHECK_OK(prt_mesh_generate("sphere", 5000, 1, &s));
-    if (!s) return;
-    const char *ply = test_tmp_path("s.ply"), *off = test_tmp_path("s.off");
-    CHECK_OK(prt_mesh_save_ply(s, ply));
-    CHECK_OK(prt_mesh_save_off(s, off));
-    prt_mesh *a = NULL, *b = NULL;
-    CHECK_OK(prt_mesh_load(ply, &a));
-    CHECK_OK(prt_mesh_load(off, &b));
-    if (a && b) CHECK(hits_differing(a, b, "aabb:idx32", 4000) == 0);
-    prt_mesh_free(a), prt_mesh_free(b), prt_mesh_free(s);
-    remove(ply), remove(off);
-}
-
-static void expect_bad(const char *file, prt_status status, const char *fragment) {
-    char path[512];
-    snprintf(path, sizeof path, BAD "%s", file);
-    prt_mesh *m = (prt_mesh *)1;
-    prt_status st = prt_mesh_load(path, &m);
-    CHECK_MSG(st == status, "%s: %s (%s)", file, prt_status_string(st), prt_last_error());
-    CHECK(m == NULL);
-    CHECK_MSG(strstr(prt_last_error(), path) && strstr(prt_last_error(), fragment), "%s: %s", file,
-              prt_last_error());
+    check_hits_as_from_ply(prt_mesh_save_off, "s.off", "aabb:idx32");
 }
 
 TEST(test_every_bad_off_is_refused_naming_the_problem) {
-    expect_bad("off_index_out_of_range.off", PRT_ERROR_MESH, "face 0 references vertex 4, but the file has 4 vertices");
-    expect_bad("off_negative_index.off", PRT_ERROR_MESH, "references vertex -1");
-    expect_bad("off_lying_face_count.off", PRT_ERROR_FORMAT, "truncated");
-    expect_bad("off_lying_vertex_count.off", PRT_ERROR_FORMAT, "truncated");
-    expect_bad("off_data_after_last_face.off", PRT_ERROR_FORMAT, "data after the last face");
-    expect_bad("off_nan_vertex.off", PRT_ERROR_MESH, "vertex 1 has a non-finite x");
-    expect_bad("off_face_with_two_vertices.off", PRT_ERROR_MESH, "face 0 has 2 vertices");
-    expect_bad("off_face_shorter_than_its_count.off", PRT_ERROR_FORMAT, "announces 4 vertices but lists 3");
-    expect_bad("off_huge_count_tiny_file.off", PRT_ERROR_FORMAT, "4000000000 faces");
-    expect_bad("off_malformed_number.off", PRT_ERROR_FORMAT, "malformed number '1,5'");
-    expect_bad("off_vertex_with_two_coordinates.off", PRT_ERROR_FORMAT, "vertex 1 has 2 values");
-    expect_bad("off_zero_faces.off", PRT_ERROR_MESH, "no triangles");
-    expect_bad("off_binary_unsupported.off", PRT_ERROR_UNSUPPORTED, "binary OFF");
-    expect_bad("off_missing_counts.off", PRT_ERROR_FORMAT, "no counts");
-    expect_bad("off_colour_300.off", PRT_ERROR_FORMAT, "'300'");
+    expect_bad_file("off_index_out_of_range.off", PRT_ERROR_MESH, "face 0 references vertex 4, but the file has 4 vertices");
+    expect_bad_file("off_negative_index.off", PRT_ERROR_MESH, "references vertex -1");
+    expect_bad_file("off_lying_face_count.off", PRT_ERROR_FORMAT, "truncated");
+    expect_bad_file("off_lying_vertex_count.off", PRT_ERROR_FORMAT, "truncated");
+    expect_bad_file("off_data_after_last_face.off", PRT_ERROR_FORMAT, "data after the last face");
+    expect_bad_file("off_nan_vertex.off", PRT_ERROR_MESH, "vertex 1 has a non-finite x");
+    expect_bad_file("off_face_with_two_vertices.off", PRT_ERROR_MESH, "face 0 has 2 vertices");
+    expect_bad_file("off_face_shorter_than_its_count.off", PRT_ERROR_FORMAT, "announces 4 vertices but lists 3");
+    expect_bad_file("off_huge_count_tiny_file.off", PRT_ERROR_FORMAT, "4000000000 faces");
+    expect_bad_file("off_malformed_number.off", PRT_ERROR_FORMAT, "malformed number '1,5'");
+    expect_bad_file("off_vertex_with_two_coordinates.off", PRT_ERROR_FORMAT, "vertex 1 has 2 values");
+    expect_bad_file("off_zero_faces.off", PRT_ERROR_MESH, "no triangles");
+    expect_bad_file("off_binary_unsupported.off", PRT_ERROR_UNSUPPORTED, "binary OFF");
+    expect_bad_file("off_missing_counts.off", PRT_ERROR_FORMAT, "no counts");
+    expect_bad_file("off_colour_300.off", PRT_ERROR_FORMAT, "'300'");
 }
 
 TEST(test_huge_off_counts_allocate_nothing_big) {

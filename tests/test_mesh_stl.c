@@ -5,10 +5,9 @@
 
 #include "mesh/ply_stream.h"
 #include "support/meshes.h"
-#include "support/same_hits.h"
+#include "support/format_checks.h"
 
 #define GOOD PRT_SOURCE_DIR "/tests/data/good/"
-#define BAD PRT_SOURCE_DIR "/tests/data/bad/"
 
 static const float k_quad_v[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
 static const uint32_t k_quad_t[6] = {0, 1, 2, 0, 2, 3};
@@ -120,52 +119,27 @@ TEST(test_stl_streams_like_it_loads) {
 }
 
 TEST(test_sphere_from_stl_is_hit_as_from_ply) {
-    prt_mesh *s = NULL;
-    CHECK_OK(prt_mesh_generate("sphere", 5000, 1, &s));
-    if (!s) return;
-    const char *ply = test_tmp_path("s.ply"), *stl = test_tmp_path("s.stl");
-    CHECK_OK(prt_mesh_save_ply(s, ply));
-    CHECK_OK(prt_mesh_save_stl(s, stl));
-    prt_mesh *a = NULL, *b = NULL;
-    CHECK_OK(prt_mesh_load(ply, &a));
-    CHECK_OK(prt_mesh_load(stl, &b));
-    if (a && b) {
-        CHECK(a->vertex_count == b->vertex_count);
-        CHECK(hits_differing(a, b, "aabb:idx32", 4000) == 0);
-        CHECK(hits_differing(a, b, "aabb:strip", 4000) == 0);
-    }
-    prt_mesh_free(a), prt_mesh_free(b), prt_mesh_free(s);
-    remove(ply), remove(stl);
-}
-
-static void expect_bad(const char *file, prt_status status, const char *fragment) {
-    char path[512];
-    snprintf(path, sizeof path, BAD "%s", file);
-    prt_mesh *m = (prt_mesh *)1;
-    prt_status st = prt_mesh_load(path, &m);
-    CHECK_MSG(st == status, "%s: %s (%s)", file, prt_status_string(st), prt_last_error());
-    CHECK(m == NULL);
-    CHECK_MSG(strstr(prt_last_error(), path) && strstr(prt_last_error(), fragment), "%s: %s", file,
-              prt_last_error());
+    check_hits_as_from_ply(prt_mesh_save_stl, "s.stl", "aabb:idx32");
+    check_hits_as_from_ply(prt_mesh_save_stl, "s.stl", "aabb:strip");
 }
 
 TEST(test_every_bad_stl_is_refused_naming_the_problem) {
-    expect_bad("stl_lying_count_binary.stl", PRT_ERROR_FORMAT, "announces 5 triangles (334 bytes), but the file has 184");
-    expect_bad("stl_lying_low_count_binary.stl", PRT_ERROR_FORMAT, "data after the last triangle");
-    expect_bad("stl_huge_count_tiny_file.stl", PRT_ERROR_FORMAT, "4294967295 triangles");
-    expect_bad("stl_truncated_header.stl", PRT_ERROR_FORMAT, "84-byte header");
-    expect_bad("stl_zero_triangles.stl", PRT_ERROR_MESH, "no triangles");
-    expect_bad("stl_nan_vertex_binary.stl", PRT_ERROR_MESH, "byte 120: triangle 0: corner 2 has a non-finite x");
-    expect_bad("stl_inf_vertex_binary.stl", PRT_ERROR_MESH, "corner 1 has a non-finite x");
-    expect_bad("stl_nan_vertex_ascii.stl", PRT_ERROR_MESH, "line 6: triangle 0: corner 2 has a non-finite y");
-    expect_bad("stl_ascii_truncated_in_facet.stl", PRT_ERROR_FORMAT, "truncated");
-    expect_bad("stl_ascii_without_endsolid.stl", PRT_ERROR_FORMAT, "'endsolid'");
-    expect_bad("stl_ascii_facet_with_four_vertices.stl", PRT_ERROR_FORMAT, "more than 3 vertices");
-    expect_bad("stl_ascii_facet_with_two_vertices.stl", PRT_ERROR_FORMAT, "a facet with 2 vertices");
-    expect_bad("stl_ascii_malformed_number.stl", PRT_ERROR_FORMAT, "malformed number '1,5'");
-    expect_bad("stl_ascii_vertex_with_two_coordinates.stl", PRT_ERROR_FORMAT, "vertex with 2 coordinates");
-    expect_bad("stl_ascii_no_facets.stl", PRT_ERROR_MESH, "no triangles");
-    expect_bad("stl_ascii_missing_outer_loop.stl", PRT_ERROR_FORMAT, "expected 'outer loop'");
+    expect_bad_file("stl_lying_count_binary.stl", PRT_ERROR_FORMAT, "announces 5 triangles (334 bytes), but the file has 184");
+    expect_bad_file("stl_lying_low_count_binary.stl", PRT_ERROR_FORMAT, "data after the last triangle");
+    expect_bad_file("stl_huge_count_tiny_file.stl", PRT_ERROR_FORMAT, "4294967295 triangles");
+    expect_bad_file("stl_truncated_header.stl", PRT_ERROR_FORMAT, "84-byte header");
+    expect_bad_file("stl_zero_triangles.stl", PRT_ERROR_MESH, "no triangles");
+    expect_bad_file("stl_nan_vertex_binary.stl", PRT_ERROR_MESH, "byte 120: triangle 0: corner 2 has a non-finite x");
+    expect_bad_file("stl_inf_vertex_binary.stl", PRT_ERROR_MESH, "corner 1 has a non-finite x");
+    expect_bad_file("stl_nan_vertex_ascii.stl", PRT_ERROR_MESH, "line 6: triangle 0: corner 2 has a non-finite y");
+    expect_bad_file("stl_ascii_truncated_in_facet.stl", PRT_ERROR_FORMAT, "truncated");
+    expect_bad_file("stl_ascii_without_endsolid.stl", PRT_ERROR_FORMAT, "'endsolid'");
+    expect_bad_file("stl_ascii_facet_with_four_vertices.stl", PRT_ERROR_FORMAT, "more than 3 vertices");
+    expect_bad_file("stl_ascii_facet_with_two_vertices.stl", PRT_ERROR_FORMAT, "a facet with 2 vertices");
+    expect_bad_file("stl_ascii_malformed_number.stl", PRT_ERROR_FORMAT, "malformed number '1,5'");
+    expect_bad_file("stl_ascii_vertex_with_two_coordinates.stl", PRT_ERROR_FORMAT, "vertex with 2 coordinates");
+    expect_bad_file("stl_ascii_no_facets.stl", PRT_ERROR_MESH, "no triangles");
+    expect_bad_file("stl_ascii_missing_outer_loop.stl", PRT_ERROR_FORMAT, "expected 'outer loop'");
 }
 
 TEST(test_truncated_gzipped_binary_stl_is_refused) {

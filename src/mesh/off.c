@@ -15,23 +15,6 @@ typedef struct off_reader {
     uint64_t nv, nf;
 } off_reader;
 
-/* The next line with data, without its comment; *got false at the end. */
-static prt_status data_line(off_reader *r, const char **p, const char **e, bool *got) {
-    for (;;) {
-        const char *line, *t;
-        size_t len, n;
-        prt_status st = mesh_source_line(r->s, &line, &len, got);
-        if (st != PRT_OK || !*got) return st;
-        const char *hash = memchr(line, '#', len);
-        if (hash) len = (size_t)(hash - line);
-        const char *q = line;
-        if (mesh_next_token(&q, line + len, &t, &n)) {
-            *p = line, *e = line + len;
-            return PRT_OK;
-        }
-    }
-}
-
 static prt_status malformed(off_reader *r, const char *what, const char *t, size_t n) {
     char q[MESH_QUOTE_SIZE];
     return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: malformed %s '%s'", r->name, r->s->line, what,
@@ -50,10 +33,9 @@ static prt_status header(off_reader *r) {
     const char *p, *e, *t = "";
     size_t n = 0;
     bool got;
-    prt_status st = data_line(r, &p, &e, &got);
+    prt_status st = mesh_source_data_line(r->s, '#', &p, &e, &got);
     if (st != PRT_OK) return st;
     if (!got) return prt__fail(PRT_ERROR_FORMAT, "%s: empty file: no OFF keyword", r->name);
-    if (r->s->line == 1 && e - p >= 3 && !memcmp(p, "\xEF\xBB\xBF", 3)) p += 3;
     mesh_next_token(&p, e, &t, &n);
     size_t i = 0;
     if (n >= 2 && t[0] == 'S' && t[1] == 'T') r->texture = true, i = 2;
@@ -70,7 +52,7 @@ static prt_status header(off_reader *r) {
         return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: binary OFF is not supported (write it as text)",
                          r->name);
     if (!mesh_next_token(&q, e, &t, &n)) { /* the counts are on the next line */
-        if ((st = data_line(r, &p, &e, &got)) != PRT_OK) return st;
+        if ((st = mesh_source_data_line(r->s, '#', &p, &e, &got)) != PRT_OK) return st;
         if (!got) return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: no counts after the keyword", r->name);
     }
     int64_t c[3] = {0, 0, 0};
@@ -134,7 +116,7 @@ static prt_status vertices(off_reader *r) {
         const char *p, *e, *tok[12];
         size_t len[12], n = 0;
         bool got;
-        prt_status st = data_line(r, &p, &e, &got);
+        prt_status st = mesh_source_data_line(r->s, '#', &p, &e, &got);
         if (st != PRT_OK) return st;
         if (!got) return truncated(r, "vertices", v, r->nv);
         while (n < 12 && mesh_next_token(&p, e, &tok[n], &len[n])) n++;
@@ -173,7 +155,7 @@ static prt_status faces(off_reader *r) {
         const char *p, *e, *t = "";
         size_t n = 0;
         bool got;
-        prt_status st = data_line(r, &p, &e, &got);
+        prt_status st = mesh_source_data_line(r->s, '#', &p, &e, &got);
         if (st != PRT_OK) return st;
         if (!got) return truncated(r, "faces", f, r->nf);
         int64_t c;
@@ -242,7 +224,7 @@ static prt_status parse(off_reader *r) {
     const char *p, *e, *t = "";
     size_t n = 0;
     bool got;
-    if ((st = data_line(r, &p, &e, &got)) != PRT_OK) return st;
+    if ((st = mesh_source_data_line(r->s, '#', &p, &e, &got)) != PRT_OK) return st;
     if (got) {
         char q[MESH_QUOTE_SIZE];
         mesh_next_token(&p, e, &t, &n);

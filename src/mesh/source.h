@@ -67,6 +67,11 @@ prt_status mesh_source_line(mesh_source *s, const char **line, size_t *len, bool
 
 #define MESH_SOURCE_MAX_LINE ((size_t)16 << 20)
 
+/* The next line with at least one token (blank lines skipped), as [*p, *e), cut at the
+ * first `comment` character (0: none), without the UTF-8 byte-order mark on line 1; *got
+ * false at the end of the stream. */
+prt_status mesh_source_data_line(mesh_source *s, char comment, const char **p, const char **e, bool *got);
+
 /* Text numbers, parsed from a token that is not NUL-terminated. Both accept exactly the
  * token (no trailing characters). The float parser is correctly rounded and ignores
  * the process locale; it accepts "nan" and "inf" so callers can name them. */

@@ -162,15 +162,13 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
     float c[9];
     size_t facets = 0;
     for (;;) {
-        const char *line, *t;
-        size_t len, n;
+        const char *p, *e, *t = "";
+        size_t n = 0;
         bool got;
-        prt_status st = mesh_source_line(s, &line, &len, &got);
+        prt_status st = mesh_source_data_line(s, 0, &p, &e, &got);
         if (st != PRT_OK) return st;
         if (!got) break;
-        const char *p = line, *e = line + len;
-        if (s->line == 1 && len >= 3 && !memcmp(line, "\xEF\xBB\xBF", 3)) p += 3;
-        if (!mesh_next_token(&p, e, &t, &n)) continue;
+        mesh_next_token(&p, e, &t, &n);
         if (state == OUTSIDE && kw_is(t, n, "solid")) {
             state = IN_SOLID; /* the rest of the line is the solid's name */
             continue;
