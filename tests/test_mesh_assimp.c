@@ -8,7 +8,8 @@
 #define BAD PRT_SOURCE_DIR "/tests/data/bad/"
 
 static double area(const prt_mesh *m, size_t t) {
-    const float *a = m->vertices + 3 * (size_t)m->triangles[3 * t], *b = m->vertices + 3 * (size_t)m->triangles[3 * t + 1],
+    const float *a = m->vertices + 3 * (size_t)m->triangles[3 * t],
+                *b = m->vertices + 3 * (size_t)m->triangles[3 * t + 1],
                 *c = m->vertices + 3 * (size_t)m->triangles[3 * t + 2];
     double u[3], v[3];
     for (int k = 0; k < 3; k++) u[k] = (double)b[k] - a[k], v[k] = (double)c[k] - a[k];
@@ -35,7 +36,8 @@ TEST(test_collada_instances_keep_their_transforms_and_ids) {
         sum[id] += area(m, t);
         for (int k = 0; k < 3; k++) { /* instance 0 at the origin, instance 1 moved by x + 10 */
             const float *p = m->vertices + 3 * (size_t)m->triangles[3 * t + k];
-            CHECK(p[0] >= 10.0f * (float)id && p[0] <= 10.0f * (float)id + 1 && p[1] >= 0 && p[1] <= 1 && p[2] == 0);
+            CHECK(p[0] >= 10.0f * (float)id && p[0] <= 10.0f * (float)id + 1 && p[1] >= 0 &&
+                  p[1] <= 1 && p[2] == 0);
         }
     }
     CHECK_MSG(fabs(sum[0] - 1) < 1e-6 && fabs(sum[1] - 1) < 1e-6, "areas %g %g", sum[0], sum[1]);
@@ -48,7 +50,8 @@ TEST(test_truncated_collada_is_refused_naming_the_file) {
     CHECK(st != PRT_OK && m == NULL);
     CHECK(strstr(prt_last_error(), "assimp_truncated_collada.dae") != NULL);
     if (st == PRT_ERROR_UNSUPPORTED) SKIP("built without Assimp");
-    CHECK_MSG(st == PRT_ERROR_FORMAT && strstr(prt_last_error(), "Assimp:"), "%s", prt_last_error());
+    CHECK_MSG(st == PRT_ERROR_FORMAT && strstr(prt_last_error(), "Assimp:"), "%s",
+              prt_last_error());
 }
 
 int main(void) {

@@ -42,7 +42,8 @@ TEST(test_coff_vertex_colours_and_face_colours_in_ints_and_floats) {
     CHECK(m->vertex_colors && m->triangle_colors);
     if (m->vertex_colors)
         for (int v = 0; v < 4; v++)
-            CHECK(m->vertex_colors[3 * v] == 255 && m->vertex_colors[3 * v + 1] == 0 && m->vertex_colors[3 * v + 2] == 0);
+            CHECK(m->vertex_colors[3 * v] == 255 && m->vertex_colors[3 * v + 1] == 0 &&
+                  m->vertex_colors[3 * v + 2] == 0);
     if (m->triangle_colors) {
         static const uint8_t want[6] = {0, 255, 0, 0, 0, 255}; /* "0 255 0", then "0.0 0.0 1.0" */
         CHECK(!memcmp(m->triangle_colors, want, 6));
@@ -67,7 +68,8 @@ TEST(test_off_round_trip_gives_back_the_same_arrays) {
         CHECK(!memcmp(m->vertices, g->vertices, 12 * g->vertex_count));
         CHECK(!memcmp(m->triangles, g->triangles, 12 * g->triangle_count));
         CHECK(m->vertex_colors && !memcmp(m->vertex_colors, g->vertex_colors, 3 * g->vertex_count));
-        CHECK(m->triangle_colors && !memcmp(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
+        CHECK(m->triangle_colors &&
+              !memcmp(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
     }
     prt_mesh_free(m);
     remove(path);
@@ -79,17 +81,20 @@ TEST(test_sphere_from_off_is_hit_as_from_ply) {
 }
 
 TEST(test_every_bad_off_is_refused_naming_the_problem) {
-    expect_bad_file("off_index_out_of_range.off", PRT_ERROR_MESH, "face 0 references vertex 4, but the file has 4 vertices");
+    expect_bad_file("off_index_out_of_range.off", PRT_ERROR_MESH,
+                    "face 0 references vertex 4, but the file has 4 vertices");
     expect_bad_file("off_negative_index.off", PRT_ERROR_MESH, "references vertex -1");
     expect_bad_file("off_lying_face_count.off", PRT_ERROR_FORMAT, "truncated");
     expect_bad_file("off_lying_vertex_count.off", PRT_ERROR_FORMAT, "truncated");
     expect_bad_file("off_data_after_last_face.off", PRT_ERROR_FORMAT, "data after the last face");
     expect_bad_file("off_nan_vertex.off", PRT_ERROR_MESH, "vertex 1 has a non-finite x");
     expect_bad_file("off_face_with_two_vertices.off", PRT_ERROR_MESH, "face 0 has 2 vertices");
-    expect_bad_file("off_face_shorter_than_its_count.off", PRT_ERROR_FORMAT, "announces 4 vertices but lists 3");
+    expect_bad_file("off_face_shorter_than_its_count.off", PRT_ERROR_FORMAT,
+                    "announces 4 vertices but lists 3");
     expect_bad_file("off_huge_count_tiny_file.off", PRT_ERROR_FORMAT, "4000000000 faces");
     expect_bad_file("off_malformed_number.off", PRT_ERROR_FORMAT, "malformed number '1,5'");
-    expect_bad_file("off_vertex_with_two_coordinates.off", PRT_ERROR_FORMAT, "vertex 1 has 2 values");
+    expect_bad_file("off_vertex_with_two_coordinates.off", PRT_ERROR_FORMAT,
+                    "vertex 1 has 2 values");
     expect_bad_file("off_zero_faces.off", PRT_ERROR_MESH, "no triangles");
     expect_bad_file("off_binary_unsupported.off", PRT_ERROR_UNSUPPORTED, "binary OFF");
     expect_bad_file("off_missing_counts.off", PRT_ERROR_FORMAT, "no counts");

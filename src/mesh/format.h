@@ -12,8 +12,8 @@ typedef enum mesh_format {
     MESH_FORMAT_STL_BINARY,
     MESH_FORMAT_STL_ASCII,
     MESH_FORMAT_OFF,
-    MESH_FORMAT_GLTF, /* JSON */
-    MESH_FORMAT_GLB,  /* binary container */
+    MESH_FORMAT_GLTF,   /* JSON */
+    MESH_FORMAT_GLB,    /* binary container */
     MESH_FORMAT_ASSIMP, /* by extension only: FBX, Collada, 3DS, ... (assimp.c) */
 } mesh_format;
 

@@ -37,7 +37,10 @@ static prt_status push(parser *ps, uint32_t type, size_t start, size_t end, long
 }
 
 static int hexval(char c) {
-    return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+    return c >= '0' && c <= '9'   ? c - '0'
+           : c >= 'a' && c <= 'f' ? c - 'a' + 10
+           : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                  : -1;
 }
 
 static prt_status string(parser *ps, long *idx) {
@@ -63,7 +66,8 @@ static prt_status string(parser *ps, long *idx) {
         }
         q++;
     }
-    prt_status st = push(ps, JSON_STRING, (size_t)(ps->p + 1 - ps->text), (size_t)(q - ps->text), idx);
+    prt_status st =
+        push(ps, JSON_STRING, (size_t)(ps->p + 1 - ps->text), (size_t)(q - ps->text), idx);
     ps->p = q + 1;
     return st;
 }
@@ -76,7 +80,8 @@ static prt_status number(parser *ps, long *idx) {
     const char *q = ps->p;
     if (q < ps->e && *q == '-') q++;
     if (q >= ps->e || !digit(*q)) return fail(ps, ps->p, "malformed value");
-    if (*q == '0') q++;
+    if (*q == '0')
+        q++;
     else
         while (q < ps->e && digit(*q)) q++;
     if (q < ps->e && *q == '.') {
@@ -99,7 +104,8 @@ static prt_status literal(parser *ps, long *idx) {
     for (uint32_t k = 0; k < 3; k++) {
         size_t n = strlen(lit[k]);
         if ((size_t)(ps->e - ps->p) >= n && !memcmp(ps->p, lit[k], n)) {
-            prt_status st = push(ps, k, (size_t)(ps->p - ps->text), (size_t)(ps->p + n - ps->text), idx);
+            prt_status st =
+                push(ps, k, (size_t)(ps->p - ps->text), (size_t)(ps->p + n - ps->text), idx);
             ps->p += n;
             return st;
         }
@@ -160,7 +166,8 @@ prt_status json_parse(mesh_source *s, const char *text, size_t len, uint64_t bas
             ps.p++;
             skip_ws(&ps);
             if (ps.p >= ps.e) continue; /* reported as truncated above */
-        } else if (top && *ps.p == ']' && top->size == 0 && doc->n == (size_t)stack[depth - 1] + 1) {
+        } else if (top && *ps.p == ']' && top->size == 0 &&
+                   doc->n == (size_t)stack[depth - 1] + 1) {
             want_value = false;
             continue;
         }
@@ -171,13 +178,16 @@ prt_status json_parse(mesh_source *s, const char *text, size_t len, uint64_t bas
                 st = fail(&ps, ps.p, "nested more than 64 levels deep");
                 break;
             }
-            if ((st = push(&ps, c == '{' ? JSON_OBJECT : JSON_ARRAY, (size_t)(ps.p - text), 0, &idx)) != PRT_OK)
+            if ((st = push(&ps, c == '{' ? JSON_OBJECT : JSON_ARRAY, (size_t)(ps.p - text), 0,
+                           &idx)) != PRT_OK)
                 break;
             stack[depth++] = idx;
             ps.p++;
             continue; /* want_value stays: the first key or element (or the close) */
         }
-        st = c == '"' ? string(&ps, &idx) : (c == '-' || digit(c)) ? number(&ps, &idx) : literal(&ps, &idx);
+        st = c == '"'                 ? string(&ps, &idx)
+             : (c == '-' || digit(c)) ? number(&ps, &idx)
+                                      : literal(&ps, &idx);
         if (st != PRT_OK) break;
         if (!depth) break;
         want_value = false;
@@ -232,7 +242,8 @@ bool json_uint(const json_doc *d, long tok, uint64_t *out) {
     if (tok < 0 || d->tok[tok].type != JSON_NUMBER) return false;
     const json_tok *t = &d->tok[tok];
     int64_t v;
-    if (!mesh_parse_int(d->text + t->start, t->end - t->start, &v) || v < 0 || v > ((int64_t)1 << 53))
+    if (!mesh_parse_int(d->text + t->start, t->end - t->start, &v) || v < 0 ||
+        v > ((int64_t)1 << 53))
         return false;
     *out = (uint64_t)v;
     return true;

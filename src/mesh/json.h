@@ -11,9 +11,9 @@ enum { JSON_NULL, JSON_FALSE, JSON_TRUE, JSON_NUMBER, JSON_STRING, JSON_ARRAY, J
 
 typedef struct json_tok {
     uint32_t type;
-    uint32_t size;       /* array: elements; object: key/value pairs */
-    size_t start, end;   /* the token's text (a string's without its quotes) */
-    size_t next;         /* index of the token after this one's subtree */
+    uint32_t size;     /* array: elements; object: key/value pairs */
+    size_t start, end; /* the token's text (a string's without its quotes) */
+    size_t next;       /* index of the token after this one's subtree */
 } json_tok;
 
 typedef struct json_doc {

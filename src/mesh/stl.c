@@ -17,7 +17,8 @@ PRT_INLINE uint32_t load_le32(const uint8_t *p) {
 
 static prt_status nonfinite(mesh_source *s, const char *where, uint64_t pos, uint64_t tri,
                             int corner, int axis, float value) {
-    return prt__fail(PRT_ERROR_MESH, "%s: %s %llu: triangle %llu: corner %d has a non-finite %c coordinate (%g)",
+    return prt__fail(PRT_ERROR_MESH,
+                     "%s: %s %llu: triangle %llu: corner %d has a non-finite %c coordinate (%g)",
                      s->name, where, (unsigned long long)pos, (unsigned long long)tri, corner,
                      'x' + axis, (double)value);
 }
@@ -71,8 +72,9 @@ static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w
         if (PRT_UNLIKELY(bad))
             for (uint32_t i = 0; i < 9 * batch; i++)
                 if (!isfinite(c[i]))
-                    return nonfinite(s, "byte", mesh_source_offset(s, s->cur + 50 * (i / 9) + 12 + 4 * (i % 9)),
-                                     t + i / 9, (int)(i % 9 / 3), (int)(i % 3), c[i]);
+                    return nonfinite(
+                        s, "byte", mesh_source_offset(s, s->cur + 50 * (i / 9) + 12 + 4 * (i % 9)),
+                        t + i / 9, (int)(i % 9 / 3), (int)(i % 3), c[i]);
         /* Corners the cache knows are resolved at once; the others' slots are prefetched
          * here, a batch ahead of the sequential pass that welds them. */
         for (uint32_t i = 0; i < 3 * batch; i++) {
@@ -84,7 +86,8 @@ static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w
                 if ((st = mesh_arrays_triangle_room(a, 1, count)) != PRT_OK) return st;
             }
             for (uint32_t k = 3 * i; k < 3 * i + 3; k++)
-                if (idx[k] == UINT32_MAX && (st = weld_table_corner(w, a, c + 3 * k, h[k], &idx[k])) != PRT_OK)
+                if (idx[k] == UINT32_MAX &&
+                    (st = weld_table_corner(w, a, c + 3 * k, h[k], &idx[k])) != PRT_OK)
                     return st;
             memcpy(a->t + 3 * a->nt++, idx + 3 * i, 3 * sizeof(uint32_t));
         }
@@ -125,8 +128,10 @@ static prt_status binary(mesh_source *s, mesh_arrays *a, weld_table *w) {
     float *c = prt__alloc(BATCH * 9 * sizeof *c);
     uint64_t *h = prt__alloc(BATCH * 3 * sizeof *h);
     uint32_t *idx = prt__alloc(BATCH * 3 * sizeof *idx);
-    if (!c || !h || !idx) st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory", s->name);
-    else st = binary_triangles(s, a, w, count, c, h, idx);
+    if (!c || !h || !idx)
+        st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory", s->name);
+    else
+        st = binary_triangles(s, a, w, count, c, h, idx);
     prt__free(c), prt__free(h), prt__free(idx);
     if (st != PRT_OK) return st;
     if ((st = mesh_source_fill(s, 1)) != PRT_OK) return st;
@@ -147,8 +152,9 @@ static bool kw_is(const char *t, size_t n, const char *lit) {
 static prt_status unexpected(mesh_source *s, const char *t, size_t n, const char *expected) {
     char q[MESH_QUOTE_SIZE];
     if (s->unterminated) /* the last line, without its newline: most likely cut short */
-        return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: truncated: the file ends in '%s' (expected %s)",
-                         s->name, s->line, mesh_quote(t, n, q), expected);
+        return prt__fail(PRT_ERROR_FORMAT,
+                         "%s: line %zu: truncated: the file ends in '%s' (expected %s)", s->name,
+                         s->line, mesh_quote(t, n, q), expected);
     return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: unexpected '%s' (expected %s)", s->name,
                      s->line, n ? mesh_quote(t, n, q) : "end of line", expected);
 }
@@ -207,16 +213,18 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
                 if (!isfinite(*f)) return nonfinite(s, "line", s->line, facets, corners, k, *f);
             }
             if (mesh_next_token(&p, e, &t, &n))
-                return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: vertex with more than 3 coordinates",
-                                 s->name, s->line);
+                return prt__fail(PRT_ERROR_FORMAT,
+                                 "%s: line %zu: vertex with more than 3 coordinates", s->name,
+                                 s->line);
             corners++;
             continue;
         }
         if (state == IN_LOOP && kw_is(t, n, "endloop")) {
             if (corners != 3)
-                return prt__fail(PRT_ERROR_FORMAT,
-                                 "%s: line %zu: a facet with %d vertices (STL facets are triangles)",
-                                 s->name, s->line, corners);
+                return prt__fail(
+                    PRT_ERROR_FORMAT,
+                    "%s: line %zu: a facet with %d vertices (STL facets are triangles)", s->name,
+                    s->line, corners);
             state = LOOP_DONE;
             continue;
         }
@@ -232,7 +240,8 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
     if (state != OUTSIDE)
         return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: truncated: the file ends before %s",
                          s->name, s->line, state == IN_SOLID ? "'endsolid'" : "the facet ends");
-    if (facets == 0) return prt__fail(PRT_ERROR_MESH, "%s: no triangles: no facet in the file", s->name);
+    if (facets == 0)
+        return prt__fail(PRT_ERROR_MESH, "%s: no triangles: no facet in the file", s->name);
     return PRT_OK;
 }
 

@@ -21,8 +21,8 @@ static inline void expect_bad_file(const char *file, prt_status status, const ch
 
 /* A generated sphere saved as PLY and through `save` (as `name`), both loaded again: the
  * same vertex count and bit-identical hits for `spec`. */
-static inline void check_hits_as_from_ply(prt_status (*save)(const prt_mesh *, const char *), const char *name,
-                                   const char *spec) {
+static inline void check_hits_as_from_ply(prt_status (*save)(const prt_mesh *, const char *),
+                                          const char *name, const char *spec) {
     prt_mesh *s = NULL;
     CHECK_OK(prt_mesh_generate("sphere", 5000, 1, &s));
     if (!s) return;
