@@ -31,7 +31,7 @@ static prt_status push(parser *ps, uint32_t type, size_t start, size_t end, long
         if (!t) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for JSON tokens", ps->name);
         d->tok = t, ps->cap = cap;
     }
-    d->tok[d->n] = (json_tok){type, 0, start, end, d->n + 1};
+    d->tok[d->n] = (json_tok){type, 0, start, end, d->n + 1, 0};
     *idx = (long)d->n++;
     return PRT_OK;
 }
@@ -111,6 +111,23 @@ static prt_status literal(parser *ps, long *idx) {
         }
     }
     return fail(ps, ps->p, "malformed value");
+}
+
+/* Every array's elements listed once, in one block: lookups by position in constant time
+ * (glTF refers to nodes, meshes, accessors and views by index, and files hold millions). */
+static prt_status index_arrays(json_doc *d, const char *name) {
+    size_t total = 0;
+    for (size_t t = 0; t < d->n; t++)
+        if (d->tok[t].type == JSON_ARRAY) total += d->tok[t].size;
+    d->elem = prt__alloc(prt__mul_size(total ? total : 1, sizeof *d->elem));
+    if (!d->elem) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for JSON arrays", name);
+    size_t at = 0;
+    for (size_t t = 0; t < d->n; t++) {
+        if (d->tok[t].type != JSON_ARRAY) continue;
+        d->tok[t].elems = at;
+        for (size_t c = t + 1, k = 0; k < d->tok[t].size; k++, c = d->tok[c].next) d->elem[at++] = c;
+    }
+    return PRT_OK;
 }
 
 prt_status json_parse(mesh_source *s, const char *text, size_t len, uint64_t base, json_doc *doc) {
@@ -196,12 +213,14 @@ prt_status json_parse(mesh_source *s, const char *text, size_t len, uint64_t bas
         skip_ws(&ps);
         if (ps.p != ps.e) st = fail(&ps, ps.p, "data after the JSON value");
     }
+    if (st == PRT_OK) st = index_arrays(doc, ps.name);
     if (st != PRT_OK) json_free(doc);
     return st;
 }
 
 void json_free(json_doc *doc) {
     prt__free(doc->tok);
+    prt__free(doc->elem);
     memset(doc, 0, sizeof *doc);
 }
 
@@ -220,9 +239,7 @@ long json_get(const json_doc *d, long obj, const char *key) {
 
 long json_at(const json_doc *d, long arr, size_t i) {
     if (arr < 0 || d->tok[arr].type != JSON_ARRAY || i >= d->tok[arr].size) return -1;
-    size_t t = (size_t)arr + 1;
-    while (i--) t = d->tok[t].next;
-    return (long)t;
+    return (long)d->elem[d->tok[arr].elems + i];
 }
 
 size_t json_len(const json_doc *d, long arr) {

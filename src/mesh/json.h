@@ -14,12 +14,14 @@ typedef struct json_tok {
     uint32_t size;     /* array: elements; object: key/value pairs */
     size_t start, end; /* the token's text (a string's without its quotes) */
     size_t next;       /* index of the token after this one's subtree */
+    size_t elems;      /* array: where its elements' token indices start in json_doc.elem */
 } json_tok;
 
 typedef struct json_doc {
     const char *text;
     json_tok *tok;
     size_t n;
+    size_t *elem; /* every array's element token indices, so json_at is O(1) */
 } json_doc;
 
 /* Parse text[0..len) (one value, whitespace around it); errors name `name` and the byte
@@ -30,7 +32,7 @@ void json_free(json_doc *doc);
 
 /* The value of key in object token obj, or -1 (also when obj < 0 or not an object). */
 long json_get(const json_doc *d, long obj, const char *key);
-/* Element i of array token arr, or -1. */
+/* Element i of array token arr, or -1 (constant time). */
 long json_at(const json_doc *d, long arr, size_t i);
 /* Elements of an array (0 for anything else). */
 size_t json_len(const json_doc *d, long arr);
