@@ -401,6 +401,11 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
                          "%s: glTF: mesh %llu primitive %zu: %zu indices, not a multiple of 3",
                          g->name, (unsigned long long)mesh_i, pi, n);
     if (!tris) return PRT_OK;
+    if (!P.count) /* (and no vertex array to read into yet: a->v may be NULL) */
+        return prt__fail(PRT_ERROR_MESH,
+                         "%s: glTF: mesh %llu primitive %zu: %zu triangles over a POSITION accessor "
+                         "of 0 vertices",
+                         g->name, (unsigned long long)mesh_i, pi, tris);
     /* Vertices, transformed; the first of this primitive is base. */
     if ((st = mesh_arrays_vertex_room(a, P.count, 0)) != PRT_OK) return st;
     size_t base = a->nv;
