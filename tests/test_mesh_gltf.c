@@ -199,6 +199,7 @@ TEST(test_every_bad_gltf_is_refused_naming_the_problem) {
     expect_bad_file("glb_header_only.glb", PRT_ERROR_FORMAT, "truncated");
     expect_bad_file("glb_buffer_longer_than_bin_chunk.glb", PRT_ERROR_FORMAT, "BIN chunk");
     expect_bad_file("gltf_no_triangles.gltf", PRT_ERROR_MESH, "no triangles");
+    expect_bad_file("gltf_triangles_over_zero_positions.gltf", PRT_ERROR_MESH, "of 0 vertices");
 }
 
 TEST(test_json_nesting_and_syntax_errors_are_format_errors) {

@@ -228,3 +228,5 @@ d4, b4 = gltf_doc()
 d4["buffers"][0]["byteLength"] = len(b4) + 64
 put(BAD, "glb_buffer_longer_than_bin_chunk.glb", glb(d4, b4))
 put(BAD, "gltf_no_triangles.gltf", embedded(*gltf_doc(mode=1, indices=[0, 1])))
+# Found by fuzz_off: triangles whose POSITION accessor has no vertices.
+put(BAD, "gltf_triangles_over_zero_positions.gltf", embedded(*gltf_doc(positions=[])))
