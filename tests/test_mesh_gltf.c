@@ -170,36 +170,36 @@ TEST(test_sphere_from_glb_is_hit_as_from_ply_and_streams) {
     remove(ply);
 }
 
+static const bad_file_case k_bad_gltf[] = {
+    {"gltf_accessor_outside_buffer_view.gltf", PRT_ERROR_FORMAT,
+     "accessor 0 (5 elements of 12 bytes"},
+    {"gltf_accessor_offset_past_buffer_view.gltf", PRT_ERROR_FORMAT,
+     "reaches past its buffer view 1"},
+    {"gltf_buffer_view_outside_buffer.gltf", PRT_ERROR_FORMAT,
+     "buffer view 1 (bytes 48..+400) lies outside buffer 0"},
+    {"gltf_index_out_of_range.gltf", PRT_ERROR_MESH, "index 2 is 4, but POSITION has 4 vertices"},
+    {"gltf_index_count_not_multiple_of_3.gltf", PRT_ERROR_FORMAT, "not a multiple of 3"},
+    {"gltf_nan_position.gltf", PRT_ERROR_MESH, "non-finite"},
+    {"gltf_node_cycle.gltf", PRT_ERROR_FORMAT, "reached twice"},
+    {"gltf_sparse_accessor_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "sparse"},
+    {"gltf_draco_required_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "KHR_draco_mesh_compression"},
+    {"gltf_version_1.gltf", PRT_ERROR_UNSUPPORTED, "'1.0'"},
+    {"gltf_malformed_json.gltf", PRT_ERROR_FORMAT, "JSON byte"},
+    {"gltf_bad_base64.gltf", PRT_ERROR_FORMAT, "base64"},
+    {"gltf_base64_shorter_than_byte_length.gltf", PRT_ERROR_FORMAT, "declares 172 bytes"},
+    {"gltf_external_buffer_missing.gltf", PRT_ERROR_IO, "no_such_buffer.bin"},
+    {"gltf_absolute_buffer_path.gltf", PRT_ERROR_UNSUPPORTED, "relative"},
+    {"glb_truncated.glb", PRT_ERROR_FORMAT, "truncated"},
+    {"glb_lying_length.glb", PRT_ERROR_FORMAT, "says 4000 bytes"},
+    {"glb_json_chunk_past_end.glb", PRT_ERROR_FORMAT, "JSON chunk"},
+    {"glb_header_only.glb", PRT_ERROR_FORMAT, "truncated"},
+    {"glb_buffer_longer_than_bin_chunk.glb", PRT_ERROR_FORMAT, "BIN chunk"},
+    {"gltf_no_triangles.gltf", PRT_ERROR_MESH, "no triangles"},
+    {"gltf_triangles_over_zero_positions.gltf", PRT_ERROR_MESH, "of 0 vertices"},
+};
+
 TEST(test_every_bad_gltf_is_refused_naming_the_problem) {
-    expect_bad_file("gltf_accessor_outside_buffer_view.gltf", PRT_ERROR_FORMAT,
-                    "accessor 0 (5 elements of 12 bytes");
-    expect_bad_file("gltf_accessor_offset_past_buffer_view.gltf", PRT_ERROR_FORMAT,
-                    "reaches past its buffer view 1");
-    expect_bad_file("gltf_buffer_view_outside_buffer.gltf", PRT_ERROR_FORMAT,
-                    "buffer view 1 (bytes 48..+400) lies outside buffer 0");
-    expect_bad_file("gltf_index_out_of_range.gltf", PRT_ERROR_MESH,
-                    "index 2 is 4, but POSITION has 4 vertices");
-    expect_bad_file("gltf_index_count_not_multiple_of_3.gltf", PRT_ERROR_FORMAT,
-                    "not a multiple of 3");
-    expect_bad_file("gltf_nan_position.gltf", PRT_ERROR_MESH, "non-finite");
-    expect_bad_file("gltf_node_cycle.gltf", PRT_ERROR_FORMAT, "reached twice");
-    expect_bad_file("gltf_sparse_accessor_unsupported.gltf", PRT_ERROR_UNSUPPORTED, "sparse");
-    expect_bad_file("gltf_draco_required_unsupported.gltf", PRT_ERROR_UNSUPPORTED,
-                    "KHR_draco_mesh_compression");
-    expect_bad_file("gltf_version_1.gltf", PRT_ERROR_UNSUPPORTED, "'1.0'");
-    expect_bad_file("gltf_malformed_json.gltf", PRT_ERROR_FORMAT, "JSON byte");
-    expect_bad_file("gltf_bad_base64.gltf", PRT_ERROR_FORMAT, "base64");
-    expect_bad_file("gltf_base64_shorter_than_byte_length.gltf", PRT_ERROR_FORMAT,
-                    "declares 172 bytes");
-    expect_bad_file("gltf_external_buffer_missing.gltf", PRT_ERROR_IO, "no_such_buffer.bin");
-    expect_bad_file("gltf_absolute_buffer_path.gltf", PRT_ERROR_UNSUPPORTED, "relative");
-    expect_bad_file("glb_truncated.glb", PRT_ERROR_FORMAT, "truncated");
-    expect_bad_file("glb_lying_length.glb", PRT_ERROR_FORMAT, "says 4000 bytes");
-    expect_bad_file("glb_json_chunk_past_end.glb", PRT_ERROR_FORMAT, "JSON chunk");
-    expect_bad_file("glb_header_only.glb", PRT_ERROR_FORMAT, "truncated");
-    expect_bad_file("glb_buffer_longer_than_bin_chunk.glb", PRT_ERROR_FORMAT, "BIN chunk");
-    expect_bad_file("gltf_no_triangles.gltf", PRT_ERROR_MESH, "no triangles");
-    expect_bad_file("gltf_triangles_over_zero_positions.gltf", PRT_ERROR_MESH, "of 0 vertices");
+    expect_bad_files(k_bad_gltf, COUNT_OF(k_bad_gltf));
 }
 
 TEST(test_json_nesting_and_syntax_errors_are_format_errors) {

@@ -80,25 +80,27 @@ TEST(test_sphere_from_off_is_hit_as_from_ply) {
     check_hits_as_from_ply(prt_mesh_save_off, "s.off", "aabb:idx32");
 }
 
+static const bad_file_case k_bad_off[] = {
+    {"off_index_out_of_range.off", PRT_ERROR_MESH,
+     "face 0 references vertex 4, but the file has 4 vertices"},
+    {"off_negative_index.off", PRT_ERROR_MESH, "references vertex -1"},
+    {"off_lying_face_count.off", PRT_ERROR_FORMAT, "truncated"},
+    {"off_lying_vertex_count.off", PRT_ERROR_FORMAT, "truncated"},
+    {"off_data_after_last_face.off", PRT_ERROR_FORMAT, "data after the last face"},
+    {"off_nan_vertex.off", PRT_ERROR_MESH, "vertex 1 has a non-finite x"},
+    {"off_face_with_two_vertices.off", PRT_ERROR_MESH, "face 0 has 2 vertices"},
+    {"off_face_shorter_than_its_count.off", PRT_ERROR_FORMAT, "announces 4 vertices but lists 3"},
+    {"off_huge_count_tiny_file.off", PRT_ERROR_FORMAT, "4000000000 faces"},
+    {"off_malformed_number.off", PRT_ERROR_FORMAT, "malformed number '1,5'"},
+    {"off_vertex_with_two_coordinates.off", PRT_ERROR_FORMAT, "vertex 1 has 2 values"},
+    {"off_zero_faces.off", PRT_ERROR_MESH, "no triangles"},
+    {"off_binary_unsupported.off", PRT_ERROR_UNSUPPORTED, "binary OFF"},
+    {"off_missing_counts.off", PRT_ERROR_FORMAT, "no counts"},
+    {"off_colour_300.off", PRT_ERROR_FORMAT, "'300'"},
+};
+
 TEST(test_every_bad_off_is_refused_naming_the_problem) {
-    expect_bad_file("off_index_out_of_range.off", PRT_ERROR_MESH,
-                    "face 0 references vertex 4, but the file has 4 vertices");
-    expect_bad_file("off_negative_index.off", PRT_ERROR_MESH, "references vertex -1");
-    expect_bad_file("off_lying_face_count.off", PRT_ERROR_FORMAT, "truncated");
-    expect_bad_file("off_lying_vertex_count.off", PRT_ERROR_FORMAT, "truncated");
-    expect_bad_file("off_data_after_last_face.off", PRT_ERROR_FORMAT, "data after the last face");
-    expect_bad_file("off_nan_vertex.off", PRT_ERROR_MESH, "vertex 1 has a non-finite x");
-    expect_bad_file("off_face_with_two_vertices.off", PRT_ERROR_MESH, "face 0 has 2 vertices");
-    expect_bad_file("off_face_shorter_than_its_count.off", PRT_ERROR_FORMAT,
-                    "announces 4 vertices but lists 3");
-    expect_bad_file("off_huge_count_tiny_file.off", PRT_ERROR_FORMAT, "4000000000 faces");
-    expect_bad_file("off_malformed_number.off", PRT_ERROR_FORMAT, "malformed number '1,5'");
-    expect_bad_file("off_vertex_with_two_coordinates.off", PRT_ERROR_FORMAT,
-                    "vertex 1 has 2 values");
-    expect_bad_file("off_zero_faces.off", PRT_ERROR_MESH, "no triangles");
-    expect_bad_file("off_binary_unsupported.off", PRT_ERROR_UNSUPPORTED, "binary OFF");
-    expect_bad_file("off_missing_counts.off", PRT_ERROR_FORMAT, "no counts");
-    expect_bad_file("off_colour_300.off", PRT_ERROR_FORMAT, "'300'");
+    expect_bad_files(k_bad_off, COUNT_OF(k_bad_off));
 }
 
 TEST(test_huge_off_counts_allocate_nothing_big) {

@@ -123,30 +123,29 @@ TEST(test_sphere_from_stl_is_hit_as_from_ply) {
     check_hits_as_from_ply(prt_mesh_save_stl, "s.stl", "aabb:strip");
 }
 
+static const bad_file_case k_bad_stl[] = {
+    {"stl_lying_count_binary.stl", PRT_ERROR_FORMAT,
+     "announces 5 triangles (334 bytes), but the file has 184"},
+    {"stl_lying_low_count_binary.stl", PRT_ERROR_FORMAT, "data after the last triangle"},
+    {"stl_huge_count_tiny_file.stl", PRT_ERROR_FORMAT, "4294967295 triangles"},
+    {"stl_truncated_header.stl", PRT_ERROR_FORMAT, "84-byte header"},
+    {"stl_zero_triangles.stl", PRT_ERROR_MESH, "no triangles"},
+    {"stl_nan_vertex_binary.stl", PRT_ERROR_MESH,
+     "byte 120: triangle 0: corner 2 has a non-finite x"},
+    {"stl_inf_vertex_binary.stl", PRT_ERROR_MESH, "corner 1 has a non-finite x"},
+    {"stl_nan_vertex_ascii.stl", PRT_ERROR_MESH, "line 6: triangle 0: corner 2 has a non-finite y"},
+    {"stl_ascii_truncated_in_facet.stl", PRT_ERROR_FORMAT, "truncated"},
+    {"stl_ascii_without_endsolid.stl", PRT_ERROR_FORMAT, "'endsolid'"},
+    {"stl_ascii_facet_with_four_vertices.stl", PRT_ERROR_FORMAT, "more than 3 vertices"},
+    {"stl_ascii_facet_with_two_vertices.stl", PRT_ERROR_FORMAT, "a facet with 2 vertices"},
+    {"stl_ascii_malformed_number.stl", PRT_ERROR_FORMAT, "malformed number '1,5'"},
+    {"stl_ascii_vertex_with_two_coordinates.stl", PRT_ERROR_FORMAT, "vertex with 2 coordinates"},
+    {"stl_ascii_no_facets.stl", PRT_ERROR_MESH, "no triangles"},
+    {"stl_ascii_missing_outer_loop.stl", PRT_ERROR_FORMAT, "expected 'outer loop'"},
+};
+
 TEST(test_every_bad_stl_is_refused_naming_the_problem) {
-    expect_bad_file("stl_lying_count_binary.stl", PRT_ERROR_FORMAT,
-                    "announces 5 triangles (334 bytes), but the file has 184");
-    expect_bad_file("stl_lying_low_count_binary.stl", PRT_ERROR_FORMAT,
-                    "data after the last triangle");
-    expect_bad_file("stl_huge_count_tiny_file.stl", PRT_ERROR_FORMAT, "4294967295 triangles");
-    expect_bad_file("stl_truncated_header.stl", PRT_ERROR_FORMAT, "84-byte header");
-    expect_bad_file("stl_zero_triangles.stl", PRT_ERROR_MESH, "no triangles");
-    expect_bad_file("stl_nan_vertex_binary.stl", PRT_ERROR_MESH,
-                    "byte 120: triangle 0: corner 2 has a non-finite x");
-    expect_bad_file("stl_inf_vertex_binary.stl", PRT_ERROR_MESH, "corner 1 has a non-finite x");
-    expect_bad_file("stl_nan_vertex_ascii.stl", PRT_ERROR_MESH,
-                    "line 6: triangle 0: corner 2 has a non-finite y");
-    expect_bad_file("stl_ascii_truncated_in_facet.stl", PRT_ERROR_FORMAT, "truncated");
-    expect_bad_file("stl_ascii_without_endsolid.stl", PRT_ERROR_FORMAT, "'endsolid'");
-    expect_bad_file("stl_ascii_facet_with_four_vertices.stl", PRT_ERROR_FORMAT,
-                    "more than 3 vertices");
-    expect_bad_file("stl_ascii_facet_with_two_vertices.stl", PRT_ERROR_FORMAT,
-                    "a facet with 2 vertices");
-    expect_bad_file("stl_ascii_malformed_number.stl", PRT_ERROR_FORMAT, "malformed number '1,5'");
-    expect_bad_file("stl_ascii_vertex_with_two_coordinates.stl", PRT_ERROR_FORMAT,
-                    "vertex with 2 coordinates");
-    expect_bad_file("stl_ascii_no_facets.stl", PRT_ERROR_MESH, "no triangles");
-    expect_bad_file("stl_ascii_missing_outer_loop.stl", PRT_ERROR_FORMAT, "expected 'outer loop'");
+    expect_bad_files(k_bad_stl, COUNT_OF(k_bad_stl));
 }
 
 TEST(test_truncated_gzipped_binary_stl_is_refused) {

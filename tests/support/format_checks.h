@@ -19,6 +19,17 @@ static inline void expect_bad_file(const char *file, prt_status status, const ch
               prt_last_error());
 }
 
+/* A table of bad files: each must fail as expect_bad_file says. */
+typedef struct bad_file_case {
+    const char *file;
+    prt_status status;
+    const char *fragment;
+} bad_file_case;
+
+static inline void expect_bad_files(const bad_file_case *c, size_t n) {
+    for (size_t i = 0; i < n; i++) expect_bad_file(c[i].file, c[i].status, c[i].fragment);
+}
+
 /* A generated sphere saved as PLY and through `save` (as `name`), both loaded again: the
  * same vertex count and bit-identical hits for `spec`. */
 static inline void check_hits_as_from_ply(prt_status (*save)(const prt_mesh *, const char *),
