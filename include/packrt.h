@@ -123,16 +123,40 @@ void prt_mesh_free(prt_mesh *m);
  * ushort (0-65535) or float/double (0-1, clamped); every triangle of a polygon takes the
  * face's colour. OBJ `v x y z r g b` (0-1, clamped) when every vertex has them. A colour
  * set missing a channel, a list or another type is PRT_ERROR_FORMAT.
+ * Also STL (binary and ASCII; corners welded by exact position into shared vertices), OFF
+ * (ASCII, [ST][C][N]OFF) and glTF 2.0 (.gltf with embedded or external buffers, .glb: the
+ * default scene's triangle primitives with node transforms applied, every mesh instance
+ * flattened into one mesh whose `materials` hold the instance's number, vertex colours
+ * times base-colour factors in vertex_colors), each also gzip-compressed. The format is
+ * recognised by magic bytes first and by the extension second (binary STL has no magic):
+ * docs/formats-mesh.md.
  * The mesh is validated (see prt_mesh_validate). On failure *out is NULL and
  * prt_last_error() says what is wrong and where (file name, line or byte offset). */
 prt_status prt_mesh_load(const char *path, prt_mesh **out);
 
-/* Load from memory; name is used in error messages only. Same rules as prt_mesh_load. */
+/* Load from memory; name is used in error messages and for its extension only. Same rules
+ * as prt_mesh_load, except that a .gltf's external buffer files are refused (data: URIs
+ * and GLB's own buffer are read). */
 prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name, prt_mesh **out);
 
 /* Write a binary little-endian PLY (float xyz, uchar/int triangle lists), with uchar red,
  * green, blue vertex and face properties for the colours m has. */
 prt_status prt_mesh_save_ply(const prt_mesh *m, const char *path);
+
+/* Write a binary STL: per triangle its unit normal (zero when degenerate), its three corner
+ * positions and a zero attribute word. Colours and materials are not written. Reading it
+ * back welds the corners by exact position, so a mesh without duplicate positions and
+ * unused vertices round-trips to the same triangles (vertices renumbered in first-use
+ * order). PRT_ERROR_ARGUMENT for a NULL path, the mesh's own status for an invalid mesh,
+ * PRT_ERROR_LIMIT beyond 2^32-1 triangles, PRT_ERROR_IO when writing fails (the partial
+ * file is removed). */
+prt_status prt_mesh_save_stl(const prt_mesh *m, const char *path);
+
+/* Write an ASCII OFF (COFF with "r g b 255" per vertex when m has vertex colours; "r g b"
+ * after each face's indices when it has triangle colours; materials are dropped).
+ * Coordinates are printed with 9 significant digits, so loading gives back the same
+ * arrays. Errors as prt_mesh_save_stl. */
+prt_status prt_mesh_save_off(const prt_mesh *m, const char *path);
 
 /* Largest coordinate magnitude prt_build accepts (PRT_ERROR_LIMIT beyond). The watertight
  * ray/triangle test computes a product of three coordinate differences before dividing
@@ -413,7 +437,7 @@ prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n
  * below answer from what is loaded and stop at a voxel that is small enough.
  * --------------------------------------------------------------------------------- */
 
-/* Build from a mesh file (PLY or OBJ, as prt_mesh_load reads) into out_path. For "ooc" the
+/* Build from a mesh file (any format prt_mesh_load reads) into out_path. For "ooc" the
  * mesh is streamed (never held whole: o->memory_budget bounds the build); for any other
  * spec this is prt_mesh_load, prt_build and prt_accel_save in one. */
 prt_status prt_build_file(const char *mesh_path, const char *spec, const char *out_path, const prt_build_options *o);

@@ -4,7 +4,7 @@
 # Usage: scripts/deps.sh [--test]   (--test adds clang for the libFuzzer targets and Xvfb
 # for the headless viewer test)
 set -euo pipefail
-pkgs=(cmake make gcc pkg-config zlib1g-dev liblz4-dev libmeshoptimizer-dev libembree-dev libpng-dev libsdl2-dev)
+pkgs=(cmake make gcc pkg-config zlib1g-dev liblz4-dev libmeshoptimizer-dev libembree-dev libpng-dev libsdl2-dev libassimp-dev)
 # python3-numpy, python3-cffi: the Python package in python/ (run time, with /usr/bin/python3).
 pkgs+=(python3-numpy python3-cffi)
 # libomp-14-dev: clang's OpenMP for the libFuzzer build (gcc uses its own libgomp);

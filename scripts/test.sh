@@ -15,8 +15,8 @@ seconds=${FUZZ_SECONDS:-30}
 if [ "$seconds" -gt 0 ] && command -v clang >/dev/null; then
   CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON -DPRT_FUZZ=ON \
     -DPRT_WITH_EMBREE=OFF >/dev/null
-  cmake --build build-fuzz -j"$(nproc)" --target fuzz_ply fuzz_obj fuzz_prt >/dev/null
-  for f in fuzz_ply fuzz_obj fuzz_prt; do
+  cmake --build build-fuzz -j"$(nproc)" --target fuzz_ply fuzz_obj fuzz_prt fuzz_stl fuzz_off fuzz_gltf >/dev/null
+  for f in fuzz_ply fuzz_obj fuzz_prt fuzz_stl fuzz_off fuzz_gltf; do
     corpus=$(mktemp -d)
     cp tests/data/good/* tests/data/bad/* "$corpus"/ 2>/dev/null || true
     echo "fuzz: $f for ${seconds}s"

@@ -84,5 +84,27 @@ check gen_mandelbulb_dry_run 0 "$packrt" gen mandelbulb --tris 20k --dry-run
 check gen_dry_run_not_streamed_kind 2 "$packrt" gen sphere --dry-run
 check gen_bad_memory 2 "$packrt" gen mandelbulb --memory lots -o "$dir/b.ply"
 
+# Mesh formats of issue 33: gen writes STL and OFF; info reads them and says how many STL
+# corners were welded; build accepts them; a bad STL is refused naming the file.
+expect() { # expect NAME FILE PATTERN
+  if grep -q -- "$3" "$2"; then pass=$((pass + 1)); echo "ok   $1"
+  else fail=$((fail + 1)); echo "FAIL $1: no '$3' in"; cat "$2"; fi
+}
+check gen_stl 0 "$packrt" gen sphere --tris 2k -o "$dir/f.stl"
+check gen_off 0 "$packrt" gen sphere --tris 2k -o "$dir/f.off"
+check gen_mandelbulb_stl 0 "$packrt" gen mandelbulb --tris 5k -o "$dir/m.stl"
+check info_stl 0 "$packrt" info "$dir/f.stl" -r aabb:idx32
+# 2,028 triangles (the k=13 cube sphere, 12 k^2): 6084 corners; a closed genus-0 mesh has
+# T/2 + 2 = 1016 vertices (Euler), so 5068 corners merge.
+expect info_stl_welds "$dir/out" "welded       6084 corners into 1016 vertices (5068 merged)"
+expect info_stl_closed "$dir/out" "closed"
+check info_off 0 "$packrt" info "$dir/f.off" -r aabb:idx32
+expect info_off_format "$dir/out" "format       OFF"
+check info_glb 0 "$packrt" info "$2/tests/data/good/quad.glb" -r aabb:idx32
+check build_stl 0 "$packrt" build "$dir/f.stl" -r aabb:idx32 -o "$dir/f.prt"
+check build_ooc_off 0 "$packrt" build "$dir/f.off" -r ooc -o "$dir/fo.prt"
+check info_bad_stl 1 "$packrt" info "$2/tests/data/bad/stl_lying_count_binary.stl"
+expect bad_stl_message "$dir/err" "stl_lying_count_binary.stl: the header announces 5 triangles"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

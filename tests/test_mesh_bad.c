@@ -88,7 +88,8 @@ TEST(test_every_mesh_in_the_good_corpus_loads) {
         const char *ext = strchr(e->d_name, '.');
         if (e->d_name[0] == '.' || !ext ||
             !(!strcmp(ext, ".ply") || !strcmp(ext, ".obj") || !strcmp(ext, ".ply.gz") ||
-              !strcmp(ext, ".obj.gz")))
+              !strcmp(ext, ".obj.gz") || !strcmp(ext, ".stl") || !strcmp(ext, ".off") ||
+              !strcmp(ext, ".gltf") || !strcmp(ext, ".glb")))
             continue;
         char path[1024];
         snprintf(path, sizeof path, "%s/%s", GOOD, e->d_name);
@@ -125,8 +126,8 @@ TEST(test_empty_input_is_a_format_error) {
 TEST(test_neither_ply_nor_obj_is_a_format_error) {
     static const unsigned char png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n',
                                         0,    0,   0,   13,  'I',  'H',  'D',  'R'};
-    expect_failure(png, sizeof png, PRT_ERROR_FORMAT, "not a PLY or OBJ file", NULL);
-    expect_text_failure("{\"json\": true}\n", PRT_ERROR_FORMAT, "not a PLY or OBJ file", NULL);
+    expect_failure(png, sizeof png, PRT_ERROR_FORMAT, "not a PLY, OBJ, STL, OFF or glTF file", NULL);
+    expect_text_failure("{\"json\": true}\n", PRT_ERROR_FORMAT, "not a PLY, OBJ, STL, OFF or glTF file", NULL);
 }
 
 #define PLY_HEAD(nv, nf)                                                                           \

@@ -5,7 +5,7 @@
  * optionally beside Embree rebuilt every frame (DYNAMIC scene, LOW quality, rtcIntersect16);
  * --shadows adds a second pass of shadow rays from the primary hits to a point light
  * (prt_occluded_packet, rtcOccluded16 for Embree), timed on its own (Wald 2006 §4.6).
- * DIR holds one mesh per frame (.ply, .ply.gz, .obj; name order), every frame with the same
+ * DIR holds one mesh per frame (.ply, .ply.gz, .obj, .stl, .off, .glb, .gltf; name order), every frame with the same
  * faces; SCENE is an animated generator kind (twist, marbles, toys). */
 #include "bench.h"
 #include "cli.h"
@@ -28,7 +28,7 @@
 static int usage(void) {
     printf("usage: packrt animate DIR|SCENE [-r SPEC]... [-o frames/] [--bench] [--vs embree] [--json] [options]\n"
            "\n"
-           "DIR: one mesh file per frame (.ply, .ply.gz, .obj, in name order), all with the same faces\n"
+           "DIR: one mesh file per frame (.ply, .obj, .stl, .off, .glb, .gltf, in name order), all with the same faces\n"
            "(the BART scenes in ../shared/data). SCENE: an animated generator: twist | marbles | toys.\n"
            "Every frame, representations with prt_accel_update (cgrid, BVH specs with update=refit)\n"
            "are updated in place, the others built again from scratch.\n"
@@ -83,8 +83,8 @@ static void frame_vertices(const anim *a, size_t f, float *out) {
 
 static bool mesh_name(const char *n) {
     size_t l = strlen(n);
-    const char *ext[] = {".ply", ".ply.gz", ".obj", ".obj.gz"};
-    for (size_t i = 0; i < 4; i++) {
+    const char *ext[] = {".ply", ".ply.gz", ".obj", ".obj.gz", ".stl", ".off", ".glb", ".gltf"};
+    for (size_t i = 0; i < sizeof ext / sizeof *ext; i++) {
         size_t m = strlen(ext[i]);
         if (l > m && !strcasecmp(n + l - m, ext[i])) return true;
     }

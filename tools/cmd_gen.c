@@ -1,4 +1,4 @@
-/* packrt gen: write a procedural mesh (prt_mesh_generate) as a binary PLY, with the
+/* packrt gen: write a procedural mesh (prt_mesh_generate) as a binary PLY (or STL, OFF), with the
  * options of DESIGN.md section 6: KIND [--tris N] [--seed S] -o out.ply. */
 #include "cli.h"
 #include "mesh/gen.h"
@@ -6,14 +6,16 @@
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <time.h>
 
 static void usage(FILE *f) {
     fprintf(
         f,
-        "usage: packrt gen KIND [--tris N] [--seed S] -o out.ply\n"
+        "usage: packrt gen KIND [--tris N] [--seed S] -o out.ply|out.stl|out.off\n"
         "\n"
-        "Write a procedural triangle mesh as binary little-endian PLY.\n"
+        "Write a procedural triangle mesh as binary little-endian PLY, or as binary STL or\n"
+        "ASCII OFF when the output name ends in .stl or .off (those hold the mesh in memory).\n"
         "\n"
         "  KIND        one of: %s\n"
         "                sphere      closed cube sphere, radius 1: 12 k^2 triangles\n"
@@ -63,6 +65,14 @@ static bool parse_seed(const char *s, uint64_t *out) {
     if (*e || errno) return false;
     *out = v;
     return true;
+}
+
+/* 's' for a .stl path, 'o' for .off, 0 for anything else (PLY). */
+static char save_format(const char *path) {
+    size_t n = strlen(path);
+    if (n >= 4 && !strcasecmp(path + n - 4, ".stl")) return 's';
+    if (n >= 4 && !strcasecmp(path + n - 4, ".off")) return 'o';
+    return 0;
 }
 
 static prt_status count_batch(void *user, const float *tris, size_t count, uint64_t first_id) {
@@ -132,7 +142,7 @@ int cmd_gen(int argc, char **argv) {
     if (!kind) return cli_usage("gen", "missing KIND (one of: %s)", prt_gen_kinds());
     if (!known_kind(kind))
         return cli_usage("gen", "unknown KIND '%s' (one of: %s)", kind, prt_gen_kinds());
-    bool streamed = !strcmp(kind, "mandelbulb");
+    bool streamed = !strcmp(kind, "mandelbulb") && (!path || !save_format(path));
     if (dry_run && !streamed) return cli_usage("gen", "--dry-run streams the mandelbulb only");
     if (!path && !dry_run) return cli_usage("gen", "missing -o out.ply");
     if (streamed) return gen_mandelbulb_streamed(tris, seed, memory, dry_run ? NULL : path);
@@ -144,7 +154,9 @@ int cmd_gen(int argc, char **argv) {
         return cli_usage("gen", "%s", prt_last_error()); /* e.g. a count beyond the limit */
     if (s) return cli_fail("gen", kind, s);
     double t1 = now_s();
-    s = prt_mesh_save_ply(m, path);
+    s = save_format(path) == 's' ? prt_mesh_save_stl(m, path)
+        : save_format(path) == 'o' ? prt_mesh_save_off(m, path)
+                                   : prt_mesh_save_ply(m, path);
     double t2 = now_s();
     if (s) {
         prt_mesh_free(m);

@@ -2,6 +2,7 @@
  * counts, bounds, degenerate triangles, connectivity, and the memory of each representation
  * built over it. */
 #include "cli.h"
+#include "mesh/format.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -83,6 +84,14 @@ int cmd_info(int argc, char **argv) {
     prt_mesh_bounds(m, lo, hi);
     printf("mesh         %s\ntriangles    %zu (degenerate, never hit: %zu)\nvertices     %zu\n", path, m->triangle_count,
            prt_mesh_count_degenerate(m), m->vertex_count);
+    mesh_format fmt;
+    if (mesh_format_of_file(path, &fmt) == PRT_OK) {
+        printf("format       %s\n", mesh_format_name(fmt));
+        /* STL stores 3 corners a triangle; the reader welds equal positions into one. */
+        if (fmt == MESH_FORMAT_STL_BINARY || fmt == MESH_FORMAT_STL_ASCII)
+            printf("welded       %zu corners into %zu vertices (%zu merged)\n", 3 * m->triangle_count,
+                   m->vertex_count, 3 * m->triangle_count - m->vertex_count);
+    }
     printf("bounds       (%g, %g, %g) - (%g, %g, %g)\n", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     printf("colours      %s\n", m->vertex_colors && m->triangle_colors ? "per vertex and per triangle"
                                 : m->vertex_colors                    ? "per vertex"

@@ -1,6 +1,7 @@
 /* prt_mesh_load and prt_mesh_load_memory: open the input (gzip recognised by its magic),
- * pick PLY by its "ply" line or else OBJ, and collect what the parser produces in
+ * pick the format (format.c: PLY, OBJ, STL, OFF, glTF), and collect what the parser produces in
  * growable arrays that become the prt_mesh. */
+#include "mesh/format.h"
 #include "mesh/source.h"
 #include "mesh/stream_arrays.h"
 
@@ -152,16 +153,15 @@ prt_status mesh_arrays_finish(mesh_arrays *a, prt_mesh **out) {
     return PRT_OK;
 }
 
-static prt_status load(mesh_source *s, prt_mesh **out) {
-    prt_status st = mesh_source_fill(s, 5);
+static prt_status load(mesh_source *s, const char *path, prt_mesh **out) {
+    mesh_format f;
+    prt_status st = mesh_format_detect(s, &f);
     if (st != PRT_OK) return st;
-    size_t n = mesh_source_avail(s);
-    if (n == 0)
-        return prt__fail(PRT_ERROR_FORMAT, "%s: empty file: not a PLY or OBJ mesh", s->name);
-    const uint8_t *p = s->cur;
-    if ((n >= 4 && !memcmp(p, "ply\n", 4)) || (n >= 5 && !memcmp(p, "ply\r\n", 5)))
-        return mesh_ply_parse(s, out);
-    return mesh_obj_parse(s, out);
+    mesh_arrays a = {.name = s->name};
+    st = mesh_parse_format(s, f, path, &a);
+    if (st == PRT_OK) st = mesh_arrays_finish(&a, out);
+    mesh_arrays_free(&a);
+    return st;
 }
 
 static prt_status finish(mesh_source *s, prt_status st) {
@@ -176,7 +176,7 @@ prt_status prt_mesh_load(const char *path, prt_mesh **out) {
     mesh_source s;
     prt_status st = mesh_source_open_file(&s, path);
     if (st != PRT_OK) return finish(&s, st);
-    return finish(&s, load(&s, out));
+    return finish(&s, load(&s, path, out));
 }
 
 prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name, prt_mesh **out) {
@@ -187,5 +187,5 @@ prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name,
     mesh_source s;
     prt_status st = mesh_source_open_memory(&s, data, size, name);
     if (st != PRT_OK) return finish(&s, st);
-    return finish(&s, load(&s, out));
+    return finish(&s, load(&s, NULL, out));
 }

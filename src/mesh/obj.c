@@ -194,7 +194,8 @@ static prt_status parse(obj_reader *r) {
             const char *why =
                 has_control(line, len) ? "binary data" : "no OBJ statement starts with";
             if (r->a.nv == 0 && r->a.nt == 0)
-                return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: not a PLY or OBJ file (%s '%s')",
+                return prt__fail(PRT_ERROR_FORMAT,
+                                 "%s: line %zu: not a PLY, OBJ, STL, OFF or glTF file (%s '%s')",
                                  r->name, s->line, why, mesh_quote(kw, kn, q));
             return obj_error(r, PRT_ERROR_FORMAT, why, kw, kn);
         }

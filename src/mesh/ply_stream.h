@@ -8,7 +8,8 @@
  * the order and with the ids prt_mesh_load gives them: polygons fan-triangulated around
  * their first vertex, the same checks and the same error messages (non-finite vertices,
  * indices out of range, truncated or malformed files). Reads what prt_mesh_load reads, the
- * name notwithstanding: PLY (ascii, binary little- and big-endian) and OBJ, either gzipped.
+ * name notwithstanding: PLY (ascii, binary little- and big-endian), OBJ, STL (welded as it
+ * is read), OFF and glTF (held whole while its triangles pass), any of them gzipped.
  *
  * memory_budget (bytes, 0: 1 GiB) bounds the heap: the vertices are kept whole (a face may
  * name any of them), on the heap while they fit the budget less 16 MiB of buffers, else in

@@ -51,6 +51,12 @@ PRT_INLINE uint64_t mesh_source_offset(const mesh_source *s, const uint8_t *p) {
 bool mesh_source_can_rewind(const mesh_source *s);
 prt_status mesh_source_rewind(mesh_source *s);
 
+/* The whole stream, from its start, in memory: *data points into the source's window (a
+ * memory source, or a file of known size up to MESH_SOURCE_MAX_WINDOW, read in one go) or
+ * into *owned, a copy the caller frees with prt__free (gzip, pipes). Valid until the next
+ * fill, skip or close. */
+prt_status mesh_source_read_all(mesh_source *s, const uint8_t **data, size_t *size, uint8_t **owned);
+
 /* Consume n bytes, pulling as many windows as it takes; *short_read when the stream
  * ends first. */
 prt_status mesh_source_skip(mesh_source *s, uint64_t n, bool *short_read);
@@ -60,6 +66,11 @@ prt_status mesh_source_skip(mesh_source *s, uint64_t n, bool *short_read);
 prt_status mesh_source_line(mesh_source *s, const char **line, size_t *len, bool *got);
 
 #define MESH_SOURCE_MAX_LINE ((size_t)16 << 20)
+
+/* The next line with at least one token (blank lines skipped), as [*p, *e), cut at the
+ * first `comment` character (0: none), without the UTF-8 byte-order mark on line 1; *got
+ * false at the end of the stream. */
+prt_status mesh_source_data_line(mesh_source *s, char comment, const char **p, const char **e, bool *got);
 
 /* Text numbers, parsed from a token that is not NUL-terminated. Both accept exactly the
  * token (no trailing characters). The float parser is correctly rounded and ignores
