@@ -11,12 +11,26 @@ cmake -S . -B build-test -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON >/d
 cmake --build build-test -j"$(nproc)"
 (cd build-test && ctest --output-on-failure -j"$(nproc)")
 
+# ThreadSanitizer over the threaded tests (TSAN=0 skips): clang with libomp, whose OpenMP
+# synchronisation TSan sees through LLVM's Archer tool (OMP_TOOL_LIBRARIES), so OpenMP
+# needs no suppressions; tests/tsan.supp holds the rest, each justified.
+if [ "${TSAN:-1}" != 0 ] && command -v clang >/dev/null; then
+  CC=clang cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_TSAN=ON -DPRT_WITH_EMBREE=OFF >/dev/null
+  cmake --build build-tsan -j"$(nproc)" --target test_concurrency >/dev/null
+  archer=$(ls /usr/lib/llvm-*/lib/libarcher.so 2>/dev/null | tail -n 1)
+  for t in test_concurrency; do
+    echo "tsan: $t"
+    OMP_TOOL_LIBRARIES="$archer" TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/tsan.supp" \
+      build-tsan/$t | tail -n 1
+  done
+fi
+
 seconds=${FUZZ_SECONDS:-30}
 if [ "$seconds" -gt 0 ] && command -v clang >/dev/null; then
   CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON -DPRT_FUZZ=ON \
     -DPRT_WITH_EMBREE=OFF >/dev/null
-  cmake --build build-fuzz -j"$(nproc)" --target fuzz_ply fuzz_obj fuzz_prt >/dev/null
-  for f in fuzz_ply fuzz_obj fuzz_prt; do
+  cmake --build build-fuzz -j"$(nproc)" --target fuzz_ply fuzz_obj fuzz_prt fuzz_rays fuzz_spec fuzz_ooc >/dev/null
+  for f in fuzz_ply fuzz_obj fuzz_prt fuzz_rays fuzz_spec fuzz_ooc; do
     corpus=$(mktemp -d)
     cp tests/data/good/* tests/data/bad/* "$corpus"/ 2>/dev/null || true
     echo "fuzz: $f for ${seconds}s"
