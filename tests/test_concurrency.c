@@ -173,12 +173,20 @@ static size_t hits_of(const prt_hit *h) {
     return n;
 }
 
-TEST(test_threads_share_a_bvh) {
-    prt_mesh *m = NULL;
-    CHECK_OK(prt_mesh_generate("mandelbulb", 30000, 4, &m));
+/* A generated mesh and spec built over it; NULL (the mesh freed) on failure. */
+static prt_accel *built(const char *kind, size_t tris, const char *spec, prt_mesh **m) {
+    *m = NULL;
     prt_accel *a = NULL;
-    if (m) CHECK_OK(prt_build(m, "quad:float3-soa4", NULL, &a));
-    if (!a) return prt_mesh_free(m);
+    CHECK_OK(prt_mesh_generate(kind, tris, 4, m));
+    if (*m) CHECK_OK(prt_build(*m, spec, NULL, &a));
+    if (!a) prt_mesh_free(*m), *m = NULL;
+    return a;
+}
+
+TEST(test_threads_share_a_bvh) {
+    prt_mesh *m;
+    prt_accel *a = built("mandelbulb", 30000, "quad:float3-soa4", &m);
+    if (!a) return;
     prt_ray *rays = rays_random(m, RAYS, 5);
     prt_hit *want = reference(a, rays);
     CHECK(hits_of(want) > RAYS / 4);
@@ -239,11 +247,9 @@ TEST(test_threads_share_an_ooc_accel_whose_cache_evicts) {
 }
 
 TEST(test_threads_share_a_cgrid_updated_between_frames) {
-    prt_mesh *m = NULL;
-    CHECK_OK(prt_mesh_generate("sphere", 20000, 2, &m));
-    prt_accel *a = NULL;
-    if (m) CHECK_OK(prt_build(m, "cgrid", NULL, &a));
-    if (!a) return prt_mesh_free(m);
+    prt_mesh *m;
+    prt_accel *a = built("sphere", 20000, "cgrid", &m);
+    if (!a) return;
     prt_ray *rays = rays_random(m, RAYS, 3);
     float *v = malloc(3 * m->vertex_count * sizeof *v);
     for (int r = 0; r < ROUNDS; r++) {
