@@ -12,15 +12,17 @@ cmake --build build-test -j"$(nproc)"
 (cd build-test && ctest --output-on-failure -j"$(nproc)")
 
 # ThreadSanitizer over the threaded tests (TSAN=0 skips): clang with libomp, whose OpenMP
-# synchronisation TSan sees through LLVM's Archer tool (OMP_TOOL_LIBRARIES), so OpenMP
-# needs no suppressions; tests/tsan.supp holds the rest, each justified.
+# synchronisation TSan sees through LLVM's Archer tool (OMP_TOOL_LIBRARIES);
+# ignore_noninstrumented_modules: libomp itself is not built with TSan, and the reuse of its
+# internal allocations (__kmp_free) reads as a race otherwise. tests/tsan.supp holds any
+# other suppression, each justified.
 if [ "${TSAN:-1}" != 0 ] && command -v clang >/dev/null; then
   CC=clang cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_TSAN=ON -DPRT_WITH_EMBREE=OFF >/dev/null
   cmake --build build-tsan -j"$(nproc)" --target test_concurrency >/dev/null
   archer=$(ls /usr/lib/llvm-*/lib/libarcher.so 2>/dev/null | tail -n 1)
   for t in test_concurrency; do
     echo "tsan: $t"
-    OMP_TOOL_LIBRARIES="$archer" TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/tsan.supp" \
+    OMP_TOOL_LIBRARIES="$archer" TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1 suppressions=$PWD/tests/tsan.supp" \
       build-tsan/$t | tail -n 1
   done
 fi
