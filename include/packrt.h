@@ -445,7 +445,7 @@ typedef struct prt_lod_hit {
  * On an "ooc" accel whose cache is smaller than its file, exact queries running on other
  * threads in the same frame evict blocks that LOD queries use (these answer a voxel or a
  * miss then, and are not protected against a block refilled under them): keep LOD frames
- * and exact queries apart there, as prt_render does (docs/results/reliability.md). */
+ * and exact queries apart there (docs/results/reliability.md). */
 bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h);
 /* prt_intersect_lod for n rays, traced as packets of 4x4 where the representation has them
  * ("ooc": 16 consecutive rays with the same direction signs walk the tree together, §6.1):
