@@ -287,8 +287,27 @@ static prt_status ooc_check(const prt_accel *a) {
     return PRT_OK;
 }
 
+/* The LOD entry points, each counted as running for the cache (ooc_cache_lod_begin). */
 static bool lod_query(const prt_accel *a, prt_ray *r, float error, bool any, prt_lod_hit *h) {
-    return ooc_intersect_lod(a, r, error, any, h);
+    ooc_cache *c = &((ooc_accel *)a)->cache;
+    ooc_cache_lod_begin(c);
+    bool hit = ooc_intersect_lod(a, r, error, any, h);
+    ooc_cache_lod_end(c);
+    return hit;
+}
+
+static void lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float error) {
+    ooc_cache *c = &((ooc_accel *)a)->cache;
+    ooc_cache_lod_begin(c);
+    ooc_intersect_lod_packet(a, rays, out, n, error);
+    ooc_cache_lod_end(c);
+}
+
+static void lod_occluded_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error) {
+    ooc_cache *c = &((ooc_accel *)a)->cache;
+    ooc_cache_lod_begin(c);
+    ooc_occluded_lod_packet(a, rays, occluded, n, error);
+    ooc_cache_lod_end(c);
 }
 
 static bool ooc_accepts(const prt_spec *s) { return !strcmp(s->structure, "ooc") && !s->codec[0]; }
@@ -312,8 +331,8 @@ const prt_accel_ops prt__ooc_ops = {
     .load = ooc_load,
     .destroy = ooc_destroy,
     .lod_query = lod_query,
-    .lod_packet = ooc_intersect_lod_packet,
-    .lod_occluded_packet = ooc_occluded_lod_packet,
+    .lod_packet = lod_packet,
+    .lod_occluded_packet = lod_occluded_packet,
     .frame = ooc_frame,
     .check = ooc_check,
 };
