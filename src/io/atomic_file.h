@@ -12,7 +12,8 @@
  * Naming: the temporary is "<path>.tmp.<pid>.<n>" (n counts the process's temporaries);
  * other temporaries of the same build use "<path>.tmp.<pid>.<anything>". A killed build
  * leaves them behind: prt__afile_open removes every "<path>.tmp.<pid>..." whose process
- * no longer runs. */
+ * no longer runs (as kill(pid, 0) sees it: a writer in another PID namespace sharing the
+ * directory would look dead). */
 #ifndef PRT_IO_ATOMIC_FILE_H
 #define PRT_IO_ATOMIC_FILE_H
 
