@@ -181,21 +181,28 @@ int bench_queries(FILE *f, const prt_mesh *m, const bench_queries_options *o) {
     const float cl = sqrtf(14.0f);
     for (int k = 0; k < 3; k++) cd[k] = contains_dir[k] / cl;
     const char *kinds[3] = {"random in the bounds", "on rays through vertices", "on rays through edge midpoints"};
+    /* The oracle visits every triangle a point: about 2e8 solid angles a set. */
+    const size_t nc = n < 2e8 / tris ? n : (size_t)fmax(64, 2e8 / tris);
     for (int kind = 0; kind < 3; kind++) {
         size_t wrong[2] = {0, 0}, count[2] = {0, 0};
         for (int method = 0; method < 2; method++) {
             if (method == 1 && !em) continue;
             size_t k;
             if (kind == 0) {
-                make_points(m, n, false, o->seed + 5, pts);
-                float *w = malloc(n * 4);
-                prt_winding_number(exact, pts, n, w, 0);
+                make_points(m, nc, false, o->seed + 5, pts);
+                float *w = malloc(nc * 4);
+                if (!w) {
+                    fprintf(stderr, "packrt bench: out of memory for %zu points\n", nc);
+                    rc = 1;
+                    goto done;
+                }
+                prt_winding_number(exact, pts, nc, w, 0);
                 k = 0;
-                for (size_t i = 0; i < n; i++)
+                for (size_t i = 0; i < nc; i++)
                     if (fabsf(w[i] - roundf(w[i])) <= 0.01f) memcpy(pts + 3 * k, pts + 3 * i, 12), truth[k++] = w[i] > 0.5f;
                 free(w);
             } else {
-                k = make_aligned_points(m, exact, kind == 2, method ? g_trimesh_dir : cd, n, o->seed + kind, pts, truth);
+                k = make_aligned_points(m, exact, kind == 2, method ? g_trimesh_dir : cd, nc, o->seed + kind, pts, truth);
             }
             if (method == 0) prt_contains(exact, pts, k, in, 0);
             else embree_contains_recast(em, pts, k, offset, in);

@@ -474,7 +474,11 @@ typedef struct prt_lod_hit {
  * tan(fov_y / 2)) radius in pixels); and where a block is not loaded yet the ray stops
  * at the last voxel it passed and the block is requested (loaded by the fetcher threads,
  * used after the next prt_accel_frame). Returns true on a hit (r->tfar shrinks to it).
- * Other representations answer exactly (as prt_intersect1). */
+ * Other representations answer exactly (as prt_intersect1).
+ * On an "ooc" accel whose cache is smaller than its file, exact queries on other threads
+ * in the same frame evict nothing while a LOD query runs (they wait for a free slot), but
+ * may evict published blocks between LOD queries, which then answer a voxel or a miss
+ * where the block was: LOD frames converge best without exact queries beside them. */
 bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit *h);
 /* prt_intersect_lod for n rays, traced as packets of 4x4 where the representation has them
  * ("ooc": 16 consecutive rays with the same direction signs walk the tree together, §6.1):

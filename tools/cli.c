@@ -40,11 +40,15 @@ bool cli_parse_count(const char *s, size_t *out) {
 bool cli_is_prt_file(const char *path) {
     FILE *f = fopen(path, "rb");
     if (!f) return false;
-    char magic[8] = {0};
-    size_t n = fread(magic, 1, 8, f);
+    unsigned char magic[256] = {0};
+    size_t n = fread(magic, 1, sizeof magic, f);
     fclose(f);
-    /* A .prt container, or an out-of-core block file. */
-    return (n >= 4 && !memcmp(magic, "PRT1", 4)) || (n == 8 && !memcmp(magic, "PRTOOC1\n", 8));
+    /* A .prt container, or an out-of-core block file; 256 zeros are the header of a block
+     * file whose build was interrupted, which prt_accel_load names as such. */
+    size_t zeros = 0;
+    while (zeros < n && !magic[zeros]) zeros++;
+    return (n >= 4 && !memcmp(magic, "PRT1", 4)) || (n >= 8 && !memcmp(magic, "PRTOOC1\n", 8)) ||
+           (n == sizeof magic && zeros == n);
 }
 
 int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec,

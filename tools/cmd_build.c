@@ -1,5 +1,6 @@
 /* packrt build MESH -r SPEC -o out.prt: preprocess a mesh and save the representation. */
 #include "cli.h"
+#include "io/atomic_file.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -125,19 +126,19 @@ int cmd_build(int argc, char **argv) {
         /* Positions below triangles_built (degenerate triangles have none); little endian
          * whatever the host, byte by byte. */
         const size_t triangles = st.triangles_built;
-        FILE *f = fopen(order_path, "wb");
-        bool ok = f != NULL;
-        for (size_t i = 0; ok && i < triangles; i++) {
+        prt__afile f;
+        prt_status ws = prt__afile_open(&f, order_path);
+        for (size_t i = 0; !ws && i < triangles; i++) {
             const unsigned char b[4] = {(unsigned char)order[i], (unsigned char)(order[i] >> 8),
                                         (unsigned char)(order[i] >> 16), (unsigned char)(order[i] >> 24)};
-            ok = fwrite(b, 1, 4, f) == 4;
+            ws = prt__afile_write(&f, b, 4);
         }
-        if (f && fclose(f)) ok = false;
+        if (ws) prt__afile_abort(&f);
+        else ws = prt__afile_commit(&f);
         free(order);
-        if (!ok) {
+        if (ws) {
             prt_accel_free(a);
-            fprintf(stderr, "packrt build: %s: cannot write the triangle order\n", order_path);
-            return 1;
+            return cli_fail("build", order_path, ws);
         }
     }
     s = prt_accel_save(a, out);

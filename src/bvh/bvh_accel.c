@@ -401,7 +401,8 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     }
     b->owns_blob = true;
     prt_mesh leaf_order = *m, *em = (prt_mesh *)m;
-    if (c->seq_ids) s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order), em = &leaf_order;
+    /* em becomes the copy only once it exists: on failure leaf_order still holds m's triangles. */
+    if (c->seq_ids && !(s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order))) em = &leaf_order;
     if (!s && c->shared_remap && !c->seq_ids)
         s = prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s remaps indices without seq_ids", c->name);
     if (!s && refit) s = refit_keep(b, em);

@@ -90,8 +90,8 @@ static prt_status cg_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     c->threads = o ? o->threads : 0;
     c->indices_owned = prt__alloc(prt__mul_size(3 * sizeof(uint32_t), c->ntris));
     if (!c->indices_owned) {
-        cg_destroy(&c->base);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu triangle indices", c->ntris);
+        cg_destroy(&c->base); /* c is gone: the count comes from m */
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu triangle indices", m->triangle_count);
     }
     memcpy(c->indices_owned, m->triangles, 3 * sizeof(uint32_t) * c->ntris);
     c->indices = c->indices_owned;

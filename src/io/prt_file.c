@@ -1,6 +1,7 @@
 /* The .prt container: writing, and the checks that make loading a corrupt, truncated or
  * foreign file an error rather than a crash (docs/formats.md has the byte layout). */
 #include "api/accel.h"
+#include "io/atomic_file.h"
 #include "io/prt_file.h"
 #include "ooc/ooc_accel.h"
 
@@ -20,7 +21,7 @@
 /* Sections are streamed to the file as they are added (so callers may pass temporaries);
  * the header and table are written last into the space reserved for them. */
 struct prt_writer {
-    FILE *f;
+    prt__afile af;
     uint64_t pos;
     bool failed;
     uint32_t count;
@@ -36,9 +37,11 @@ prt_status prt__writer_section(prt_writer *w, uint32_t tag, const void *data, si
     if (w->count == PRT_FILE_MAX_SECTIONS) return prt__fail(PRT_ERROR_LIMIT, "too many sections in a .prt file");
     static const uint8_t zeros[PRT_FILE_ALIGN];
     size_t pad = (size_t)((PRT_FILE_ALIGN - w->pos % PRT_FILE_ALIGN) % PRT_FILE_ALIGN);
-    if (fwrite(zeros, 1, pad, w->f) != pad || fwrite(data, 1, size, w->f) != size) {
+    prt_status s = prt__afile_write(&w->af, zeros, pad);
+    if (!s) s = prt__afile_write(&w->af, data, size);
+    if (s) {
         w->failed = true;
-        return prt__fail(PRT_ERROR_IO, "write failed: %s", strerror(errno));
+        return s;
     }
     w->s[w->count].tag = tag;
     w->s[w->count].crc = crc_of(data, size);
@@ -91,35 +94,32 @@ static void make_header(uint8_t *h, const prt_file_info *info, const prt_writer 
 
 prt_status prt__file_save(const char *path, const prt_file_info *info,
                           prt_status (*fill)(const void *ctx, prt_writer *w), const void *ctx) {
-    /* Write beside the target and rename, so a failed save never leaves half a file. */
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
-        return prt__fail(PRT_ERROR_ARGUMENT, "path too long: %s", path);
+    /* Written beside the target and renamed (io/atomic_file.h): a failed save never leaves
+     * half a file, and the previous file stays whole until the new one is. */
     prt_writer w = {0};
-    w.f = fopen(tmp, "wb");
-    if (!w.f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    prt_status s = prt__afile_open(&w.af, path);
+    if (s) return s;
     uint8_t h[RESERVED_BYTES];
     _Static_assert(RESERVED_BYTES % PRT_FILE_ALIGN == 0, "sections start aligned");
     memset(h, 0, sizeof h); /* placeholder until the sections are known */
-    bool ok = fwrite(h, 1, RESERVED_BYTES, w.f) == RESERVED_BYTES;
+    s = prt__afile_write(&w.af, h, RESERVED_BYTES);
     w.pos = RESERVED_BYTES;
-    prt_status s = ok ? fill(ctx, &w) : PRT_ERROR_IO;
+    if (!s) s = fill(ctx, &w);
     static const uint8_t zeros[PRT_FILE_ALIGN];
     size_t pad = (size_t)((PRT_FILE_ALIGN - w.pos % PRT_FILE_ALIGN) % PRT_FILE_ALIGN);
+    if (!s && w.failed) s = prt__fail(PRT_ERROR_IO, "%s: write failed", path);
     if (!s) {
         make_header(h, info, &w, w.pos + pad);
-        ok = fwrite(zeros, 1, pad, w.f) == pad && fseek(w.f, 0, SEEK_SET) == 0 &&
-             fwrite(h, 1, RESERVED_BYTES, w.f) == RESERVED_BYTES;
+        s = prt__afile_write(&w.af, zeros, pad);
+        if (!s && fseek(w.af.f, 0, SEEK_SET) != 0)
+            s = prt__fail(PRT_ERROR_IO, "%s: seek failed: %s", path, strerror(errno));
+        if (!s) s = prt__afile_write(&w.af, h, RESERVED_BYTES);
     }
-    int e = errno;
-    ok = (fclose(w.f) == 0) && ok && !s && !w.failed;
-    if (!ok || rename(tmp, path) != 0) {
-        e = ok ? errno : e;
-        remove(tmp);
-        if (s) return s;
-        return prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(e));
+    if (s) {
+        prt__afile_abort(&w.af);
+        return s;
     }
-    return PRT_OK;
+    return prt__afile_commit(&w.af);
 }
 
 prt_status prt__file_open(const void *data, size_t size, bool verify_crc, prt_file_info *info, prt_reader *r) {
@@ -205,8 +205,9 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
     }
     size_t size = (size_t)st.st_size;
     /* An out-of-core block file is read block by block through its cache, never mapped. */
-    char head[8];
-    if (pread(fd, head, sizeof head, 0) == (ssize_t)sizeof head && ooc_is_block_file(head, sizeof head)) {
+    char head[256]; /* OOC_HEADER_BYTES: an interrupted block file's header is zeros */
+    ssize_t got = pread(fd, head, sizeof head, 0);
+    if (got > 0 && ooc_is_block_file(head, (size_t)got)) {
         ooc_accel *a;
         prt_status s = ooc_open(NULL, 0, fd, (uint64_t)st.st_size, path, o, true, &a);
         if (s) close(fd);

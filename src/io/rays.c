@@ -1,6 +1,7 @@
 /* .rays and .hits files (DESIGN.md §5): an 8-byte magic, a uint64 count, then fixed-size
  * little-endian records. */
 #include "core/common.h"
+#include "io/atomic_file.h"
 
 #include <errno.h>
 #include <math.h>
@@ -44,13 +45,15 @@ static prt_status read_array(const char *path, const char *magic, size_t record,
 }
 
 static prt_status write_array(const char *path, const char *magic, const void *data, size_t record, size_t count) {
-    FILE *f = fopen(path, "wb");
-    if (!f) return prt__fail(PRT_ERROR_IO, "%s: %s", path, strerror(errno));
+    prt__afile a;
+    prt_status s = prt__afile_open(&a, path);
+    if (s) return s;
     uint64_t n = count;
-    bool ok = fwrite(magic, 1, 8, f) == 8 && fwrite(&n, 8, 1, f) == 1 &&
-              (count == 0 || fwrite(data, record, count, f) == count);
-    ok = (fclose(f) == 0) && ok;
-    return ok ? PRT_OK : prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(errno));
+    s = prt__afile_write(&a, magic, 8);
+    if (!s) s = prt__afile_write(&a, &n, 8);
+    if (!s) s = prt__afile_write(&a, data, prt__mul_size(record, count));
+    if (s) prt__afile_abort(&a);
+    return s ? s : prt__afile_commit(&a);
 }
 
 prt_status prt_rays_read(const char *path, prt_ray **rays, size_t *count) {
@@ -88,18 +91,20 @@ prt_status prt_hits_read(const char *path, prt_hit **hits, size_t *count) {
 
 static prt_status write_records(const char *path, size_t count, void (*rec)(const void *, size_t, uint8_t *),
                                 const void *ctx) {
-    FILE *f = fopen(path, "wb");
-    if (!f) return prt__fail(PRT_ERROR_IO, "%s: %s", path, strerror(errno));
+    prt__afile a;
+    prt_status s = prt__afile_open(&a, path);
+    if (s) return s;
     uint64_t n = count;
-    bool ok = fwrite(HITS_MAGIC, 1, 8, f) == 8 && fwrite(&n, 8, 1, f) == 1;
+    s = prt__afile_write(&a, HITS_MAGIC, 8);
+    if (!s) s = prt__afile_write(&a, &n, 8);
     uint8_t buf[HIT_RECORD * 4096];
-    for (size_t i = 0; i < count && ok; i += 4096) {
+    for (size_t i = 0; i < count && !s; i += 4096) {
         size_t k = count - i < 4096 ? count - i : 4096;
         for (size_t j = 0; j < k; j++) rec(ctx, i + j, buf + j * HIT_RECORD);
-        ok = fwrite(buf, HIT_RECORD, k, f) == k;
+        s = prt__afile_write(&a, buf, k * HIT_RECORD);
     }
-    ok = (fclose(f) == 0) && ok;
-    return ok ? PRT_OK : prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(errno));
+    if (s) prt__afile_abort(&a);
+    return s ? s : prt__afile_commit(&a);
 }
 
 static void hit_record(const void *ctx, size_t i, uint8_t *r) {

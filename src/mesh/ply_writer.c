@@ -1,17 +1,15 @@
 /* ply_writer: an indexed binary little-endian PLY streamed to disk in 8 MiB writes, for
  * meshes that are never whole in memory (gen_mandelbulb_save_ply). */
 #include "mesh/ply_writer.h"
+#include "io/atomic_file.h"
 
-#include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
-#include <unistd.h>
 
 #define WRITE_BUFFER ((size_t)8 << 20)
 
 struct ply_writer {
     char *path;
-    int fd;
+    prt__afile out; /* written beside the target, renamed in place by ply_writer_close */
     uint8_t *buf;
     size_t n;
     uint64_t written;              /* bytes */
@@ -21,20 +19,10 @@ struct ply_writer {
 };
 
 static prt_status write_all(ply_writer *w, const void *data, size_t size) {
-    const uint8_t *p = data;
-    while (size) {
-        ssize_t k = write(w->fd, p, PRT_MIN(size, (size_t)1 << 30));
-        if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) {
-            char eb[128];
-            return w->failed = prt__fail(PRT_ERROR_IO, "%s: write failed at byte %llu: %s", w->path,
-                                         (unsigned long long)w->written,
-                                         k < 0 ? strerror_r(errno, eb, sizeof eb) : "no progress");
-        }
-        p += k;
-        size -= (size_t)k;
-        w->written += (uint64_t)k;
-    }
+    if (w->failed) return w->failed;
+    prt_status st = prt__afile_write(&w->out, data, size);
+    if (st) return w->failed = st;
+    w->written += size;
     return PRT_OK;
 }
 
@@ -62,11 +50,8 @@ prt_status ply_writer_open(const char *path, ply_writer **out) {
         return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the write buffer", path);
     }
     memcpy(w->path, path, len + 1);
-    w->fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-    if (w->fd < 0) {
-        char eb[128];
-        prt_status st = prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path,
-                                  strerror_r(errno, eb, sizeof eb));
+    prt_status st = prt__afile_open(&w->out, path);
+    if (st) {
         prt__free(w->buf);
         prt__free(w->path);
         prt__free(w);
@@ -200,12 +185,9 @@ prt_status ply_writer_close(ply_writer *w, bool ok) {
                        (unsigned long long)w->vdone, (unsigned long long)w->nv,
                        (unsigned long long)w->tdone, (unsigned long long)w->nt);
     if (ok && !st) st = flush(w);
-    if (close(w->fd) != 0 && ok && !st) {
-        char eb[128];
-        st = prt__fail(PRT_ERROR_IO, "%s: close failed: %s", w->path,
-                       strerror_r(errno, eb, sizeof eb));
-    }
-    if (!ok || st) unlink(w->path); /* no half-written mesh left behind */
+    /* No half-written mesh is left behind, and a previous file stays until this one is whole. */
+    if (ok && !st) st = prt__afile_commit(&w->out);
+    else prt__afile_abort(&w->out);
     prt__free(w->buf);
     prt__free(w->path);
     prt__free(w);

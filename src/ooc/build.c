@@ -393,7 +393,6 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
     prt__free(root);
     prt__free(b.batch);
     ooc_writer_free(b.w);
-    if (s && job->out_path) remove(job->out_path);
     return s;
 }
 
@@ -679,6 +678,5 @@ prt_status ooc_build_bricks(const ooc_brick_source *src, const ooc_build_job *jo
     prt__free(root);
     prt__free(c.v);
     ooc_writer_free(b.w);
-    if (s) remove(job->out_path);
     return s;
 }

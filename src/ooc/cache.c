@@ -91,6 +91,12 @@ static uint32_t take_slot(ooc_cache *c, uint32_t min_age) {
          * either it sees the map cleared or we see its pin. */
         uint32_t old = atomic_load(&c->slots[best].block);
         atomic_store(&c->map[old], 0);
+        /* The same handshake with LOD queries, which count themselves before reading the map:
+         * either one sees the map cleared or we see it running (then nothing is evicted). */
+        if (min_age == 0 && atomic_load(&c->lod_active)) {
+            atomic_store(&c->map[old], best + 1);
+            return NO_BLOCK;
+        }
         if (atomic_load(&c->slots[best].pins)) {
             atomic_store(&c->map[old], best + 1);
             atomic_store_explicit(&c->slots[best].stamp, frame, memory_order_relaxed); /* skip it next time */

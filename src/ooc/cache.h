@@ -41,6 +41,7 @@ typedef struct ooc_cache {
     _Atomic uint32_t nrequests;
     uint32_t request_cap;
     _Atomic uint32_t frame;
+    _Atomic uint32_t lod_active; /* LOD queries running (pinning caches only): no eviction meanwhile */
     pthread_mutex_t mu;
     pthread_cond_t loaded, work;
     /* Fetch jobs (block, slot), taken in order by the fetchers. */
@@ -76,6 +77,16 @@ static inline void ooc_cache_put(ooc_cache *c, uint32_t b) {
         uint32_t s = atomic_load_explicit(&c->map[b], memory_order_relaxed);
         if (s) atomic_fetch_sub(&c->slots[s - 1].pins, 1);
     }
+}
+/* Around each LOD query: LOD queries read published blocks without pins, so while one runs
+ * exact queries (in the same frame, on other threads) load into free slots only and
+ * otherwise wait rather than evict a block it may be reading (issue 31: a block refilled
+ * under a LOD walk read as corrupt). Only caches smaller than their file evict mid-frame. */
+static inline void ooc_cache_lod_begin(ooc_cache *c) {
+    if (c->pinning) atomic_fetch_add(&c->lod_active, 1);
+}
+static inline void ooc_cache_lod_end(ooc_cache *c) {
+    if (c->pinning) atomic_fetch_sub(&c->lod_active, 1);
 }
 /* Without waiting: the block if it is published, else NULL (and the block is requested). */
 const uint8_t *ooc_cache_try(ooc_cache *c, uint32_t b, uint32_t *size);

@@ -4,6 +4,7 @@
  * Not a .prt container: the block file (docs/formats-ooc.md) is its own format, opened by
  * prt_accel_load / prt_accel_open through its magic, and read block by block. */
 #include "ooc/ooc_accel.h"
+#include "io/atomic_file.h"
 #include "ooc/ooc_build.h"
 
 #include <errno.h>
@@ -49,7 +50,17 @@ prt_status ooc_parse_spec(prt_spec *spec, ooc_build_params *p) {
     return PRT_OK;
 }
 
-bool ooc_is_block_file(const void *head, size_t n) { return n >= 8 && !memcmp(head, OOC_MAGIC, 8); }
+/* A header of zeros: a block file whose build was interrupted before packrt wrote its
+ * files through io/atomic_file.h (the header was written last, in place). */
+static bool zero_header(const void *head, size_t n) {
+    if (n < OOC_HEADER_BYTES) return false;
+    const uint8_t *p = head;
+    for (size_t i = 0; i < OOC_HEADER_BYTES; i++)
+        if (p[i]) return false;
+    return true;
+}
+
+bool ooc_is_block_file(const void *head, size_t n) { return (n >= 8 && !memcmp(head, OOC_MAGIC, 8)) || zero_header(head, n); }
 
 static void ooc_destroy(prt_accel *a) {
     ooc_accel *o = (ooc_accel *)a;
@@ -87,6 +98,8 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
     ooc_header h;
     prt_status s = read_at(fd, mem, size, 0, &h, sizeof h, name);
     if (s) return s;
+    if (zero_header(&h, sizeof h))
+        return prt__fail(PRT_ERROR_CORRUPT, "%s: incomplete packrt block file: the build was interrupted (its header was never written)", name);
     if (memcmp(h.magic, OOC_MAGIC, 8)) return corrupt(name, "bad magic");
     if (h.version != OOC_VERSION)
         return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: block file version %u; this packrt reads version %u", name, h.version, OOC_VERSION);
@@ -103,8 +116,12 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
         if (!isfinite(h.bounds[k]) || !isfinite(h.bounds[3 + k]) || h.bounds[k] > h.bounds[3 + k])
             return corrupt(name, "bounds are not a box");
     uint64_t tbytes = (uint64_t)h.block_count * sizeof(ooc_block_entry);
-    if (h.table_offset < OOC_HEADER_BYTES || h.table_offset > size || tbytes > size - h.table_offset)
-        return corrupt(name, "block table out of the file");
+    if (h.table_offset >= OOC_HEADER_BYTES && (h.table_offset > size || tbytes > size - h.table_offset))
+        return prt__fail(PRT_ERROR_CORRUPT,
+                         "%s: incomplete packrt block file: the build was interrupted or the file was cut short (it "
+                         "ends at byte %llu, its block table at byte %llu)",
+                         name, (unsigned long long)size, (unsigned long long)(h.table_offset + tbytes));
+    if (h.table_offset < OOC_HEADER_BYTES) return corrupt(name, "block table out of the file");
     ooc_accel *o = prt__calloc(1, sizeof *o);
     if (!o) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     o->fd = -1;
@@ -226,19 +243,18 @@ static prt_status ooc_save(const prt_accel *a, prt_writer *w) {
 /* Write the block file: the image when it was built in memory, else a copy of the file. */
 static prt_status ooc_save_file(const prt_accel *a, const char *path) {
     const ooc_accel *o = (const ooc_accel *)a;
-    FILE *f = fopen(path, "wb");
-    if (!f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    prt__afile f;
+    prt_status s = prt__afile_open(&f, path);
+    if (s) return s;
     static _Thread_local uint8_t buf[1 << 16];
-    prt_status s = PRT_OK;
     for (uint64_t off = 0; off < o->file_bytes && !s;) {
         size_t n = (size_t)PRT_MIN((uint64_t)sizeof buf, o->file_bytes - off);
         s = read_at(o->fd, o->mem, o->file_bytes, off, buf, n, path);
-        if (!s && fwrite(buf, 1, n, f) != n) s = prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(errno));
+        if (!s) s = prt__afile_write(&f, buf, n);
         off += n;
     }
-    if (fclose(f) && !s) s = prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(errno));
-    if (s) remove(path);
-    return s;
+    if (s) prt__afile_abort(&f);
+    return s ? s : prt__afile_commit(&f);
 }
 
 static prt_status ooc_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
@@ -271,8 +287,27 @@ static prt_status ooc_check(const prt_accel *a) {
     return PRT_OK;
 }
 
+/* The LOD entry points, each counted as running for the cache (ooc_cache_lod_begin). */
 static bool lod_query(const prt_accel *a, prt_ray *r, float error, bool any, prt_lod_hit *h) {
-    return ooc_intersect_lod(a, r, error, any, h);
+    ooc_cache *c = &((ooc_accel *)a)->cache;
+    ooc_cache_lod_begin(c);
+    bool hit = ooc_intersect_lod(a, r, error, any, h);
+    ooc_cache_lod_end(c);
+    return hit;
+}
+
+static void lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float error) {
+    ooc_cache *c = &((ooc_accel *)a)->cache;
+    ooc_cache_lod_begin(c);
+    ooc_intersect_lod_packet(a, rays, out, n, error);
+    ooc_cache_lod_end(c);
+}
+
+static void lod_occluded_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error) {
+    ooc_cache *c = &((ooc_accel *)a)->cache;
+    ooc_cache_lod_begin(c);
+    ooc_occluded_lod_packet(a, rays, occluded, n, error);
+    ooc_cache_lod_end(c);
 }
 
 static bool ooc_accepts(const prt_spec *s) { return !strcmp(s->structure, "ooc") && !s->codec[0]; }
@@ -296,8 +331,8 @@ const prt_accel_ops prt__ooc_ops = {
     .load = ooc_load,
     .destroy = ooc_destroy,
     .lod_query = lod_query,
-    .lod_packet = ooc_intersect_lod_packet,
-    .lod_occluded_packet = ooc_occluded_lod_packet,
+    .lod_packet = lod_packet,
+    .lod_occluded_packet = lod_occluded_packet,
     .frame = ooc_frame,
     .check = ooc_check,
 };

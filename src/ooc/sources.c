@@ -1,4 +1,5 @@
 /* What feeds the out-of-core builder: a prt_mesh in memory, a mesh file, a generator. */
+#include "io/atomic_file.h"
 #include "ooc/ooc_build.h"
 
 #include "mesh/gen.h"
@@ -23,11 +24,12 @@ static prt_status mesh_producer(void *ctx, tri_sink_fn sink, void *user) {
     return PRT_OK;
 }
 
-/* Temporary files of a build in memory go to $TMPDIR; of a file build, beside the file. */
+/* Temporary files of a build in memory go to $TMPDIR; of a file build, beside the file
+ * (io/atomic_file.h names them). */
 static void tmp_prefix(char *buf, size_t n, const char *out_path) {
     static _Atomic unsigned seq;
-    if (out_path) {
-        snprintf(buf, n, "%s", out_path);
+    if (out_path) { /* "<out>.tmp.<pid>": the next build of out removes them if this one is killed */
+        if (!prt__afile_temp_prefix(buf, n, out_path)) snprintf(buf, n, "%s", out_path);
         return;
     }
     const char *dir = getenv("TMPDIR");

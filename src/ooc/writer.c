@@ -2,6 +2,7 @@
  * assembled bottom-up, both children of a LOD node placed side by side in one node block;
  * leaves written to triangle blocks that share triangles and vertices between the leaves
  * they hold; every block LZ4-compressed as it fills and appended to the output. */
+#include "io/atomic_file.h"
 #include "ooc/ooc.h"
 
 #include <errno.h>
@@ -33,7 +34,7 @@ typedef struct open_tris {
 } open_tris;
 
 struct ooc_writer {
-    FILE *f;               /* NULL: memory */
+    prt__afile out;        /* out.f NULL: memory; else the temporary renamed in by finish */
     uint8_t *mem;          /* memory image (header, blocks; the table is appended) */
     size_t mem_size, mem_cap;
     uint64_t offset;       /* next block's file offset */
@@ -74,8 +75,9 @@ static prt_status new_block(ooc_writer *w, uint32_t kind, uint32_t *id) {
 }
 
 static prt_status emit(ooc_writer *w, const void *p, size_t n) {
-    if (w->f) {
-        if (fwrite(p, 1, n, w->f) != n) return prt__fail(PRT_ERROR_IO, "writing the block file failed: %s", strerror(errno));
+    if (w->out.f) {
+        prt_status s = prt__afile_write(&w->out, p, n);
+        if (s) return s;
     } else {
         if (w->mem_size + n > w->mem_cap) {
             size_t cap = PRT_MAX(w->mem_cap * 2, w->mem_size + n + (1u << 20));
@@ -150,15 +152,13 @@ prt_status ooc_writer_open(ooc_writer **out, const char *path) {
         ooc_writer_free(w);
         return prt__fail(PRT_ERROR_NOMEM, "out of memory for the block writer");
     }
-    if (path) {
-        w->f = fopen(path, "wb");
-        if (!w->f) {
-            ooc_writer_free(w);
-            return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
-        }
+    prt_status s;
+    if (path && (s = prt__afile_open(&w->out, path))) {
+        ooc_writer_free(w);
+        return s;
     }
     static const uint8_t zero[OOC_HEADER_BYTES];
-    prt_status s = emit(w, zero, sizeof zero); /* the header is written last */
+    s = emit(w, zero, sizeof zero); /* the header is written last */
     if (!s) s = new_block(w, OOC_BLOCK_TRIS, &w->tris->id);
     if (s) {
         ooc_writer_free(w);
@@ -170,7 +170,7 @@ prt_status ooc_writer_open(ooc_writer **out, const char *path) {
 
 void ooc_writer_free(ooc_writer *w) {
     if (!w) return;
-    if (w->f) fclose(w->f);
+    prt__afile_abort(&w->out); /* unless finish committed it: the target stays as it was */
     prt__free(w->mem);
     prt__free(w->table);
     prt__free(w->tris);
@@ -497,12 +497,11 @@ prt_status ooc_writer_finish(ooc_writer *w, const ooc_frag *root, ooc_header *h,
     h->table_crc = (uint32_t)crc32(0L, (const Bytef *)w->table, (uInt)(w->nblocks * sizeof *w->table));
     h->header_crc = (uint32_t)crc32(0L, (const Bytef *)h, (uInt)offsetof(ooc_header, header_crc));
     if ((s = emit(w, w->table, w->nblocks * sizeof *w->table))) return s;
-    if (w->f) {
-        if (fseek(w->f, 0, SEEK_SET) || fwrite(h, sizeof *h, 1, w->f) != 1 || fflush(w->f))
-            return prt__fail(PRT_ERROR_IO, "writing the block file header failed: %s", strerror(errno));
-        int e = fclose(w->f);
-        w->f = NULL;
-        if (e) return prt__fail(PRT_ERROR_IO, "closing the block file failed: %s", strerror(errno));
+    if (w->out.f) {
+        if (fseek(w->out.f, 0, SEEK_SET))
+            return prt__fail(PRT_ERROR_IO, "%s: seek failed: %s", w->out.path, strerror(errno));
+        if ((s = prt__afile_write(&w->out, h, sizeof *h))) return s;
+        return prt__afile_commit(&w->out);
     } else {
         memcpy(w->mem, h, sizeof *h);
         *image = w->mem, *image_size = w->mem_size;

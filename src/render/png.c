@@ -1,6 +1,7 @@
 /* Image files: 8-bit RGB PNG through libpng when the build found it (PRT_HAVE_PNG), and
  * binary PPM, which needs nothing and is the fallback of builds without libpng. */
 #include "core/common.h"
+#include "io/atomic_file.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -35,12 +36,15 @@ prt_status prt_image_save_png(const prt_image *img, const char *path) {
     pi.width = img->width;
     pi.height = img->height;
     pi.format = PNG_FORMAT_RGB;
-    if (!png_image_write_to_file(&pi, path, 0, img->rgb, (png_int_32)(3 * img->width), NULL)) {
+    prt__afile a;
+    if ((st = prt__afile_open(&a, path))) return st;
+    if (!png_image_write_to_stdio(&pi, a.f, 0, img->rgb, (png_int_32)(3 * img->width), NULL)) {
         prt_status s = prt__fail(PRT_ERROR_IO, "%s: cannot write PNG: %s", path, pi.message);
         png_image_free(&pi);
+        prt__afile_abort(&a);
         return s;
     }
-    return PRT_OK;
+    return prt__afile_commit(&a);
 #else
     return prt__fail(PRT_ERROR_UNSUPPORTED,
                      "%s: this build of packrt has no libpng (install libpng-dev and reconfigure); "
@@ -52,13 +56,12 @@ prt_status prt_image_save_png(const prt_image *img, const char *path) {
 prt_status prt_image_save_ppm(const prt_image *img, const char *path) {
     prt_status st = check_image(img, path, "prt_image_save_ppm");
     if (st) return st;
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return prt__fail(PRT_ERROR_IO, "%s: cannot open for writing: %s", path, strerror(errno));
-    size_t n = (size_t)img->width * img->height * 3;
-    bool ok = fprintf(f, "P6\n%u %u\n255\n", img->width, img->height) > 0 &&
-              fwrite(img->rgb, 1, n, f) == n;
-    ok = (fclose(f) == 0) && ok;
-    if (!ok) return prt__fail(PRT_ERROR_IO, "%s: write failed: %s", path, strerror(errno));
-    return PRT_OK;
+    prt__afile a;
+    if ((st = prt__afile_open(&a, path))) return st;
+    char head[64];
+    int k = snprintf(head, sizeof head, "P6\n%u %u\n255\n", img->width, img->height);
+    st = prt__afile_write(&a, head, (size_t)k);
+    if (!st) st = prt__afile_write(&a, img->rgb, (size_t)img->width * img->height * 3);
+    if (st) prt__afile_abort(&a);
+    return st ? st : prt__afile_commit(&a);
 }

@@ -90,6 +90,8 @@ prt_status rs_stripify(rs_stripifier which, const prt_mesh *m, const uint32_t *t
     if (nv >= (1u << 21)) return prt__fail(PRT_ERROR_LIMIT, "a chunk of %zu vertices: at most 2^21", nv);
     size_t len = which == RS_STRIP_RT ? rs_stripify_rt(local_tris, count, nv, m->vertices, global, strip)
                                       : rs_stripify_meshopt(local_tris, count, nv, strip);
+    /* Triangles always make a strip: none means rs_stripify_rt could not allocate. */
+    if (len == 0 && count > 0) return prt__fail(PRT_ERROR_NOMEM, "out of memory stripifying");
     /* table: slots of (key low, key high, triangle + 1); 0 marks a free slot. */
     memset(table, 0, 3 * slots * sizeof *table);
     const size_t mask = slots - 1;

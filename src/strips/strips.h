@@ -212,6 +212,7 @@ prt_status rs_stripify(rs_stripifier which, const prt_mesh *m, const uint32_t *t
 /* The meshoptimizer and ray-tracing stripifiers' raw output: local strips separated by
  * ~0u, over the chunk's local triangles (3 count local indices). */
 size_t rs_stripify_meshopt(const uint32_t *local_tris, size_t count, size_t local_vertices, uint32_t *out);
+/* rs_stripify_rt returns 0 when it cannot allocate its scratch. */
 size_t rs_stripify_rt(const uint32_t *local_tris, size_t count, size_t local_vertices, const float *vertices,
                       const uint32_t *global, uint32_t *out);
 size_t rs_stripify_bound(size_t count);
