@@ -76,21 +76,19 @@ int cmd_sdf(int argc, char **argv) {
         }
         if (s) rc = cli_fail("sdf", path, s);
         else {
-            FILE *f = fopen(out, "wb");
-            bool ok = f && fwrite(field, 4, total, f) == total;
-            if (f) ok = fclose(f) == 0 && ok;
-            char json[1024];
+            char json[1024], text[1024];
             snprintf(json, sizeof json, "%s.json", out);
-            FILE *j = ok ? fopen(json, "w") : NULL;
-            ok = ok && j &&
-                 fprintf(j, "{\"dims\": [%zu, %zu, %zu], \"origin\": [%.9g, %.9g, %.9g], \"spacing\": %.9g, \"signed\": %s, "
-                            "\"order\": \"x fastest, then y, then z\", \"type\": \"float32\"}\n",
-                         dims[0], dims[1], dims[2], origin[0], origin[1], origin[2], h, unsigned_dist ? "false" : "true") > 0;
-            if (j) ok = fclose(j) == 0 && ok;
+            const int len = snprintf(text, sizeof text,
+                                     "{\"dims\": [%zu, %zu, %zu], \"origin\": [%.9g, %.9g, %.9g], \"spacing\": %.9g, "
+                                     "\"signed\": %s, \"order\": \"x fastest, then y, then z\", \"type\": \"float32\"}\n",
+                                     dims[0], dims[1], dims[2], origin[0], origin[1], origin[2], h, unsigned_dist ? "false" : "true");
+            const void *field_part = field, *text_part = text;
+            const size_t field_bytes = total * 4, text_bytes = (size_t)len;
+            prt_status ws = qf_write_parts(out, &field_part, &field_bytes, 1);
+            if (!ws) ws = qf_write_parts(json, &text_part, &text_bytes, 1);
+            const bool ok = !ws;
             if (!ok) {
-                fprintf(stderr, "packrt sdf: %s: write failed\n", out);
-                remove(out);
-                rc = 1;
+                rc = cli_fail("sdf", out, ws);
             } else {
                 printf("grid %zu x %zu x %zu, origin %g %g %g, spacing %g: %s (%s)\n", dims[0], dims[1], dims[2], origin[0],
                        origin[1], origin[2], h, out, json);

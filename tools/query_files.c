@@ -1,6 +1,7 @@
 /* The query commands' files (docs/formats.md): points read as .points or as text, answers
- * written as one binary file of a magic, a count and records. */
+ * written as one binary file of a magic, a count and records, atomically (io/atomic_file.h). */
 #include "query_files.h"
+#include "io/atomic_file.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -80,16 +81,20 @@ int qf_read_points(const char *cmd, const char *path, float **points, size_t *co
     return 0;
 }
 
+prt_status qf_write_parts(const char *path, const void *const *parts, const size_t *sizes, int n) {
+    prt__afile a;
+    prt_status s = prt__afile_open(&a, path);
+    for (int i = 0; i < n && !s; i++)
+        if (sizes[i]) s = prt__afile_write(&a, parts[i], sizes[i]);
+    if (s) prt__afile_abort(&a);
+    else s = prt__afile_commit(&a);
+    return s;
+}
+
 int qf_write(const char *cmd, const char *path, const char magic[8], uint64_t count, const void *head, size_t head_bytes,
              const void *data, size_t bytes) {
-    FILE *f = fopen(path, "wb");
-    bool ok = f && fwrite(magic, 1, 8, f) == 8 && fwrite(&count, 8, 1, f) == 1 &&
-              (!head_bytes || fwrite(head, 1, head_bytes, f) == head_bytes) && (!bytes || fwrite(data, 1, bytes, f) == bytes);
-    if (f) ok = fclose(f) == 0 && ok;
-    if (!ok) {
-        fprintf(stderr, "packrt %s: %s: write failed: %s\n", cmd, path, strerror(errno));
-        remove(path);
-        return 1;
-    }
-    return 0;
+    const void *parts[4] = {magic, &count, head, data};
+    const size_t sizes[4] = {8, 8, head_bytes, bytes};
+    prt_status s = qf_write_parts(path, parts, sizes, 4);
+    return s ? cli_fail(cmd, path, s) : 0;
 }

@@ -1,4 +1,5 @@
-/* mesh_writer (mesh_writer.h): buffered output with cleanup on failure. */
+/* mesh_writer (mesh_writer.h): buffered output through an atomic file (io/atomic_file.h),
+ * renamed over its target only when every byte was written. */
 #include "mesh/mesh_writer.h"
 
 #include <errno.h>
@@ -14,18 +15,18 @@ prt_status mesh_writer_open(mesh_writer *w, const prt_mesh *m, const char *path,
         return prt__fail(st, "%s: refusing to save an invalid mesh: %s", path, detail);
     }
     w->path = path;
-    w->f = fopen(path, "wb");
-    if (!w->f) return prt__fail(PRT_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    if ((st = prt__afile_open(&w->a, path))) return st;
+    w->f = w->a.f;
     setvbuf(w->f, NULL, _IOFBF, (size_t)8 << 20);
     return PRT_OK;
 }
 
 prt_status mesh_writer_close(mesh_writer *w, bool ok) {
-    int err = 0;
-    if (w->failed) err = errno ? errno : EIO;
-    if (fclose(w->f) != 0 && !err) err = errno ? errno : EIO;
+    const int err = w->failed ? (errno ? errno : EIO) : 0;
     w->f = NULL;
-    if (err || !ok) remove(w->path);
-    if (err) return prt__fail(PRT_ERROR_IO, "%s: write failed: %s", w->path, strerror(err));
-    return PRT_OK;
+    if (err || !ok) {
+        prt__afile_abort(&w->a);
+        return err ? prt__fail(PRT_ERROR_IO, "%s: write failed: %s", w->path, strerror(err)) : PRT_OK;
+    }
+    return prt__afile_commit(&w->a);
 }

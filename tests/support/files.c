@@ -149,17 +149,21 @@ static prt_status write_image(const char *path, bool png) {
 static prt_status write_png(const char *path) { return write_image(path, true); }
 static prt_status write_ppm(const char *path) { return write_image(path, false); }
 
-static prt_status write_ply(const char *path) {
+/* A small mesh saved as PLY, STL or OFF. */
+static prt_status write_mesh_as(const char *path, prt_status (*save)(const prt_mesh *, const char *)) {
     prt_mesh *m = mesh_grid(40);
     if (!m) return PRT_ERROR_NOMEM;
-    prt_status s = prt_mesh_save_ply(m, path);
+    prt_status s = save(m, path);
     prt_mesh_free(m);
     return s;
 }
+static prt_status write_ply(const char *path) { return write_mesh_as(path, prt_mesh_save_ply); }
+static prt_status write_stl(const char *path) { return write_mesh_as(path, prt_mesh_save_stl); }
+static prt_status write_off(const char *path) { return write_mesh_as(path, prt_mesh_save_off); }
 
 const file_kind file_kinds[] = {
     {"prt", write_prt},   {"ooc", write_ooc_build}, {"ooc-copy", write_ooc_copy}, {"rays", write_rays},
     {"hits", write_hits}, {"occluded-hits", write_occluded}, {"png", write_png}, {"ppm", write_ppm},
-    {"ply", write_ply},
+    {"ply", write_ply},   {"stl", write_stl},       {"off", write_off},
 };
 const size_t file_kind_count = sizeof file_kinds / sizeof file_kinds[0];
