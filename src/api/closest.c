@@ -13,6 +13,14 @@ typedef struct closest_state {
 static void closest_leaf(prt__query *q, const float *v, const uint32_t *prims, uint32_t n) {
     closest_state *c = q->user;
     for (uint32_t i = 0; i < n; i++, v += 9) {
+        /* The triangle's box first: most triangles of a leaf lie farther than the radius. */
+        float box[6];
+        for (int k = 0; k < 3; k++) {
+            const float x = v[k], y = v[3 + k], z = v[6 + k]; /* no libm call for min, max */
+            const float lo = x < y ? x : y, hi = x > y ? x : y;
+            box[k] = lo < z ? lo : z, box[3 + k] = hi > z ? hi : z;
+        }
+        if (prt__box_distance2(q->p, box) > q->r2) continue;
         const double a[3] = {v[0], v[1], v[2]}, b[3] = {v[3], v[4], v[5]}, d[3] = {v[6], v[7], v[8]};
         double u, w;
         const double d2 = prt__closest_on_triangle(q->p, a, b, d, &u, &w);

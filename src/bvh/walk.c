@@ -31,8 +31,10 @@ static void name_triangles(const bvh_view *w, float *v, uint32_t *ids, uint32_t 
     }
 }
 
-/* A node's cost for q, tested on its box widened to hold what the codec decodes. */
-static double walk_cost(const bvh_view *w, const prt__query *q, const bvh_child *c) {
+/* A node's cost for q, tested on its box widened to hold what the codec decodes (lossy
+ * codecs only: bvh_decoded_box leaves the others' boxes as they are). */
+static double walk_cost(const bvh_view *w, bool widen, const prt__query *q, const bvh_child *c) {
+    if (!widen) return prt__query_cost(q, c->box);
     float box[6];
     bvh_decoded_box(w->codec, w->shared, c->box, box);
     return prt__query_cost(q, box);
@@ -48,8 +50,9 @@ void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
     float v[9 * BVH_DECODE_MAX];
     uint32_t ids[BVH_DECODE_MAX];
     uint32_t sp = 0;
+    const bool widen = w->codec->leaf_error || w->codec->vertex_error;
     const bvh_child root = w->layout->root(w->blob, w->codec, bounds);
-    stack[sp++] = (walk_entry){root, walk_cost(w, q, &root)};
+    stack[sp++] = (walk_entry){root, walk_cost(w, widen, q, &root)};
     while (sp) {
         const walk_entry e = stack[--sp];
         if (e.cost == INFINITY || (q->kind == PRT__QUERY_POINT && e.cost > q->r2)) continue;
@@ -64,7 +67,7 @@ void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
         walk_entry next[8];
         uint32_t m = 0;
         for (uint32_t i = 0; i < n; i++) {
-            const double c = walk_cost(w, q, &kids[i]);
+            const double c = walk_cost(w, widen, q, &kids[i]);
             if (c < INFINITY) next[m++] = (walk_entry){kids[i], c};
         }
         /* Farthest pushed first, so the nearest is popped next (insertion sort, at most 8). */
