@@ -21,9 +21,22 @@ static inline void prt__tri_edges_double(float ax, float ay, float bx, float by,
     *w = (float)((double)bx * (double)ay - (double)by * (double)ax);
 }
 
-/* One triangle. On a hit with t in [tnear, tfar] returns true and sets t, u, v. */
-static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float *p1, const float *p2,
-                                float tfar, float *t_out, float *u_out, float *v_out) {
+/* Sign of the edge function e of the edge from (x0, y0) to (x1, y1) with the ray moved by
+ * (eps, eps^2) in the sheared plane (geom/crossing.h): e + eps (y1 - y0) + eps^2 (x0 - x1). A
+ * float difference has the sign of the exact one. */
+static inline float prt__sos_edge(float e, float x0, float y0, float x1, float y1) {
+    if (e != 0.0f) return e;
+    const float dy = y1 - y0, dx = x0 - x1;
+    return dy != 0.0f ? dy : dx;
+}
+
+/* One triangle. On a hit with t in [tnear, tfar] returns true and sets t, u, v. crossing
+ * (a constant at every call, so the branch folds away): edge functions that are exactly
+ * zero take the sign of a moved ray (prt__sos_edge), so that a ray through an edge or a
+ * vertex belongs to one triangle of a crossing surface (geom/crossing.h); otherwise zero
+ * counts as inside for every triangle (watertight, and hits there twice). */
+static inline bool prt__tri_test(const prt__rayx *r, const float *p0, const float *p1, const float *p2, float tfar,
+                                 float *t_out, float *u_out, float *v_out, bool crossing) {
     const int kx = r->kx, ky = r->ky, kz = r->kz;
     const float az0 = p0[kz] - r->org[kz], bz0 = p1[kz] - r->org[kz], cz0 = p2[kz] - r->org[kz];
     const float ax = (p0[kx] - r->org[kx]) - r->sx * az0, ay = (p0[ky] - r->org[ky]) - r->sy * az0;
@@ -33,7 +46,12 @@ static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float
     float v = ax * cy - ay * cx;
     float w = bx * ay - by * ax;
     if (PRT_UNLIKELY(u == 0.0f || v == 0.0f || w == 0.0f)) prt__tri_edges_double(ax, ay, bx, by, cx, cy, &u, &v, &w);
-    if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
+    float su = u, sv = v, sw = w;
+    if (crossing) { /* u belongs to the edge b -> c, v to c -> a, w to a -> b */
+        su = prt__sos_edge(u, bx, by, cx, cy), sv = prt__sos_edge(v, cx, cy, ax, ay), sw = prt__sos_edge(w, ax, ay, bx, by);
+        if (su == 0.0f || sv == 0.0f || sw == 0.0f) return false; /* an edge of no length: seen edge-on */
+    }
+    if ((su < 0.0f || sv < 0.0f || sw < 0.0f) && (su > 0.0f || sv > 0.0f || sw > 0.0f)) return false;
     const float det = u + v + w;
     if (det == 0.0f) return false;
     const float T = u * (r->sz * az0) + v * (r->sz * bz0) + w * (r->sz * cz0);
@@ -43,6 +61,11 @@ static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float
     *u_out = v / det;
     *v_out = w / det;
     return true;
+}
+
+static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float *p1, const float *p2, float tfar,
+                                float *t_out, float *u_out, float *v_out) {
+    return prt__tri_test(r, p0, p1, p2, tfar, t_out, u_out, v_out, false);
 }
 
 /* The axes of a ray whose triangle vertices were renamed kx, ky, kz -> 0, 1, 2 as they
