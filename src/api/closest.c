@@ -32,8 +32,7 @@ static void closest_leaf(prt__query *q, const float *v, const uint32_t *prims, u
     }
 }
 
-/* The closest point of one point (a checked); r2: the squared search radius. */
-static void closest_one(const prt_accel *a, const float *p, double r2, prt_closest *out) {
+void prt__closest_one(const prt_accel *a, const float *p, double r2, prt_closest *out) {
     *out = (prt_closest){{0, 0, 0}, INFINITY, 0, 0, PRT_INVALID};
     if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) return;
     closest_state c = {.d2 = INFINITY, .prim = PRT_INVALID};
@@ -56,6 +55,6 @@ prt_status prt_closest_points(const prt_accel *a, const float *points, size_t n,
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_closest_points: max_distance %g is not a distance", (double)max_distance);
     const double r2 = (double)max_distance * max_distance;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 64)
-    for (size_t i = 0; i < n; i++) closest_one(a, points + 3 * i, r2, &out[i]);
+    for (size_t i = 0; i < n; i++) prt__closest_one(a, points + 3 * i, r2, &out[i]);
     return PRT_OK;
 }

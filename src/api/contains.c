@@ -81,13 +81,14 @@ prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n
     if (s) return s;
     if (n && (!points || !distance))
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_signed_distance: points and distance must be set");
-    prt_closest c[256];
-    uint8_t in[256];
-    for (size_t first = 0; first < n; first += 256) {
-        const size_t m = n - first < 256 ? n - first : 256;
-        if ((s = prt_closest_points(a, points + 3 * first, m, max_distance, c, threads))) return s;
-        if ((s = prt_contains(a, points + 3 * first, m, in, threads))) return s;
-        for (size_t i = 0; i < m; i++) distance[first + i] = in[i] & PRT_INSIDE ? -c[i].distance : c[i].distance;
+    if (!(max_distance >= 0.0f))
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_signed_distance: max_distance %g is not a distance", (double)max_distance);
+    const double r2 = (double)max_distance * max_distance;
+#pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 16)
+    for (size_t i = 0; i < n; i++) {
+        prt_closest c;
+        prt__closest_one(a, points + 3 * i, r2, &c);
+        distance[i] = contains_one(a, points + 3 * i) & PRT_INSIDE ? -c.distance : c.distance;
     }
     return PRT_OK;
 }

@@ -34,6 +34,10 @@ typedef struct prt_accel prt_accel;
  * (fn: the caller's name, for the message). */
 prt_status prt__query_check(const prt_accel *a, const char *fn);
 
+/* The closest point of one point within sqrt(r2) (a checked; api/closest.c), as
+ * prt_closest_points answers it. */
+void prt__closest_one(const prt_accel *a, const float *p, double r2, prt_closest *out);
+
 /* Walk a for q (a checked by prt__query_check). */
 void prt__query_walk(const prt_accel *a, prt__query *q);
 
