@@ -322,7 +322,21 @@ typedef struct bench_row {
     double random_us_per_1024_cold; /* cold, one thread, median */
     bench_figures w[BENCH_WORKLOAD_COUNT];
     bench_check check[BENCH_WORKLOAD_COUNT];
+    int rounds;    /* rounds the timings are medians of (fresh build each round) */
+    double spread; /* largest (max - min) / median over rounds of any one-thread timing */
 } bench_row;
+
+/* A figure whose spread over rounds exceeds this is marked unreliable in the report. */
+#define BENCH_SPREAD_MARK 0.10
+
+/* The rounds of one representation as one row (bench/rounds.c): medians of the timings
+ * over rounds[0..n), memory and checks of the first round (builds are deterministic), and
+ * the spread. n >= 1; a round that failed makes the row fail with its error. */
+void bench_rows_median(const bench_row *rounds, size_t n, bench_row *out);
+
+/* What `packrt bench` runs without -r (bench/rounds.c): every family, and every BVH
+ * layout once, the fastest and the smallest codecs of wide8. NULL-terminated. */
+extern const char *const bench_default_specs[];
 
 /* Fill a row's memory and build figures from stats. */
 void bench_row_set_stats(bench_row *row, const prt_stats *s, size_t triangles);
@@ -335,6 +349,8 @@ typedef struct bench_report {
     size_t triangles, vertices;
     const char *reference; /* name the checks compare against, NULL: none */
     bench_options options;
+    int rounds;     /* rounds each row's timings are medians of */
+    const char *isa; /* instruction set of packrt's kernels, NULL: not said */
     int threads_mt; /* resolved thread count of the mt figures */
     uint64_t seed;
     bool workload_on[BENCH_WORKLOAD_COUNT];
@@ -349,6 +365,10 @@ typedef struct bench_report {
 void bench_report_text(FILE *f, const bench_report *r);
 /* The DESIGN §7 JSON object. */
 void bench_report_json(FILE *f, const bench_report *r);
+/* The memory/speed trade-off as an SVG picture (bench/plot.c): every measured row as a point,
+ * total bytes per triangle against warm time per ray (random workload, one thread), Embree
+ * marked, the Pareto front joined and labelled. False (errno set) when writing fails. */
+bool bench_plot_svg(FILE *f, const bench_report *r);
 
 /* ---------------------------------------------------------------------------------
  * The Rouwé matrix (bench/matrix.c): `packrt bench MESH --matrix`

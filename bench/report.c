@@ -69,8 +69,11 @@ void bench_report_text(FILE *f, const bench_report *r) {
     fprintf(f, "packrt bench: %s: %zu triangles", r->mesh_path, r->triangles);
     if (r->vertices) fprintf(f, ", %zu vertices", r->vertices); /* a .prt file does not say */
     fputc('\n', f);
-    fprintf(f, "machine: %s; commit %s; mt = %d threads; %d repetitions (median)\n", r->machine,
-            r->commit, r->threads_mt, r->options.reps < 5 ? 5 : r->options.reps);
+    fprintf(f, "machine: %s; commit %s; mt = %d threads; %d repetitions (median)", r->machine, r->commit,
+            r->threads_mt, r->options.reps < 5 ? 5 : r->options.reps);
+    if (r->rounds > 1) fprintf(f, " in each of %d rounds (median of rounds)", r->rounds);
+    if (r->isa) fprintf(f, "; kernels %s", r->isa);
+    fputc('\n', f);
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     /* Other processes on the cores spoil timings, the all-threads figures most: a thread that
      * waits a scheduler slice at a barrier costs milliseconds. Say so next to the numbers. */
@@ -98,11 +101,13 @@ void bench_report_text(FILE *f, const bench_report *r) {
     for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++)
         if (r->workload_on[w]) fprintf(f, " %13s", bench_workload_name((bench_workload)w));
     if (em) fprintf(f, "  %13s", "vs embree");
+    if (r->rounds > 1) fprintf(f, " %7s", "rounds");
     fprintf(f, "\n%-*s %7s %5s %5s %5s %11s %7s", nw, "representation", "build s", "tree", "geom",
             "total", "us/1024", "us/ray");
     for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++)
         if (r->workload_on[w]) fprintf(f, " %6s %6s", "1t", "mt");
     if (em) fprintf(f, "  %6s %6s", "time", "memory");
+    if (r->rounds > 1) fprintf(f, " %7s", "spread");
     fputc('\n', f);
 
     for (size_t i = 0; i < r->row_count; i++) {
@@ -131,6 +136,7 @@ void bench_report_text(FILE *f, const bench_report *r) {
             if (em->bytes_per_tri_total > 0) fprintf(f, " %5.2fx", row->bytes_per_tri_total / em->bytes_per_tri_total);
             else fprintf(f, " %6s", "-");
         }
+        if (r->rounds > 1) fprintf(f, " %5.0f%%%s", 100 * row->spread, row->spread > BENCH_SPREAD_MARK ? "!" : " ");
         fputc('\n', f);
     }
 
@@ -139,6 +145,9 @@ void bench_report_text(FILE *f, const bench_report *r) {
                "minimum; cold us/ray: caches flushed before\neach batch of 1024 (Rouwe's unit); "
                "workload columns: Mrays/s, median, 1 thread and %d threads", r->threads_mt);
     if (em) fprintf(f, ";\nvs embree: random us/1024 and total bytes/triangle over Embree's (lower is better)");
+    if (r->rounds > 1)
+        fprintf(f, ";\nspread: largest (max - min) / median over the %d rounds of a one-thread figure; ! over %.0f%%: "
+                   "that row's figures are unreliable", r->rounds, 100 * BENCH_SPREAD_MARK);
     fprintf(f, ".\n");
 
     if (!r->reference) {
@@ -193,6 +202,10 @@ void bench_report_json(FILE *f, const bench_report *r) {
     fprintf(f, ", \"commit\": ");
     json_string(f, r->commit);
     json_number(f, "load_average", r->load_average, r->load_average >= 0);
+    fprintf(f, ", \"isa\": ");
+    if (r->isa) json_string(f, r->isa);
+    else fprintf(f, "null");
+    fprintf(f, ", \"rounds\": %d", r->rounds > 1 ? r->rounds : 1);
     fprintf(f, ", \"mesh\": {\"path\": ");
     json_string(f, r->mesh_path);
     fprintf(f, ", \"triangles\": %zu, \"vertices\": %zu}", r->triangles, r->vertices);
@@ -230,6 +243,7 @@ void bench_report_json(FILE *f, const bench_report *r) {
             fprintf(f, ", \"detail\": ");
             json_string(f, row->detail);
         }
+        json_number(f, "spread", row->spread, row->rounds > 1);
         json_number(f, "random_us_per_1024", row->random_us_per_1024, row->random_us_per_1024 > 0);
         json_number(f, "random_us_per_1024_cold", row->random_us_per_1024_cold, row->random_us_per_1024_cold > 0);
         json_number(f, "random_us_per_ray_cold", row->random_us_per_1024_cold / 1024.0,

@@ -9,21 +9,13 @@ cd "$(dirname "$0")/.."
 scripts/deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$(nproc)" --target packrt >/dev/null
-# All 108 representations would take the better part of an hour here; without -r, bench
-# the fastest and the smallest BVHs of each kind and the other four families
-# (`packrt bench --matrix` or -r all for the rest).
-picks=()
-case " $* " in
-  *" -r "*) ;;
-  *) for s in quad:float3-soa4 wide8:float3-soa8 quad-half:float3-soa4 wide8:idx8-soa4 wide8:idx32-soa4 \
-              wide8:idx8-bitpack-soa4 aabb-compressed:idx8-bitpack-soa4 aabb:float3 raystrips lossygrid cgrid ooc; do
-       picks+=(-r "$s")
-     done ;;
-esac
-build/packrt bench "$@" "${picks[@]}"
+# Without -r, bench runs one representation of every family and layout against Embree
+# (`-r all` for every name of `packrt list`, `--matrix` for Rouwe's tables); the
+# trade-off picture goes to out/tradeoff.svg.
+mkdir -p out
+build/packrt bench "$@" --plot out/tradeoff.svg
 
 # A picture of what was measured: the same mesh (bench's default is the 1M mandelbulb).
-mkdir -p out
 if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then
   mesh=$1
 else

@@ -51,6 +51,17 @@ check bench_json 0 "$packrt" bench "$dir/s.ply" -r quad:float3-soa4 --rays 2000 
 python3 -c "import json,sys; d=json.load(open('$dir/out')); r=d['results'][0]; assert r['name'].startswith('quad') and r['bytes_per_tri_total'] > 0" \
   && { pass=$((pass + 1)); echo "ok   bench_json_fields"; } || { fail=$((fail + 1)); echo "FAIL bench_json_fields"; }
 
+# Rounds and the trade-off plot: two rows in two rounds, both drawn, the front joined.
+check bench_plot 0 "$packrt" bench "$dir/s.ply" -r quad:float3-soa4 -r wide8:idx8-soa4 --rays 1000 --reps 1 \
+  --rounds 2 --workload random --no-cold --vs none --plot "$dir/t.svg" --json
+python3 -c "import json; d=json.load(open('$dir/out')); assert d['rounds'] == 2 and all('spread' in r for r in d['results'])" \
+  && { pass=$((pass + 1)); echo "ok   bench_rounds_json"; } || { fail=$((fail + 1)); echo "FAIL bench_rounds_json"; }
+grep -q "<polyline" "$dir/t.svg" && grep -q "wide8:idx8-soa4" "$dir/t.svg" && grep -q "</svg>" "$dir/t.svg" \
+  && { pass=$((pass + 1)); echo "ok   bench_plot_svg"; } || { fail=$((fail + 1)); echo "FAIL bench_plot_svg"; }
+check bench_plot_not_svg 2 "$packrt" bench "$dir/s.ply" --plot "$dir/t.png"
+check bench_plot_unwritable 1 "$packrt" bench "$dir/s.ply" -r aabb:float3 --rays 200 --reps 1 --rounds 1 \
+  --workload random --no-cold --vs none --plot "$dir/no/such/dir/t.svg"
+
 # Mistakes: usage errors exit 2, failures exit 1 with a message, never a crash.
 check no_command 2 "$packrt"
 check unknown_command 2 "$packrt" frobnicate

@@ -6,12 +6,11 @@
 
 #include "core/common.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-#define BENCH_MAX_SPECS 64
 
 static void usage(FILE *f) {
     fprintf(f,
@@ -20,11 +19,16 @@ static void usage(FILE *f) {
             "Times every representation and Embree on the same rays (DESIGN.md section 7;\n"
             "docs/benchmark.md explains every column). Without MESH: a generated mandelbulb.\n"
             "\n"
-            "  -r SPEC|all          representation to bench, repeatable (default: all of `packrt list`)\n"
+            "  -r SPEC|all          representation to bench, repeatable (default: one of every family and\n"
+            "                       layout, printed on stderr; all: every name of `packrt list`)\n"
             "  --workload W[,W]|all random, primary, shadow, diffuse (default: all)\n"
             "  --vs embree|none     Embree side by side (default: embree when this build has it)\n"
             "  --threads N          threads of the mt figures (default 0: all cores)\n"
             "  --reps N             repetitions per figure, median (default 5, at least 5)\n"
+            "  --rounds N           rounds, each building every row afresh and measuring it, Embree and\n"
+            "                       the representations in turn; figures are medians of rounds, and a\n"
+            "                       spread over 10%% is marked (default 3)\n"
+            "  --plot FILE.svg      draw memory per triangle against time per ray, Pareto front joined\n"
             "  --rays N             random rays (default 64k; the 1024-ray figures use the first 1024)\n"
             "  --size WxH           primary image (default 1024x1024)\n"
             "  --seed S             workload seed (default 1)\n"
@@ -44,19 +48,20 @@ static void usage(FILE *f) {
 
 typedef struct bench_cli {
     const char *path;
-    const char *specs[BENCH_MAX_SPECS];
+    const char **specs; /* the -r arguments (argv's strings) */
     int spec_count;
     bool all_specs;
     bool workload_on[BENCH_WORKLOAD_COUNT];
     bool vs_embree;
-    int threads, reps;
+    int threads, reps, rounds;
     size_t rays, tris;
     uint32_t width, height;
     uint64_t seed;
     bool json, cold, matrix, queries;
     size_t cold_rays;
     size_t flush_bytes;
-    double offset; /* secondary ray origins off the surface, in mesh diagonals */
+    double offset;    /* secondary ray origins off the surface, in mesh diagonals */
+    const char *plot; /* --plot FILE.svg */
 } bench_cli;
 
 static int parse_workloads(const char *s, bool on[BENCH_WORKLOAD_COUNT]) {
@@ -76,72 +81,87 @@ static int parse_workloads(const char *s, bool on[BENCH_WORKLOAD_COUNT]) {
     return 0;
 }
 
+/* Options that take no value; 1 when a was not one of them, -1 for --help. */
+static int parse_flag(const char *a, bench_cli *c) {
+    if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+        usage(stdout);
+        return -1;
+    }
+    if (!strcmp(a, "--json")) c->json = true;
+    else if (!strcmp(a, "--matrix")) c->matrix = true;
+    else if (!strcmp(a, "--queries")) c->queries = true;
+    else if (!strcmp(a, "--no-cold")) c->cold = false;
+    else return 1;
+    return 0;
+}
+
+static int parse_count_option(const char *a, const char *v, bench_cli *c) {
+    size_t n;
+    if (!cli_parse_count(v, &n)) return cli_usage("bench", "%s: '%s' is not a count", a, v);
+    if (!strcmp(a, "--threads")) c->threads = n > 4096 ? 4096 : (int)n;
+    else if (!strcmp(a, "--reps")) c->reps = n > 100000 ? 100000 : (int)n;
+    else if (!strcmp(a, "--rounds")) c->rounds = n > 64 ? 64 : (int)n;
+    else if (!strcmp(a, "--rays")) c->rays = n;
+    else if (!strcmp(a, "--seed")) c->seed = n;
+    else if (!strcmp(a, "--tris")) c->tris = n;
+    else if (!strcmp(a, "--cold-rays")) c->cold_rays = n > 1024 ? 1024 : n;
+    else if (!strcmp(a, "--flush-mb")) c->flush_bytes = n << 20;
+    else return cli_usage("bench", "unknown option '%s'", a);
+    return 0;
+}
+
+/* Options with a value v (never NULL). */
+static int parse_value(const char *a, const char *v, bench_cli *c) {
+    if (!strcmp(a, "-r")) {
+        if (!strcmp(v, "all")) c->all_specs = true;
+        else c->specs[c->spec_count++] = v;
+    } else if (!strcmp(a, "--workload")) {
+        return parse_workloads(v, c->workload_on);
+    } else if (!strcmp(a, "--vs")) {
+        if (!strcmp(v, "embree")) c->vs_embree = true;
+        else if (!strcmp(v, "none")) c->vs_embree = false;
+        else return cli_usage("bench", "--vs takes embree or none, not '%s'", v);
+    } else if (!strcmp(a, "--plot")) {
+        size_t l = strlen(v);
+        if (l < 4 || strcmp(v + l - 4, ".svg")) return cli_usage("bench", "--plot writes SVG: give a FILE.svg, not '%s'", v);
+        c->plot = v;
+    } else if (!strcmp(a, "--offset")) {
+        char *end;
+        c->offset = strtod(v, &end);
+        if (end == v || *end || !(c->offset >= 0 && c->offset < 1))
+            return cli_usage("bench", "--offset takes a fraction of the mesh diagonal in [0, 1), not '%s'", v);
+    } else if (!strcmp(a, "--size")) {
+        unsigned w, h;
+        char tail;
+        if (sscanf(v, "%ux%u%c", &w, &h, &tail) != 2 || !w || !h || w > 16384 || h > 16384)
+            return cli_usage("bench", "--size takes WxH, e.g. 1024x1024, not '%s'", v);
+        c->width = w, c->height = h;
+    } else {
+        return parse_count_option(a, v, c);
+    }
+    return 0;
+}
+
+/* c->specs is allocated here (argc entries); the caller frees it. */
 static int parse_args(int argc, char **argv, bench_cli *c) {
     memset(c, 0, sizeof *c);
     for (int i = 0; i < BENCH_WORKLOAD_COUNT; i++) c->workload_on[i] = true;
     c->vs_embree = true; /* a row that says "not available" when the build has no Embree */
-    c->reps = 5, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->seed = 1;
+    c->reps = 5, c->rounds = 3, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->seed = 1;
     c->cold = true;
     c->cold_rays = 64;
     c->offset = BENCH_SURFACE_OFFSET;
+    c->specs = calloc((size_t)argc + 1, sizeof *c->specs);
+    if (!c->specs) return cli_fail("bench", "arguments", PRT_ERROR_NOMEM);
     for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        size_t n;
-        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-            usage(stdout);
-            return -1;
-        } else if (!strcmp(a, "--json")) {
-            c->json = true;
-        } else if (!strcmp(a, "--matrix")) {
-            c->matrix = true;
-        } else if (!strcmp(a, "--queries")) {
-            c->queries = true;
-        } else if (!strcmp(a, "--no-cold")) {
-            c->cold = false;
-        } else if (a[0] == '-' && a[1] && !v) {
-            return cli_usage("bench", "%s needs a value", a);
-        } else if (!strcmp(a, "-r")) {
-            i++;
-            if (!strcmp(v, "all")) c->all_specs = true;
-            else if (c->spec_count == BENCH_MAX_SPECS) return cli_usage("bench", "too many -r");
-            else c->specs[c->spec_count++] = v;
-        } else if (!strcmp(a, "--workload")) {
-            i++;
-            int rc = parse_workloads(v, c->workload_on);
-            if (rc) return rc;
-        } else if (!strcmp(a, "--vs")) {
-            i++;
-            if (!strcmp(v, "embree")) c->vs_embree = true;
-            else if (!strcmp(v, "none")) c->vs_embree = false;
-            else return cli_usage("bench", "--vs takes embree or none, not '%s'", v);
-        } else if (!strcmp(a, "--threads") || !strcmp(a, "--reps") || !strcmp(a, "--rays") ||
-                   !strcmp(a, "--seed") || !strcmp(a, "--tris") || !strcmp(a, "--flush-mb") ||
-                   !strcmp(a, "--cold-rays")) {
-            i++;
-            if (!cli_parse_count(v, &n)) return cli_usage("bench", "%s: '%s' is not a count", a, v);
-            if (!strcmp(a, "--threads")) c->threads = n > 4096 ? 4096 : (int)n;
-            else if (!strcmp(a, "--reps")) c->reps = n > 100000 ? 100000 : (int)n;
-            else if (!strcmp(a, "--rays")) c->rays = n;
-            else if (!strcmp(a, "--seed")) c->seed = n;
-            else if (!strcmp(a, "--tris")) c->tris = n;
-            else if (!strcmp(a, "--cold-rays")) c->cold_rays = n > 1024 ? 1024 : n;
-            else c->flush_bytes = n << 20;
-        } else if (!strcmp(a, "--offset")) {
-            i++;
-            char *end;
-            c->offset = strtod(v, &end);
-            if (end == v || *end || !(c->offset >= 0 && c->offset < 1))
-                return cli_usage("bench", "--offset takes a fraction of the mesh diagonal in [0, 1), not '%s'", v);
-        } else if (!strcmp(a, "--size")) {
-            i++;
-            unsigned w, h;
-            char tail;
-            if (sscanf(v, "%ux%u%c", &w, &h, &tail) != 2 || !w || !h || w > 16384 || h > 16384)
-                return cli_usage("bench", "--size takes WxH, e.g. 1024x1024, not '%s'", v);
-            c->width = w, c->height = h;
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        int rc = a[0] == '-' && a[1] ? parse_flag(a, c) : 1;
+        if (rc <= 0) {
+            if (rc) return -1;
         } else if (a[0] == '-' && a[1]) {
-            return cli_usage("bench", "unknown option '%s'", a);
+            if (!v) return cli_usage("bench", "%s needs a value", a);
+            i++;
+            if ((rc = parse_value(a, v, c))) return rc;
         } else if (!c->path) {
             c->path = a;
         } else {
@@ -149,6 +169,7 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
         }
     }
     if (c->reps < 5) c->reps = 5; /* DESIGN §7: median of at least 5 */
+    if (c->rounds < 1) c->rounds = 1;
     if (!c->rays) return cli_usage("bench", "--rays must be at least 1");
     return 0;
 }
@@ -248,250 +269,337 @@ static prt_status primary_hits(const bench_cli *c, bench_embree *em, const prt_m
     return s;
 }
 
-int cmd_bench(int argc, char **argv) {
-    bench_cli c;
-    int rc = parse_args(argc, argv, &c);
-    if (rc) return rc < 0 ? 0 : rc;
-    double load = bench_load_average(); /* before we add our own */
+/* The input: a mesh (read or generated) or a .prt file, which carries no mesh. */
+typedef struct bench_input {
+    prt_mesh *mesh;
+    prt_accel *file_accel;
+    char name[512];
+    float lo[3], hi[3];
+    double diagonal;
+    size_t triangles, vertices;
+} bench_input;
 
-    /* ---- the mesh (or a .prt file, which carries no mesh) ---- */
-    prt_mesh *mesh = NULL;
-    prt_accel *file_accel = NULL;
-    char mesh_name[512];
+static int load_input(const bench_cli *c, bench_input *in) {
+    memset(in, 0, sizeof *in);
     prt_status s;
-    if (!c.path) {
+    if (!c->path) {
         const char *kind = "mandelbulb";
         say("generating %s%s", kind, " (default mesh)");
-        if (prt_mesh_generate(kind, c.tris, 1, &mesh)) {
+        if (prt_mesh_generate(kind, c->tris, 1, &in->mesh)) {
             kind = "sphere";
-            if ((s = prt_mesh_generate(kind, c.tris, 1, &mesh))) return cli_fail("bench", "generating the default mesh", s);
+            if ((s = prt_mesh_generate(kind, c->tris, 1, &in->mesh)))
+                return cli_fail("bench", "generating the default mesh", s);
         }
-        snprintf(mesh_name, sizeof mesh_name, "gen:%s:%zu:1", kind, c.tris);
-    } else if (cli_is_prt_file(c.path)) {
-        if ((s = prt_accel_load(c.path, &file_accel))) return cli_fail("bench", c.path, s);
-        snprintf(mesh_name, sizeof mesh_name, "%s", c.path);
+        snprintf(in->name, sizeof in->name, "gen:%s:%zu:1", kind, c->tris);
+    } else if (cli_is_prt_file(c->path)) {
+        if ((s = prt_accel_load(c->path, &in->file_accel))) return cli_fail("bench", c->path, s);
+        snprintf(in->name, sizeof in->name, "%s", c->path);
     } else {
-        if ((s = prt_mesh_load(c.path, &mesh))) return cli_fail("bench", c.path, s);
-        snprintf(mesh_name, sizeof mesh_name, "%s", c.path);
+        if ((s = prt_mesh_load(c->path, &in->mesh))) return cli_fail("bench", c->path, s);
+        snprintf(in->name, sizeof in->name, "%s", c->path);
     }
-
-    if (c.queries) {
-        if (!mesh) {
-            prt_accel_free(file_accel);
-            return cli_usage("bench", "--queries builds every representation: it needs a mesh, not a .prt file");
-        }
-        static const char *const default_specs[] = {"wide8:idx8-soa4", "wide8:float3-soa8", "quad:float3-soa4",
-                                                    "wide8:idx8-bitpack-soa4,ids=none"};
-        bench_queries_options qo = {.specs = c.spec_count ? c.specs : default_specs,
-                                    .spec_count = c.spec_count ? (size_t)c.spec_count : 4,
-                                    .points = c.rays < 65536 ? c.rays : 16384,
-                                    .reps = c.reps,
-                                    .seed = c.seed,
-                                    .vs_embree = c.vs_embree};
-        rc = bench_queries(stdout, mesh, &qo);
-        prt_mesh_free(mesh);
-        return rc;
-    }
-
-    if (c.matrix) {
-        if (!mesh) {
-            prt_accel_free(file_accel);
-            return cli_usage("bench", "--matrix builds every representation: it needs a mesh, not a .prt file");
-        }
-        char machine[256], commit[64];
-        bench_machine_string(machine, sizeof machine);
-        commit_string(commit, sizeof commit);
-        bench_matrix_options mo = {.reps = c.reps,
-                                   .cold = c.cold,
-                                   .flush_bytes = c.flush_bytes,
-                                   .cold_rays = c.cold_rays,
-                                   .flush_bytes_ray = (size_t)64 << 20,
-                                   .seed = c.seed,
-                                   .vs_embree = c.vs_embree,
-                                   .specs = c.spec_count && !c.all_specs ? c.specs : NULL,
-                                   .spec_count = c.all_specs ? 0 : (size_t)c.spec_count,
-                                   .mesh_name = mesh_name,
-                                   .machine = machine,
-                                   .commit = commit,
-                                   .load_average = load};
-        rc = bench_matrix(stdout, mesh, &mo);
-        prt_mesh_free(mesh);
-        return rc;
-    }
-
-    float lo[3], hi[3];
-    size_t triangles, vertices = 0;
-    if (mesh) {
-        prt_mesh_bounds(mesh, lo, hi);
-        triangles = mesh->triangle_count, vertices = mesh->vertex_count;
+    if (in->mesh) {
+        prt_mesh_bounds(in->mesh, in->lo, in->hi);
+        in->triangles = in->mesh->triangle_count, in->vertices = in->mesh->vertex_count;
     } else {
-        prt_accel_bounds(file_accel, lo, hi);
+        prt_accel_bounds(in->file_accel, in->lo, in->hi);
         prt_stats st;
-        prt_accel_stats(file_accel, &st);
-        triangles = st.triangles;
+        prt_accel_stats(in->file_accel, &st);
+        in->triangles = st.triangles;
     }
-    double diagonal = 0;
-    for (int k = 0; k < 3; k++) diagonal += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
-    diagonal = sqrt(diagonal);
+    for (int k = 0; k < 3; k++) in->diagonal += ((double)in->hi[k] - in->lo[k]) * ((double)in->hi[k] - in->lo[k]);
+    in->diagonal = sqrt(in->diagonal);
+    return 0;
+}
 
-    /* ---- the representations ---- */
-    const char *specs[BENCH_MAX_SPECS + 64];
-    size_t nspecs = 0;
-    if (file_accel) {
-        specs[nspecs++] = prt_accel_spec(file_accel);
-    } else {
-        if (c.all_specs || !c.spec_count)
-            for (size_t i = 0; i < prt_repr_count() && nspecs < BENCH_MAX_SPECS; i++) specs[nspecs++] = prt_repr_name(i);
-        for (int i = 0; i < c.spec_count; i++) {
-            if (!strcmp(c.specs[i], "embree")) { /* `-r embree`: the Embree row alone */
-                c.vs_embree = true;
-                continue;
-            }
-            specs[nspecs++] = c.specs[i];
-        }
-    }
-    /* The Embree row: measured, or saying why not (not counted as a failure). */
-    bench_row embree_row = {0};
-    bool vs_embree = c.vs_embree && mesh && bench_embree_available();
-    if (c.vs_embree) {
-        snprintf(embree_row.name, sizeof embree_row.name, "embree");
-        embree_row.is_embree = true;
-        if (!bench_embree_available())
-            snprintf(embree_row.error, sizeof embree_row.error, "Embree was not available (this build has no Embree)");
-        else if (!mesh)
-            snprintf(embree_row.error, sizeof embree_row.error, "Embree not run: a .prt file carries no mesh");
-    }
+static int run_queries(const bench_cli *c, const bench_input *in) {
+    if (!in->mesh) return cli_usage("bench", "--queries builds every representation: it needs a mesh, not a .prt file");
+    static const char *const default_specs[] = {"wide8:idx8-soa4", "wide8:float3-soa8", "quad:float3-soa4",
+                                                "wide8:idx8-bitpack-soa4,ids=none"};
+    bench_queries_options qo = {.specs = c->spec_count ? c->specs : default_specs,
+                                .spec_count = c->spec_count ? (size_t)c->spec_count : 4,
+                                .points = c->rays < 65536 ? c->rays : 16384,
+                                .reps = c->reps,
+                                .seed = c->seed,
+                                .vs_embree = c->vs_embree};
+    return bench_queries(stdout, in->mesh, &qo);
+}
 
-    /* ---- workloads ---- */
+static int run_matrix(const bench_cli *c, const bench_input *in, double load) {
+    if (!in->mesh) return cli_usage("bench", "--matrix builds every representation: it needs a mesh, not a .prt file");
+    char machine[256], commit[64];
+    bench_machine_string(machine, sizeof machine);
+    commit_string(commit, sizeof commit);
+    bench_matrix_options mo = {.reps = c->reps,
+                               .cold = c->cold,
+                               .flush_bytes = c->flush_bytes,
+                               .cold_rays = c->cold_rays,
+                               .flush_bytes_ray = (size_t)64 << 20,
+                               .seed = c->seed,
+                               .vs_embree = c->vs_embree,
+                               .specs = c->spec_count && !c->all_specs ? c->specs : NULL,
+                               .spec_count = c->all_specs ? 0 : (size_t)c->spec_count,
+                               .mesh_name = in->name,
+                               .machine = machine,
+                               .commit = commit,
+                               .load_average = load};
+    return bench_matrix(stdout, in->mesh, &mo);
+}
+
+/* The rows to measure: the .prt file's own spec; every name with -r all; the -r ones; or,
+ * without -r, bench_default_specs (said on stderr so a reader knows what was left out).
+ * `-r embree` asks for the Embree row alone. Returns a malloc'ed array. */
+static const char **resolve_specs(bench_cli *c, const bench_input *in, size_t *count) {
+    size_t n = 0, cap = prt_repr_count() + (size_t)c->spec_count + 16;
+    const char **specs = malloc(cap * sizeof *specs);
+    if (!specs) return NULL;
+    if (in->file_accel) {
+        specs[n++] = prt_accel_spec(in->file_accel);
+    } else if (c->all_specs) {
+        for (size_t i = 0; i < prt_repr_count(); i++) specs[n++] = prt_repr_name(i);
+    } else if (!c->spec_count) {
+        for (size_t i = 0; bench_default_specs[i]; i++) specs[n++] = bench_default_specs[i];
+        fprintf(stderr, "packrt bench: %zu representations, one of every family and layout (-r all: all %zu, "
+                        "-r SPEC: yours)\n", n, prt_repr_count());
+    }
+    for (int i = 0; i < c->spec_count && !in->file_accel; i++) {
+        if (!strcmp(c->specs[i], "embree")) c->vs_embree = true;
+        else specs[n++] = c->specs[i];
+    }
+    *count = n;
+    return specs;
+}
+
+/* The ray sets; shadow and diffuse rays start at the primary hits (Embree's when it runs). */
+typedef struct bench_work {
     bool on[BENCH_WORKLOAD_COUNT];
-    memcpy(on, c.workload_on, sizeof on);
-    if (!mesh && (on[BENCH_SHADOW] || on[BENCH_DIFFUSE])) {
-        fprintf(stderr, "packrt bench: shadow and diffuse rays need the mesh's normals: skipped for a .prt file\n");
-        on[BENCH_SHADOW] = on[BENCH_DIFFUSE] = false;
-    }
     bench_rays wl[BENCH_WORKLOAD_COUNT];
-    memset(wl, 0, sizeof wl);
-    bench_embree *em = NULL;
-    bench_row *rows = calloc(nspecs + 1, sizeof *rows);
-    bench_ref ref = {0};
-    size_t nrows = 0;
-    int exit_code = 0;
-    if (!rows) {
-        exit_code = cli_fail("bench", "rows", PRT_ERROR_NOMEM);
-        goto done;
-    }
-    if ((s = bench_rays_random(lo, hi, c.rays, c.seed, &wl[BENCH_RANDOM]))) {
-        exit_code = cli_fail("bench", "random rays", s);
-        goto done;
-    }
-    if (on[BENCH_PRIMARY] || on[BENCH_SHADOW] || on[BENCH_DIFFUSE]) {
-        bench_camera cam;
-        bench_camera_default(lo, hi, &cam);
-        if ((s = bench_rays_primary(&cam, c.width, c.height, 8, &wl[BENCH_PRIMARY]))) {
-            exit_code = cli_fail("bench", "primary rays", s);
-            goto done;
-        }
-    }
+} bench_work;
 
-    /* Embree first: its results are the reference the other rows are checked against. */
-    if (vs_embree) {
-        say("%s: %s", "embree", "build");
-        bench_embree_options eo = {c.threads, false, false, 0};
-        if ((s = bench_embree_create(mesh, &eo, &em))) {
-            snprintf(embree_row.error, sizeof embree_row.error, "%s: %s", prt_status_string(s), prt_last_error());
-            vs_embree = false;
-        }
+static int make_workloads(const bench_cli *c, const bench_input *in, bench_embree *em, const char *const *specs,
+                          size_t nspecs, bench_work *w) {
+    memcpy(w->on, c->workload_on, sizeof w->on);
+    if (!in->mesh && (w->on[BENCH_SHADOW] || w->on[BENCH_DIFFUSE])) {
+        fprintf(stderr, "packrt bench: shadow and diffuse rays need the mesh's normals: skipped for a .prt file\n");
+        w->on[BENCH_SHADOW] = w->on[BENCH_DIFFUSE] = false;
     }
-    if (on[BENCH_SHADOW] || on[BENCH_DIFFUSE]) {
-        prt_hit *ph = NULL;
-        if ((s = primary_hits(&c, em, mesh, specs, nspecs, &wl[BENCH_PRIMARY], &ph))) {
-            fprintf(stderr, "packrt bench: no accel for the primary hits of shadow and diffuse rays: %s\n",
-                    prt_last_error());
-            on[BENCH_SHADOW] = on[BENCH_DIFFUSE] = false;
-        } else {
-            float light[3];
-            bench_light_default(lo, hi, light);
-            const float eps = (float)(c.offset * (diagonal > 0 ? diagonal : 1.0));
-            if (on[BENCH_SHADOW] && (s = bench_rays_shadow(mesh, &wl[BENCH_PRIMARY], ph, light, eps, &wl[BENCH_SHADOW])))
-                on[BENCH_SHADOW] = false;
-            if (on[BENCH_DIFFUSE] &&
-                (s = bench_rays_diffuse(mesh, &wl[BENCH_PRIMARY], ph, c.seed, eps, &wl[BENCH_DIFFUSE])))
-                on[BENCH_DIFFUSE] = false;
-            free(ph);
-        }
+    prt_status s;
+    if ((s = bench_rays_random(in->lo, in->hi, c->rays, c->seed, &w->wl[BENCH_RANDOM])))
+        return cli_fail("bench", "random rays", s);
+    if (!w->on[BENCH_PRIMARY] && !w->on[BENCH_SHADOW] && !w->on[BENCH_DIFFUSE]) return 0;
+    bench_camera cam;
+    bench_camera_default(in->lo, in->hi, &cam);
+    if ((s = bench_rays_primary(&cam, c->width, c->height, 8, &w->wl[BENCH_PRIMARY])))
+        return cli_fail("bench", "primary rays", s);
+    if (!w->on[BENCH_SHADOW] && !w->on[BENCH_DIFFUSE]) return 0;
+    prt_hit *ph = NULL;
+    if ((s = primary_hits(c, em, in->mesh, specs, nspecs, &w->wl[BENCH_PRIMARY], &ph))) {
+        fprintf(stderr, "packrt bench: no accel for the primary hits of shadow and diffuse rays: %s\n", prt_last_error());
+        w->on[BENCH_SHADOW] = w->on[BENCH_DIFFUSE] = false;
+        return 0;
     }
-    if (vs_embree) {
-        bench_backend b = bench_backend_embree(em, "embree");
-        embree_row.ok = true;
-        measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, &embree_row);
-        bench_embree_free(em); /* its results are kept in ref; free its memory for the others */
-        em = NULL;
-    }
+    float light[3];
+    bench_light_default(in->lo, in->hi, light);
+    const float eps = (float)(c->offset * (in->diagonal > 0 ? in->diagonal : 1.0));
+    if (w->on[BENCH_SHADOW] && bench_rays_shadow(in->mesh, &w->wl[BENCH_PRIMARY], ph, light, eps, &w->wl[BENCH_SHADOW]))
+        w->on[BENCH_SHADOW] = false;
+    if (w->on[BENCH_DIFFUSE] &&
+        bench_rays_diffuse(in->mesh, &w->wl[BENCH_PRIMARY], ph, c->seed, eps, &w->wl[BENCH_DIFFUSE]))
+        w->on[BENCH_DIFFUSE] = false;
+    free(ph);
+    return 0;
+}
 
-    for (size_t i = 0; i < nspecs; i++) {
-        bench_row *row = &rows[nrows++];
-        snprintf(row->name, sizeof row->name, "%s", specs[i]);
-        if (!file_accel) {
-            say("%s: %s", specs[i], "build");
-            bench_accel a;
-            double t0 = prt__now();
-            if ((s = bench_build(mesh, specs[i], c.threads, &a))) {
-                snprintf(row->error, sizeof row->error, "%s: %s", prt_status_string(s), prt_last_error());
-                continue;
-            }
-            double build_s = prt__now() - t0;
-            row->ok = true;
-            bench_backend b = bench_backend_packrt(&a, row->name);
-            measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, row);
-            row->build_s = build_s; /* wall clock around prt_build, as for Embree */
-            bench_accel_free(&a);
-        } else {
-            row->ok = true;
-            bench_accel a = {file_accel, NULL};
-            bench_backend b = bench_backend_packrt(&a, row->name);
-            measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, row);
+/* Progress on stderr, with an estimate of the time left from the rows done so far. */
+typedef struct bench_progress {
+    size_t done, total;
+    double t0;
+    bool on;
+} bench_progress;
+
+static void progress_step(bench_progress *p, const char *name) {
+    p->done++;
+    if (!p->on) return;
+    double spent = prt__now() - p->t0, left = spent / (double)p->done * (double)(p->total - p->done);
+    fprintf(stderr, "packrt bench: [%zu/%zu] %s done, %.0f s so far, about %.0f s left\n", p->done, p->total, name,
+            spent, left);
+}
+
+/* One round of the Embree row: a fresh build (em, when given, is the one built for the
+ * workloads and is consumed), measured, freed. */
+static void measure_embree(const bench_cli *c, const bench_input *in, bench_work *w, bench_embree *em, bench_ref *ref,
+                           bench_row *row) {
+    snprintf(row->name, sizeof row->name, "embree");
+    row->is_embree = true;
+    bench_embree_options eo = {c->threads, false, false, 0};
+    prt_status s = em ? PRT_OK : bench_embree_create(in->mesh, &eo, &em);
+    if (s) {
+        snprintf(row->error, sizeof row->error, "%s: %s", prt_status_string(s), prt_last_error());
+        return;
+    }
+    bench_backend b = bench_backend_embree(em, "embree");
+    row->ok = true;
+    measure_row(&b, c, w->wl, w->on, in->diagonal, ref, in->mesh, in->triangles, row);
+    bench_embree_free(em);
+}
+
+/* One round of a representation: built afresh (or the .prt file's accel), measured, freed. */
+static void measure_spec(const bench_cli *c, const bench_input *in, bench_work *w, const char *spec, bench_ref *ref,
+                         bench_row *row) {
+    snprintf(row->name, sizeof row->name, "%s", spec);
+    bench_accel a = {in->file_accel, NULL};
+    double build_s = 0;
+    if (!in->file_accel) {
+        say("%s: %s", spec, "build");
+        double t0 = prt__now();
+        prt_status s = bench_build(in->mesh, spec, c->threads, &a);
+        if (s) {
+            snprintf(row->error, sizeof row->error, "%s: %s", prt_status_string(s), prt_last_error());
+            return;
+        }
+        build_s = prt__now() - t0;
+    }
+    row->ok = true;
+    bench_backend b = bench_backend_packrt(&a, row->name);
+    measure_row(&b, c, w->wl, w->on, in->diagonal, ref, in->mesh, in->triangles, row);
+    if (!in->file_accel) {
+        row->build_s = build_s; /* wall clock around prt_build, as for Embree */
+        bench_accel_free(&a);
+    }
+}
+
+/* Every row in alternating rounds, Embree first in each (round 0's answers are the
+ * reference the others are checked against); out[i] is the median of row i's rounds, the
+ * Embree row last when there is one. */
+static int run_rounds(const bench_cli *c, const bench_input *in, bench_work *w, bench_embree *em, bool vs_embree,
+                      const char *const *specs, size_t nspecs, bench_ref *ref, bench_row *out) {
+    size_t nrows = nspecs + (vs_embree ? 1 : 0), R = (size_t)c->rounds;
+    bench_row *all = calloc(nrows * R, sizeof *all); /* all[i * R + r]: row i, round r */
+    if (!all) return cli_fail("bench", "rows", PRT_ERROR_NOMEM);
+    bench_progress p = {0, nrows * R, prt__now(), chatty() || nrows * R > 16};
+    for (size_t r = 0; r < R; r++) {
+        if (vs_embree) {
+            measure_embree(c, in, w, r == 0 ? em : NULL, ref, &all[nspecs * R + r]);
+            progress_step(&p, "embree");
+        }
+        for (size_t i = 0; i < nspecs; i++) {
+            measure_spec(c, in, w, specs[i], ref, &all[i * R + r]);
+            progress_step(&p, specs[i]);
         }
     }
-    if (embree_row.name[0]) rows[nrows++] = embree_row;
+    for (size_t i = 0; i < nrows; i++) bench_rows_median(&all[i * R], R, &out[i]);
+    free(all);
+    return 0;
+}
 
+static int write_plot(const char *path, const bench_report *rep) {
+    FILE *f = fopen(path, "w");
+    bool ok = f && bench_plot_svg(f, rep);
+    if (f && fclose(f)) ok = false;
+    if (ok) return 0;
+    fprintf(stderr, "packrt bench: cannot write %s: %s\n", path, strerror(errno));
+    return 1;
+}
+
+/* Secondary rays are the same for every row, so their offset cannot follow one row's
+ * error: say when a lossy row's surface may lie beyond it (its own surface can then catch
+ * its shadow and bounce rays, and its figures for them mean little). */
+static void warn_offsets(const bench_cli *c, const bench_input *in, const bench_work *w, const bench_row *rows,
+                         size_t nrows) {
+    if (!w->on[BENCH_SHADOW] && !w->on[BENCH_DIFFUSE]) return;
+    for (size_t i = 0; i < nrows; i++)
+        if (rows[i].ok && 2.0 * rows[i].vertex_error > c->offset * in->diagonal)
+            fprintf(stderr,
+                    "packrt bench: %s: its vertex error %.3g exceeds half the secondary rays' offset (%.3g of the "
+                    "diagonal): its shadow and diffuse rays may hit its own surface; rerun with --offset %.2g\n",
+                    rows[i].name, rows[i].vertex_error, c->offset, 2.5 * rows[i].vertex_error / in->diagonal);
+}
+
+static int report(const bench_cli *c, const bench_input *in, const bench_work *w, const bench_ref *ref,
+                  const bench_row *rows, size_t nrows, double load) {
     char machine[256], commit[64];
     bench_machine_string(machine, sizeof machine);
     commit_string(commit, sizeof commit);
     bench_report rep = {0};
-    rep.machine = machine, rep.commit = commit, rep.mesh_path = mesh_name, rep.load_average = load;
-    rep.triangles = triangles, rep.vertices = vertices;
-    rep.reference = ref.name;
-    rep.options = (bench_options){c.reps, c.threads, c.flush_bytes, c.cold};
-    rep.threads_mt = prt__threads(c.threads);
-    rep.seed = c.seed;
-    memcpy(rep.workload_on, on, sizeof on);
-    for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++) rep.workload_rays[w] = wl[w].count;
-    rep.width = c.width, rep.height = c.height;
+    rep.machine = machine, rep.commit = commit, rep.mesh_path = in->name, rep.load_average = load;
+    rep.triangles = in->triangles, rep.vertices = in->vertices;
+    rep.reference = ref->name;
+    rep.options = (bench_options){c->reps, c->threads, c->flush_bytes, c->cold};
+    rep.rounds = c->rounds;
+    rep.threads_mt = prt__threads(c->threads);
+    rep.seed = c->seed;
+    memcpy(rep.workload_on, w->on, sizeof w->on);
+    for (int k = 0; k < BENCH_WORKLOAD_COUNT; k++) rep.workload_rays[k] = w->wl[k].count;
+    rep.width = c->width, rep.height = c->height;
     rep.rows = rows, rep.row_count = nrows;
-    if (c.json) bench_report_json(stdout, &rep);
+    if (c->json) bench_report_json(stdout, &rep);
     else bench_report_text(stdout, &rep);
-    /* Secondary rays are the same for every row, so their offset cannot follow one row's
-     * error: say when a lossy row's surface may lie beyond it (its own surface can then
-     * catch its shadow and bounce rays, and its figures for them mean little). */
-    if (on[BENCH_SHADOW] || on[BENCH_DIFFUSE])
-        for (size_t i = 0; i < nrows; i++)
-            if (rows[i].ok && 2.0 * rows[i].vertex_error > c.offset * diagonal)
-                fprintf(stderr,
-                        "packrt bench: %s: its vertex error %.3g exceeds half the secondary rays' offset (%.3g of the "
-                        "diagonal): its shadow and diffuse rays may hit its own surface; rerun with --offset %.2g\n",
-                        rows[i].name, rows[i].vertex_error, c.offset, 2.5 * rows[i].vertex_error / diagonal);
+    warn_offsets(c, in, w, rows, nrows);
+    int rc = c->plot ? write_plot(c->plot, &rep) : 0;
     /* A representation that fails to build fails the run; a missing Embree does not. */
     for (size_t i = 0; i < nrows; i++)
-        if (!rows[i].ok && !rows[i].is_embree) exit_code = 1;
+        if (!rows[i].ok && !rows[i].is_embree) rc = 1;
+    return rc;
+}
 
-done:
-    for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++) {
-        bench_rays_free(&wl[w]);
-        free(ref.hits[w]), free(ref.occ[w]);
+/* The main table: workloads, rounds of every row, the report. */
+static int run_table(bench_cli *c, const bench_input *in, double load) {
+    size_t nspecs = 0;
+    const char **specs = resolve_specs(c, in, &nspecs);
+    if (!specs) return cli_fail("bench", "rows", PRT_ERROR_NOMEM);
+    /* The Embree row: measured, or saying why not (not counted as a failure). */
+    bench_row why_not = {.is_embree = true};
+    snprintf(why_not.name, sizeof why_not.name, "embree");
+    if (!bench_embree_available())
+        snprintf(why_not.error, sizeof why_not.error, "Embree was not available (this build has no Embree)");
+    else if (!in->mesh)
+        snprintf(why_not.error, sizeof why_not.error, "Embree not run: a .prt file carries no mesh");
+    bool vs_embree = c->vs_embree && in->mesh && bench_embree_available();
+    bench_embree *em = NULL;
+    if (vs_embree) {
+        say("%s: %s", "embree", "build");
+        bench_embree_options eo = {c->threads, false, false, 0};
+        prt_status s = bench_embree_create(in->mesh, &eo, &em);
+        if (s) {
+            snprintf(why_not.error, sizeof why_not.error, "%s: %s", prt_status_string(s), prt_last_error());
+            vs_embree = false;
+        }
     }
-    bench_embree_free(em);
+    bench_work w = {0};
+    bench_ref ref = {0};
+    bench_row *rows = calloc(nspecs + 1, sizeof *rows);
+    int rc = rows ? make_workloads(c, in, em, specs, nspecs, &w) : cli_fail("bench", "rows", PRT_ERROR_NOMEM);
+    if (!rc) rc = run_rounds(c, in, &w, em, vs_embree, specs, nspecs, &ref, rows);
+    else bench_embree_free(em);
+    if (!rc) {
+        size_t nrows = nspecs + (vs_embree ? 1 : 0);
+        if (c->vs_embree && !vs_embree) rows[nrows++] = why_not;
+        rc = report(c, in, &w, &ref, rows, nrows, load);
+    }
+    for (int k = 0; k < BENCH_WORKLOAD_COUNT; k++) {
+        bench_rays_free(&w.wl[k]);
+        free(ref.hits[k]), free(ref.occ[k]);
+    }
     free(rows);
-    prt_accel_free(file_accel);
-    prt_mesh_free(mesh);
-    return exit_code;
+    free(specs);
+    return rc;
+}
+
+int cmd_bench(int argc, char **argv) {
+    bench_cli c;
+    int rc = parse_args(argc, argv, &c);
+    if (!rc) {
+        double load = bench_load_average(); /* before we add our own */
+        bench_input in;
+        rc = load_input(&c, &in);
+        if (!rc) {
+            if (c.queries) rc = run_queries(&c, &in);
+            else if (c.matrix) rc = run_matrix(&c, &in, load);
+            else rc = run_table(&c, &in, load);
+        }
+        prt_accel_free(in.file_accel);
+        prt_mesh_free(in.mesh);
+    }
+    free(c.specs);
+    return rc < 0 ? 0 : rc;
 }

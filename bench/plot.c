@@ -1,0 +1,117 @@
+/* `packrt bench --plot FILE.svg`: the memory/speed trade-off as a picture. Memory per
+ * triangle on a log axis (representations span 4-100 B/tri), warm time per ray on a linear
+ * one; the Pareto front (nothing both smaller and faster) is joined and labelled. */
+#include "bench.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { W = 760, H = 500, LEFT = 70, RIGHT = 30, TOP = 50, BOTTOM = 60 };
+
+typedef struct point {
+    double bytes, us; /* bytes per triangle, µs per ray */
+    const bench_row *row;
+    bool front;
+} point;
+
+static int by_bytes(const void *a, const void *b) {
+    const point *p = a, *q = b;
+    if (p->bytes != q->bytes) return p->bytes < q->bytes ? -1 : 1;
+    return p->us < q->us ? -1 : p->us > q->us;
+}
+
+static void xml_text(FILE *f, const char *s) {
+    for (; *s; s++) {
+        if (*s == '<') fputs("&lt;", f);
+        else if (*s == '>') fputs("&gt;", f);
+        else if (*s == '&') fputs("&amp;", f);
+        else fputc(*s, f);
+    }
+}
+
+typedef struct axes {
+    double x0, x1, y1; /* log10 of the byte range; time range is [0, y1] */
+} axes;
+
+static double px(const axes *a, double bytes) {
+    return LEFT + (log10(bytes) - a->x0) / (a->x1 - a->x0) * (W - LEFT - RIGHT);
+}
+static double py(const axes *a, double us) { return H - BOTTOM - us / a->y1 * (H - TOP - BOTTOM); }
+
+static void draw_axes(FILE *f, const axes *a) {
+    fprintf(f, "<rect x='%d' y='%d' width='%d' height='%d' fill='none' stroke='#444'/>\n", LEFT, TOP,
+            W - LEFT - RIGHT, H - TOP - BOTTOM);
+    static const double marks[] = {1, 2, 5};
+    for (double decade = 1; decade < 1e4; decade *= 10)
+        for (int i = 0; i < 3; i++) {
+            double b = decade * marks[i];
+            if (log10(b) < a->x0 || log10(b) > a->x1) continue;
+            double x = px(a, b);
+            fprintf(f, "<line x1='%.1f' y1='%d' x2='%.1f' y2='%d' stroke='#ddd'/>\n", x, TOP, x, H - BOTTOM);
+            fprintf(f, "<text x='%.1f' y='%d' text-anchor='middle'>%g</text>\n", x, H - BOTTOM + 18, b);
+        }
+    double step = pow(10, floor(log10(a->y1 / 4)));
+    if (a->y1 / step > 10) step *= 2;
+    if (a->y1 / step > 10) step *= 2.5;
+    for (double t = 0; t <= a->y1 + 1e-12; t += step) {
+        double y = py(a, t);
+        fprintf(f, "<line x1='%d' y1='%.1f' x2='%d' y2='%.1f' stroke='#ddd'/>\n", LEFT, y, W - RIGHT, y);
+        fprintf(f, "<text x='%d' y='%.1f' text-anchor='end'>%g</text>\n", LEFT - 6, y + 4, t);
+    }
+    fprintf(f, "<text x='%d' y='%d' text-anchor='middle'>memory, bytes per triangle (tree + geometry, log scale)</text>\n",
+            (W + LEFT - RIGHT) / 2, H - 18);
+    fprintf(f, "<text transform='translate(18,%d) rotate(-90)' text-anchor='middle'>warm time per ray, "
+               "&#181;s (random rays, one thread)</text>\n", (H + TOP - BOTTOM) / 2);
+}
+
+bool bench_plot_svg(FILE *f, const bench_report *r) {
+    point *p = malloc((r->row_count + 1) * sizeof *p);
+    if (!p) return false;
+    size_t n = 0;
+    for (size_t i = 0; i < r->row_count; i++) {
+        const bench_row *row = &r->rows[i];
+        if (!row->ok || row->random_us_per_1024 <= 0 || row->bytes_per_tri_total <= 0) continue;
+        p[n++] = (point){row->bytes_per_tri_total, row->random_us_per_1024 / 1024.0, row, false};
+    }
+    qsort(p, n, sizeof *p, by_bytes);
+    /* Sorted by memory, a packrt row is on the front when it is faster than every smaller
+     * one; Embree is marked, not a choice. */
+    double best = INFINITY, lo = INFINITY, hi = 0, slowest = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!p[i].row->is_embree && p[i].us < best) {
+            p[i].front = true;
+            best = p[i].us;
+        }
+        lo = fmin(lo, p[i].bytes), hi = fmax(hi, p[i].bytes), slowest = fmax(slowest, p[i].us);
+    }
+    axes a = {n ? floor(log10(lo) * 4) / 4 : 0, n ? ceil(log10(hi) * 4) / 4 : 2, n ? slowest * 1.1 : 1};
+    if (a.x1 - a.x0 < 0.5) a.x0 -= 0.25, a.x1 += 0.25;
+
+    fprintf(f, "<svg xmlns='http://www.w3.org/2000/svg' width='%d' height='%d' font-family='sans-serif' "
+               "font-size='12'>\n<rect width='100%%' height='100%%' fill='white'/>\n", W, H);
+    fprintf(f, "<text x='%d' y='22' font-size='14'>", LEFT);
+    xml_text(f, r->mesh_path);
+    fprintf(f, ": %zu triangles; ", r->triangles);
+    xml_text(f, r->machine);
+    fprintf(f, "</text>\n<text x='%d' y='40' fill='#555'>lower left is better; the line joins the "
+               "representations nothing beats on both</text>\n", LEFT);
+    draw_axes(f, &a);
+    fprintf(f, "<polyline fill='none' stroke='#1f77b4' stroke-width='1.5' points='");
+    for (size_t i = 0; i < n; i++)
+        if (p[i].front) fprintf(f, "%.1f,%.1f ", px(&a, p[i].bytes), py(&a, p[i].us));
+    fprintf(f, "'/>\n");
+    for (size_t i = 0; i < n; i++) {
+        double x = px(&a, p[i].bytes), y = py(&a, p[i].us);
+        bool em = p[i].row->is_embree, label = em || p[i].front;
+        if (em) fprintf(f, "<rect x='%.1f' y='%.1f' width='10' height='10' fill='#d62728'/>\n", x - 5, y - 5);
+        else fprintf(f, "<circle cx='%.1f' cy='%.1f' r='4' fill='%s'/>\n", x, y, p[i].front ? "#1f77b4" : "#999");
+        if (!label) continue;
+        fprintf(f, "<text x='%.1f' y='%.1f'%s>", x + 7, y - 6, em ? " fill='#d62728'" : "");
+        xml_text(f, p[i].row->name);
+        fprintf(f, "</text>\n");
+    }
+    fprintf(f, "</svg>\n");
+    free(p);
+    return !ferror(f);
+}
