@@ -334,9 +334,23 @@ typedef struct bench_row {
  * the spread. n >= 1; a round that failed makes the row fail with its error. */
 void bench_rows_median(const bench_row *rounds, size_t n, bench_row *out);
 
-/* What `packrt bench` runs without -r (bench/rounds.c): every family, and every BVH
+/* What `packrt bench` runs without -r (bench/specs.c): every family, and every BVH
  * layout once, the fastest and the smallest codecs of wide8. NULL-terminated. */
 extern const char *const bench_default_specs[];
+/* What --calibrate measures without -r: the candidates of `auto` specs. NULL-terminated. */
+extern const char *const bench_calibrate_specs[];
+
+/* The cost table file of `auto` specs (bench/costs.c, docs/auto.md) as its lines: read
+ * (a missing file is an empty table), a row set by spec and mesh kind, written atomically
+ * (its directory created when missing). */
+typedef struct bench_costs {
+    char **lines;
+    size_t count, cap;
+} bench_costs;
+void bench_costs_read(bench_costs *t, const char *path);
+bool bench_costs_set(bench_costs *t, const char *spec, const char *kind, const char *line);
+prt_status bench_costs_write(const bench_costs *t, const char *path);
+void bench_costs_free(bench_costs *t);
 
 /* Fill a row's memory and build figures from stats. */
 void bench_row_set_stats(bench_row *row, const prt_stats *s, size_t triangles);

@@ -7,15 +7,6 @@
 #include <stddef.h>
 #include <string.h>
 
-const char *const bench_default_specs[] = {
-    /* wide8: the fastest float codec, the smallest lossless and the smallest lossy */
-    "wide8:float3-soa8", "wide8:idx8-soa4", "wide8:idx8-bitpack-soa4,ids=none",
-    /* every other BVH layout once, with the codec that suits it best */
-    "quad:float3-soa4", "quad-half:float3-soa4", "aabb:float3", "aabb-split:float3-soa4",
-    "aabb-pns:float3-soa4", "aabb-compressed:idx8-bitpack-soa4", "skd:idx8-soa4",
-    /* the other families */
-    "raystrips", "lossygrid", "cgrid", "ooc", NULL};
-
 /* Median of the n values at base + i * stride (doubles inside rows); 0 stays "not measured"
  * only when every round says 0. Adds (max - min) / median to *spread when larger. */
 static double median_of(const bench_row *rounds, size_t n, size_t offset, double *spread) {

@@ -285,6 +285,36 @@ typedef struct prt_stats {
 prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_options *options,
                      prt_accel **out);
 
+/* "auto" specs choose for the caller (docs/auto.md): "auto,budget=B" (total bytes per
+ * triangle), "auto,memory=N[K|M|G]" (total bytes for this mesh) or neither (no limit), with
+ * ",workload=random|primary|shadow|diffuse" (default random) and ",lossy=yes" to allow
+ * lossy representations (default no). The choice is the representation with the lowest
+ * time per ray, relative to Embree's, for the mesh's kind (vertices shared or not) in a cost
+ * table measured by `packrt bench --calibrate`, whose size, estimated by prt_estimate, fits
+ * the budget; the built accel is checked against the budget and the next candidate built
+ * when it does not fit, so prt_build("auto...") never returns an accel over its budget.
+ * Specs with ids=none are candidates only when options->triangle_order is given. When
+ * nothing fits: PRT_ERROR_LIMIT naming the smallest size possible. The cost table is the
+ * one built into the library, with the rows of the file named by the environment variable
+ * PRT_COSTS, else of ~/.cache/packrt/costs.tsv, taking precedence where present.
+ * prt_accel_spec() of the result names the representation chosen. */
+
+/* What auto would choose for m (without building it): the spec into spec_out (at least 96
+ * bytes), and its estimated size when est is not NULL. */
+typedef struct prt_size_estimate {
+    size_t bytes_tree, bytes_geometry, bytes_other; /* for the whole mesh */
+    double bytes_per_triangle;                       /* total over the mesh's triangles */
+    size_t sample_triangles; /* triangles the estimate built; the mesh's: exact */
+} prt_size_estimate;
+prt_status prt_auto_choose(const prt_mesh *m, const char *auto_spec, const prt_build_options *options,
+                           char *spec_out, size_t spec_size, prt_size_estimate *est);
+
+/* The size spec would take on m, without building it over the whole mesh: representations
+ * are built on a sample of at most 65536 triangles in four spatially compact patches and
+ * scaled (docs/auto.md states the error measured per family); a mesh of at most 131072
+ * triangles is built whole, and the figure is then exact. */
+prt_status prt_estimate(const prt_mesh *m, const char *spec, prt_size_estimate *out);
+
 /* Animated meshes: rebuild a in place for new positions of the same vertices (the
  * triangles stay those of the mesh a was built from; only their corners move). vertices
  * holds 3 * vertex_count floats of that mesh, each finite and within

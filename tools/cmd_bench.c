@@ -4,6 +4,7 @@
 #include "bench.h"
 #include "cli.h"
 
+#include "api/auto.h"
 #include "core/common.h"
 
 #include <errno.h>
@@ -29,6 +30,10 @@ static void usage(FILE *f) {
             "                       the representations in turn; figures are medians of rounds, and a\n"
             "                       spread over 10%% is marked (default 3)\n"
             "  --plot FILE.svg      draw memory per triangle against time per ray, Pareto front joined\n"
+            "  --calibrate          measure auto's candidates (or the -r specs) and write their times over\n"
+            "                       Embree's into the cost table `auto` specs choose from (docs/auto.md)\n"
+            "  --costs FILE         the table --calibrate writes (default: $PRT_COSTS, else\n"
+            "                       ~/.cache/packrt/costs.tsv); rows for other specs and kinds are kept\n"
             "  --rays N             random rays (default 64k; the 1024-ray figures use the first 1024)\n"
             "  --size WxH           primary image (default 1024x1024)\n"
             "  --seed S             workload seed (default 1)\n"
@@ -61,7 +66,9 @@ typedef struct bench_cli {
     size_t cold_rays;
     size_t flush_bytes;
     double offset;    /* secondary ray origins off the surface, in mesh diagonals */
-    const char *plot; /* --plot FILE.svg */
+    const char *plot;  /* --plot FILE.svg */
+    bool calibrate;    /* write auto's cost table from the figures */
+    const char *costs; /* --costs FILE: where (default: the user's table, docs/auto.md) */
 } bench_cli;
 
 static int parse_workloads(const char *s, bool on[BENCH_WORKLOAD_COUNT]) {
@@ -91,6 +98,7 @@ static int parse_flag(const char *a, bench_cli *c) {
     else if (!strcmp(a, "--matrix")) c->matrix = true;
     else if (!strcmp(a, "--queries")) c->queries = true;
     else if (!strcmp(a, "--no-cold")) c->cold = false;
+    else if (!strcmp(a, "--calibrate")) c->calibrate = true;
     else return 1;
     return 0;
 }
@@ -121,6 +129,8 @@ static int parse_value(const char *a, const char *v, bench_cli *c) {
         if (!strcmp(v, "embree")) c->vs_embree = true;
         else if (!strcmp(v, "none")) c->vs_embree = false;
         else return cli_usage("bench", "--vs takes embree or none, not '%s'", v);
+    } else if (!strcmp(a, "--costs")) {
+        c->costs = v;
     } else if (!strcmp(a, "--plot")) {
         size_t l = strlen(v);
         if (l < 4 || strcmp(v + l - 4, ".svg")) return cli_usage("bench", "--plot writes SVG: give a FILE.svg, not '%s'", v);
@@ -357,6 +367,8 @@ static const char **resolve_specs(bench_cli *c, const bench_input *in, size_t *c
         specs[n++] = prt_accel_spec(in->file_accel);
     } else if (c->all_specs) {
         for (size_t i = 0; i < prt_repr_count(); i++) specs[n++] = prt_repr_name(i);
+    } else if (!c->spec_count && c->calibrate) {
+        for (size_t i = 0; bench_calibrate_specs[i]; i++) specs[n++] = bench_calibrate_specs[i];
     } else if (!c->spec_count) {
         for (size_t i = 0; bench_default_specs[i]; i++) specs[n++] = bench_default_specs[i];
         fprintf(stderr, "packrt bench: %zu representations, one of every family and layout (-r all: all %zu, "
@@ -542,8 +554,41 @@ static int report(const bench_cli *c, const bench_input *in, const bench_work *w
     return rc;
 }
 
+/* --calibrate: each row's time per ray over Embree's, per workload, into the cost table. */
+static int write_costs(const bench_cli *c, const bench_input *in, const bench_row *rows, size_t nrows) {
+    const bench_row *em = NULL;
+    for (size_t i = 0; i < nrows; i++)
+        if (rows[i].is_embree && rows[i].ok) em = &rows[i];
+    if (!em) return cli_usage("bench", "--calibrate measures against Embree: this build or run has none");
+    char path[1024], line[256];
+    if (c->costs) snprintf(path, sizeof path, "%s", c->costs);
+    else prt__cost_table_path(path, sizeof path);
+    bench_costs t;
+    bench_costs_read(&t, path);
+    const char *kind = prt__mesh_kind(in->mesh);
+    for (size_t i = 0; i < nrows; i++) {
+        const bench_row *r = &rows[i];
+        if (!r->ok || r->is_embree) continue;
+        double ratio[BENCH_WORKLOAD_COUNT] = {0};
+        if (r->random_us_per_1024 > 0 && em->random_us_per_1024 > 0)
+            ratio[BENCH_RANDOM] = r->random_us_per_1024 / em->random_us_per_1024;
+        for (int w = BENCH_PRIMARY; w < BENCH_WORKLOAD_COUNT; w++)
+            if (r->w[w].mrays_1t > 0 && em->w[w].mrays_1t > 0) ratio[w] = em->w[w].mrays_1t / r->w[w].mrays_1t;
+        int len = snprintf(line, sizeof line, "%s\t%s\t%s", r->name, kind, r->vertex_error > 0 ? "yes" : "no");
+        for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++)
+            len += snprintf(line + len, sizeof line - (size_t)len, ratio[w] > 0 ? "\t%.3f" : "\t-", ratio[w]);
+        bench_costs_set(&t, r->name, kind, line);
+    }
+    prt_status s = bench_costs_write(&t, path);
+    bench_costs_free(&t);
+    if (s) return cli_fail("bench", path, s);
+    fprintf(stderr, "packrt bench: cost table for %s meshes written to %s\n", kind, path);
+    return 0;
+}
+
 /* The main table: workloads, rounds of every row, the report. */
 static int run_table(bench_cli *c, const bench_input *in, double load) {
+    if (c->calibrate && !in->mesh) return cli_usage("bench", "--calibrate builds representations: it needs a mesh, not a .prt file");
     size_t nspecs = 0;
     const char **specs = resolve_specs(c, in, &nspecs);
     if (!specs) return cli_fail("bench", "rows", PRT_ERROR_NOMEM);
@@ -575,6 +620,8 @@ static int run_table(bench_cli *c, const bench_input *in, double load) {
         size_t nrows = nspecs + (vs_embree ? 1 : 0);
         if (c->vs_embree && !vs_embree) rows[nrows++] = why_not;
         rc = report(c, in, &w, &ref, rows, nrows, load);
+        /* A candidate that cannot encode this mesh (16-bit indices) is left out of the table. */
+        if (c->calibrate) rc = write_costs(c, in, rows, nrows);
     }
     for (int k = 0; k < BENCH_WORKLOAD_COUNT; k++) {
         bench_rays_free(&w.wl[k]);

@@ -1,6 +1,7 @@
 /* packrt info MESH|FILE.prt: what a mesh or a saved representation holds. For a mesh:
  * counts, bounds, degenerate triangles, connectivity, and the memory of each representation
  * built over it. */
+#include "bench.h"
 #include "cli.h"
 #include "mesh/format.h"
 
@@ -8,9 +9,14 @@
 #include <string.h>
 
 static int usage(void) {
-    printf("usage: packrt info MESH|FILE.prt [-r SPEC|all]\n"
+    printf("usage: packrt info MESH|FILE.prt [-r SPEC|all] [--estimate] [--budget B | --memory N] [--lossy]\n"
            "  a mesh: triangles, vertices, bounds, degenerate triangles, edge connectivity and the\n"
            "  bytes per triangle of each representation (-r to choose; default all)\n"
+           "  --estimate: estimated sizes of one representation of every family and of auto's candidates\n"
+           "    instead, without building them over the whole mesh (prt_estimate), and what -r auto\n"
+           "    would choose; --budget B (bytes per triangle) or --memory N (bytes, K/M/G) set auto's\n"
+           "    budget and imply --estimate; --lossy lets auto choose lossy representations; --verify\n"
+           "    builds each over the whole mesh too and prints the estimate's error\n"
            "  a .prt file: its representation, bounds and memory\n");
     return 0;
 }
@@ -56,11 +62,73 @@ static void connectivity(const prt_mesh *m) {
            boundary == 0 && nonmanifold == 0 ? "  closed" : "");
 }
 
+/* --verify: the size built over the whole mesh beside the estimate. */
+static void verify_estimate(const prt_mesh *m, const char *spec, size_t estimate) {
+    prt_build_options o = {0};
+    uint32_t *order = strstr(spec, "ids=none") ? malloc(m->triangle_count * sizeof *order) : NULL;
+    o.triangle_order = order;
+    prt_accel *a = NULL;
+    if (prt_build(m, spec, &o, &a)) {
+        printf("  built: %s", prt_last_error());
+    } else {
+        prt_stats s;
+        prt_accel_stats(a, &s);
+        size_t built = s.bytes_tree + s.bytes_geometry + s.bytes_other;
+        printf("  built %7.2f B/tri, estimate %+.1f%%", (double)built / (double)m->triangle_count,
+               100.0 * ((double)estimate - (double)built) / (double)built);
+    }
+    prt_accel_free(a);
+    free(order);
+}
+
+/* Estimated sizes of every default and candidate spec, and auto's choice for auto_spec. */
+static int estimates(const prt_mesh *m, const char *auto_spec, double limit, bool verify) {
+    const char *const *lists[] = {bench_default_specs, bench_calibrate_specs};
+    printf("estimated memory (prt_estimate; * fits %s):\n", auto_spec);
+    char chosen[96] = "";
+    prt_size_estimate ce;
+    prt_status cs = prt_auto_choose(m, auto_spec, NULL, chosen, sizeof chosen, &ce);
+    char why[512]; /* the estimates below overwrite prt_last_error() */
+    snprintf(why, sizeof why, "%s", cs ? prt_last_error() : "");
+    for (int l = 0; l < 2; l++)
+        for (size_t i = 0; lists[l][i]; i++) {
+            bool seen = false; /* a spec in both lists once */
+            for (size_t j = 0; l == 1 && bench_default_specs[j]; j++) seen |= !strcmp(bench_default_specs[j], lists[l][i]);
+            if (seen) continue;
+            prt_size_estimate e;
+            prt_status s = prt_estimate(m, lists[l][i], &e);
+            if (s) {
+                printf("  %-44s cannot encode this mesh: %s\n", lists[l][i], prt_last_error());
+                continue;
+            }
+            size_t total = e.bytes_tree + e.bytes_geometry + e.bytes_other;
+            printf("  %-44s %7.2f B/tri  (tree %6.2f, geometry %6.2f)  %9.1f MB%s%s", lists[l][i], e.bytes_per_triangle,
+                   (double)e.bytes_tree / (double)m->triangle_count, (double)e.bytes_geometry / (double)m->triangle_count,
+                   (double)total / 1e6, e.sample_triangles < m->triangle_count ? "" : " (exact)",
+                   !limit || (double)total <= limit ? " *" : "");
+            if (verify) verify_estimate(m, lists[l][i], total);
+            putchar('\n');
+        }
+    if (cs) {
+        fprintf(stderr, "packrt info: %s: %s: %s\n", auto_spec, prt_status_string(cs), why);
+        return 1;
+    }
+    printf("-r %s would build %s (estimated %.2f B/tri, %.1f MB)\n", auto_spec, chosen, ce.bytes_per_triangle,
+           (double)(ce.bytes_tree + ce.bytes_geometry + ce.bytes_other) / 1e6);
+    return 0;
+}
+
 int cmd_info(int argc, char **argv) {
-    const char *path = NULL, *spec = "all";
+    const char *path = NULL, *spec = "all", *budget = NULL, *memory = NULL;
+    bool estimate = false, lossy = false, verify = false;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
         if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
+        else if (!strcmp(argv[i], "--budget") && i + 1 < argc) budget = argv[++i], estimate = true;
+        else if (!strcmp(argv[i], "--memory") && i + 1 < argc) memory = argv[++i], estimate = true;
+        else if (!strcmp(argv[i], "--estimate")) estimate = true;
+        else if (!strcmp(argv[i], "--lossy")) lossy = true;
+        else if (!strcmp(argv[i], "--verify")) verify = estimate = true;
         else if (argv[i][0] == '-') return cli_usage("info", "unknown option '%s'", argv[i]);
         else if (!path) path = argv[i];
         else return cli_usage("info", "more than one input given ('%s')", argv[i]);
@@ -98,6 +166,23 @@ int cmd_info(int argc, char **argv) {
                                 : m->triangle_colors                  ? "per triangle"
                                                                       : "none");
     connectivity(m);
+    if (estimate) {
+        char auto_spec[160];
+        size_t bytes = 0;
+        double per_tri = budget ? strtod(budget, NULL) : 0, limit = per_tri * (double)m->triangle_count;
+        if (memory && cli_parse_count(memory, &bytes)) limit = (double)bytes;
+        if ((budget && !(per_tri > 0)) || (memory && !bytes)) {
+            prt_mesh_free(m);
+            return cli_usage("info", "--budget takes bytes per triangle, --memory bytes (K, M, G: powers of 1000)");
+        }
+        snprintf(auto_spec, sizeof auto_spec, "auto");
+        if (budget) snprintf(auto_spec, sizeof auto_spec, "auto,budget=%s", budget);
+        if (memory) snprintf(auto_spec, sizeof auto_spec, "auto,memory=%zu", bytes);
+        if (lossy) strcat(auto_spec, ",lossy=yes");
+        int rc = estimates(m, auto_spec, limit, verify);
+        prt_mesh_free(m);
+        return rc;
+    }
     printf("memory per representation:\n");
     int rc = 0;
     for (size_t i = 0; i < prt_repr_count(); i++) {

@@ -1,6 +1,7 @@
 /* The API layer: validates arguments and rays, times builds, dispatches to the
  * representation's ops, and provides the generic packet and stream paths. */
 #include "api/accel.h"
+#include "api/auto.h"
 #include "ooc/ooc_accel.h"
 #include "geom/ray.h"
 #include "mesh/mesh.h"
@@ -24,6 +25,7 @@ prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_o
     if ((s = prt__check_extent(lo, hi))) return s;
     prt_spec spec;
     if ((s = prt__spec_parse(spec_text, &spec))) return s;
+    if (!strcmp(spec.structure, "auto")) return prt__build_auto(m, spec_text, o, out);
     const prt_repr_family *f = prt__registry_find(&spec);
     if (!f) return PRT_ERROR_ARGUMENT;
 

@@ -1,0 +1,27 @@
+/* A representation's size before building it, from builds on a sample of the mesh
+ * (estimate.c says how); auto.c estimates every candidate on one sample. */
+#ifndef PRT_API_ESTIMATE_H
+#define PRT_API_ESTIMATE_H
+
+#include "packrt.h"
+
+/* Triangles the estimate builds (in PRT__SAMPLE_PARTS patches); a mesh of at most twice
+ * as many is built whole. */
+#define PRT__SAMPLE_TRIANGLES 65536
+#define PRT__SAMPLE_PARTS 4
+
+typedef struct prt__sample {
+    const prt_mesh *mesh;  /* the mesh sampled */
+    const prt_mesh *whole; /* the mesh itself when it is small enough, else NULL */
+    prt_mesh *part[PRT__SAMPLE_PARTS]; /* the patches */
+    int count;
+    size_t triangles;      /* in the sample */
+    size_t mesh_triangles; /* in the mesh it stands for */
+} prt__sample;
+
+prt_status prt__sample_make(const prt_mesh *m, prt__sample *out);
+void prt__sample_free(prt__sample *s);
+/* Build spec on every part (threads: build threads, 0 all) and scale to the mesh. */
+prt_status prt__sample_estimate(const prt__sample *s, const char *spec, int threads, prt_size_estimate *out);
+
+#endif
