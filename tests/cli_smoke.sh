@@ -62,6 +62,21 @@ check bench_plot_not_svg 2 "$packrt" bench "$dir/s.ply" --plot "$dir/t.png"
 check bench_plot_unwritable 1 "$packrt" bench "$dir/s.ply" -r aabb:float3 --rays 200 --reps 1 --rounds 1 \
   --workload random --no-cold --vs none --plot "$dir/no/such/dir/t.svg"
 
+# auto within a budget: the chosen spec is printed and fits; an impossible budget says the smallest.
+check build_auto 0 "$packrt" build "$dir/s.ply" -r auto,budget=30 -o "$dir/auto.prt"
+python3 - "$dir/err" <<'PY' && { pass=$((pass + 1)); echo "ok   build_auto_fits"; } || { fail=$((fail + 1)); echo "FAIL build_auto_fits"; cat "$dir/err"; }
+import re, sys
+line = open(sys.argv[1]).read()
+m = re.search(r": (\S+), .* ([0-9.]+) B/tri", line)
+assert m and not m.group(1).startswith("auto") and float(m.group(2)) <= 30, line
+PY
+check info_estimate 0 "$packrt" info "$dir/s.ply" --budget 30 --verify
+grep -q "would build" "$dir/out" && grep -q "estimate" "$dir/out" \
+  && { pass=$((pass + 1)); echo "ok   info_estimate_says_choice"; } || { fail=$((fail + 1)); echo "FAIL info_estimate_says_choice"; }
+check build_auto_too_small 1 "$packrt" build "$dir/s.ply" -r auto,budget=2 -o "$dir/auto2.prt"
+grep -q "smallest" "$dir/err" || { fail=$((fail + 1)); echo "FAIL build_auto_too_small names the smallest"; }
+check build_auto_bad 1 "$packrt" build "$dir/s.ply" -r auto,budget=lots -o "$dir/auto3.prt"
+
 # Mistakes: usage errors exit 2, failures exit 1 with a message, never a crash.
 check no_command 2 "$packrt"
 check unknown_command 2 "$packrt" frobnicate

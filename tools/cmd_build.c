@@ -55,7 +55,7 @@ int cmd_build(int argc, char **argv) {
         else return cli_usage("build", "more than one mesh given ('%s')", argv[i]);
     }
     if ((!mesh_path == !gen) || !spec || !out) return cli_usage("build", "needs MESH (or --gen), -r SPEC and -o out.prt");
-    if (order_path && !strstr(spec, "ids=none"))
+    if (order_path && !strstr(spec, "ids=none") && strncmp(spec, "auto", 4)) /* auto may choose ids=none */
         return cli_usage("build", "--order: only ids=none specs hand out a triangle order");
     if ((gen || !strncmp(spec, "ooc", 3)) && order_path)
         return cli_usage("build", "--order: out-of-core and generated builds keep mesh ids; no order to write");
@@ -122,6 +122,12 @@ int cmd_build(int argc, char **argv) {
     }
     prt_stats st;
     prt_accel_stats(a, &st);
+    if (order_path && !strstr(prt_accel_spec(a), "ids=none")) {
+        fprintf(stderr, "packrt build: %s keeps the mesh's triangle ids: no order to write to %s\n", prt_accel_spec(a),
+                order_path);
+        free(order);
+        order_path = NULL;
+    }
     if (order_path) {
         /* Positions below triangles_built (degenerate triangles have none); little endian
          * whatever the host, byte by byte. */

@@ -171,6 +171,7 @@ static prt_status make_plan(const prt_mesh *m, const char *text, const prt_build
     prt__cost_table_load(&p->table);
     p->count = candidates(&p->table, m, &p->req, o && o->triangle_order, p->cand);
     if (!p->count) return prt__fail(PRT_ERROR_ARGUMENT, "auto: the cost table has no representation for this request");
+    const char *hint = o && o->triangle_order ? "" : " (specs with ids=none, smaller, are candidates when a triangle order is asked for: packrt build --order)";
     prt__sample smp;
     if ((s = prt__sample_make(m, &smp))) return s;
     size_t smallest = SIZE_MAX;
@@ -184,9 +185,9 @@ static prt_status make_plan(const prt_mesh *m, const char *text, const prt_build
     prt__sample_free(&smp);
     if (any) return PRT_OK;
     if (smallest == SIZE_MAX) return prt__fail(PRT_ERROR_LIMIT, "auto: no candidate representation can encode this mesh");
-    return prt__fail(PRT_ERROR_LIMIT, "auto: nothing fits %.4g bytes (%.2f per triangle); the smallest takes about %zu (%.2f per triangle)",
+    return prt__fail(PRT_ERROR_LIMIT, "auto: nothing fits %.4g bytes (%.2f per triangle); the smallest takes about %zu (%.2f per triangle)%s",
                      p->req.budget, p->req.budget / (double)m->triangle_count, smallest,
-                     (double)smallest / (double)m->triangle_count);
+                     (double)smallest / (double)m->triangle_count, hint);
 }
 
 prt_status prt_auto_choose(const prt_mesh *m, const char *auto_spec, const prt_build_options *o, char *spec_out,

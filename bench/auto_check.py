@@ -1,0 +1,84 @@
+#!/usr/bin/python3
+"""What `auto` chooses against the best in its budget, measured in one run (docs/results/auto.md).
+
+For a mesh: measures auto's candidates (and Embree) with `packrt bench --calibrate`, reads
+what `packrt info --budget B` says auto would build for each budget, and prints a Markdown
+table: auto's choice, its measured memory and time per ray, the fastest measured candidate
+within the budget, and their ratio. Auto decides from the built-in cost table (PRT_COSTS is
+pointed at nothing), so a mesh other than the ones the table was measured on tests how well
+the table carries over.
+
+Usage: bench/auto_check.py PACKRT MESH [--budgets 8,12,16,24,48,0] [--rounds 3] [bench options...]
+"""
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+
+def main():
+    args = sys.argv[1:]
+    if len(args) < 2:
+        sys.exit(__doc__)
+    packrt, mesh, rest = args[0], args[1], args[2:]
+    budgets, rounds = [8, 12, 16, 24, 48, 0], "3"
+    extra = []
+    i = 0
+    while i < len(rest):
+        if rest[i] == "--budgets":
+            budgets = [float(b) for b in rest[i + 1].split(",")]
+            i += 2
+        elif rest[i] == "--rounds":
+            rounds = rest[i + 1]
+            i += 2
+        else:
+            extra.append(rest[i])
+            i += 1
+    env = dict(os.environ, PRT_COSTS="/nonexistent/packrt-costs.tsv")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = subprocess.run([packrt, "bench", mesh, "--calibrate", "--costs", os.path.join(tmp, "c.tsv"), "--json",
+                              "--workload", "random", "--no-cold", "--threads", "1", "--rounds", rounds] + extra,
+                             env=env, capture_output=True, text=True)
+    if out.returncode:
+        sys.exit(out.stderr)
+    report = json.loads(out.stdout)
+    rows = {r["name"]: r for r in report["results"] if "error" not in r}
+    tris = report["mesh"]["triangles"]
+    print(f"{report['mesh']['path']}: {tris} triangles; {report['machine']}; load {report['load_average']}; "
+          f"{report['rounds']} rounds")
+    print()
+    print("| budget B/tri | lossy | auto chose | its B/tri | its µs/1024 | best in budget | its B/tri | its µs/1024 | auto / best |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for budget in budgets:
+        for lossy in (False, True):
+            cmd = [packrt, "info", mesh] + (["--budget", f"{budget:g}"] if budget else ["--estimate"])
+            cmd += ["--lossy"] if lossy else []
+            info = subprocess.run(cmd, env=env, capture_output=True, text=True)
+            m = re.search(r"would build (\S+)", info.stdout)
+            chose = m.group(1) if m else None
+            fits = [r for r in rows.values() if r["name"] != "embree" and (lossy or "vertex_error" not in r)
+                    and (not budget or r["bytes_per_tri_total"] <= budget) and r.get("random_us_per_1024")]
+            best = min(fits, key=lambda r: r["random_us_per_1024"]) if fits else None
+            a = rows.get(chose) if chose else None
+            label = f"{budget:g}" if budget else "none"
+            cells = [label, "yes" if lossy else "no"]
+            if a:
+                cells += [chose, f"{a['bytes_per_tri_total']:.1f}", f"{a['random_us_per_1024']:.0f}"]
+            else:
+                why = info.stderr.strip().split(": ")[-1] if not chose else "not measured"
+                cells += [chose or f"(none: {why})", "-", "-"]
+            if best:
+                cells += [best["name"], f"{best['bytes_per_tri_total']:.1f}", f"{best['random_us_per_1024']:.0f}"]
+            else:
+                cells += ["(none fits)", "-", "-"]
+            cells.append(f"{a['random_us_per_1024'] / best['random_us_per_1024']:.2f}" if a and best else "-")
+            print("| " + " | ".join(cells) + " |")
+    e = rows.get("embree")
+    if e:
+        print(f"\nEmbree: {e['bytes_per_tri_total']:.1f} B/tri, {e['random_us_per_1024']:.0f} µs/1024 warm, one thread.")
+
+
+if __name__ == "__main__":
+    main()
