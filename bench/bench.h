@@ -1,4 +1,4 @@
-/* The benchmark harness behind `packrt bench` (DESIGN.md §7): deterministic ray workloads,
+/* The benchmark harness behind `packrt bench` (docs/benchmark.md): deterministic ray workloads,
  * a backend interface that lets packrt and Embree be timed the same way on the same rays,
  * timing (warm, cold, one thread, all threads), hit-for-hit checks and the report.
  * Tests use the ray generators and the Embree wrapper as references; both stand alone. */
@@ -54,7 +54,7 @@ void bench_rays_tile(const bench_rays *r, size_t i, size_t *first, uint32_t *cou
 /* Position in storage order of pixel (x, y) of a tiled primary set. */
 size_t bench_rays_pixel_index(const bench_rays *r, uint32_t x, uint32_t y);
 
-/* Random rays (DESIGN §7, after RayCastTest): the bounds are enlarged by 10% of their size on
+/* Random rays (docs/benchmark.md, after RayCastTest): the bounds are enlarged by 10% of their size on
  * each side; R = half the enlarged diagonal; each ray starts uniformly on the sphere of radius R
  * around the bounds centre and points at a uniform point inside the sphere of radius R/4 around
  * the centre. dir is normalised, tnear = 0, tfar = +inf. Ray i depends only on (seed, i)
@@ -377,7 +377,7 @@ typedef struct bench_report {
 /* The table (one row per representation, ratios against the row named "embree"), the check
  * lines, and notes. */
 void bench_report_text(FILE *f, const bench_report *r);
-/* The DESIGN §7 JSON object. */
+/* The JSON object of docs/benchmark.md. */
 void bench_report_json(FILE *f, const bench_report *r);
 /* The memory/speed trade-off as an SVG picture (bench/plot.c): every measured row as a point,
  * total bytes per triangle against warm time per ray (random workload, one thread), Embree

@@ -1,4 +1,4 @@
-/* Timing of one backend on one workload (DESIGN.md §7): the medians of repeated runs on one
+/* Timing of one backend on one workload (docs/benchmark.md): the medians of repeated runs on one
  * thread and on all threads, and Rouwé's warm and cold figures for 1024 random rays. Rays are
  * converted to the backend's layout and reset outside the timed region. */
 #include "bench.h"

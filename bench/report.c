@@ -1,5 +1,5 @@
 /* The benchmark report: a text table with Embree ratios and agreement checks, and the flat
- * JSON object of DESIGN.md §7 whose field names tools outside the project read. */
+ * JSON object of docs/benchmark.md whose field names tools outside the project read. */
 #include "bench.h"
 
 #include <math.h>

@@ -1,5 +1,5 @@
 /* packrt bench: every representation and Embree, side by side on the same rays, in one
- * process (DESIGN.md §6, §7). The measuring lives in bench/; this file parses the command
+ * process (docs/benchmark.md). The measuring lives in bench/; this file parses the command
  * line, prepares the mesh and the workloads, runs the rows and prints the report. */
 #include "bench.h"
 #include "cli.h"
@@ -17,8 +17,8 @@ static void usage(FILE *f) {
     fprintf(f,
             "usage: packrt bench [MESH|FILE.prt] [options]\n"
             "\n"
-            "Times every representation and Embree on the same rays (DESIGN.md section 7;\n"
-            "docs/benchmark.md explains every column). Without MESH: a generated mandelbulb.\n"
+            "Times every representation and Embree on the same rays (docs/benchmark.md explains\n"
+            "every column). Without MESH: a generated mandelbulb.\n"
             "\n"
             "  -r SPEC|all          representation to bench, repeatable (default: one of every family and\n"
             "                       layout, printed on stderr; all: every name of `packrt list`)\n"
@@ -42,7 +42,7 @@ static void usage(FILE *f) {
             "  --tris N             triangles of the generated default mesh (default 1M)\n"
             "  --no-cold            skip the cold-cache figure (each sample flushes the caches)\n"
             "  --flush-mb N         cache flush buffer in MiB (default: twice the last-level cache)\n"
-            "  --json               print the DESIGN section 7 JSON object instead of the table\n"
+            "  --json               print the JSON object of docs/benchmark.md instead of the table\n"
             "  --queries            closest points and containment instead (docs/results/queries.md): the -r\n"
             "                       specs (default: four) against Embree's rtcPointQuery and trimesh's way\n"
             "  --matrix             Rouwe's tables instead: every representation (or the -r ones) on\n"
@@ -178,7 +178,7 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
             return cli_usage("bench", "more than one MESH ('%s', '%s')", c->path, a);
         }
     }
-    if (c->reps < 5) c->reps = 5; /* DESIGN §7: median of at least 5 */
+    if (c->reps < 5) c->reps = 5; /* docs/benchmark.md: median of at least 5 */
     if (c->rounds < 1) c->rounds = 1;
     if (!c->rays) return cli_usage("bench", "--rays must be at least 1");
     return 0;

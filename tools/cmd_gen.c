@@ -1,5 +1,5 @@
 /* packrt gen: write a procedural mesh (prt_mesh_generate) as a binary PLY (or STL, OFF), with the
- * options of DESIGN.md section 6: KIND [--tris N] [--seed S] -o out.ply. */
+ * options of docs/generators.md: KIND [--tris N] [--seed S] -o out.ply. */
 #include "cli.h"
 #include "mesh/gen.h"
 

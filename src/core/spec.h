@@ -1,4 +1,4 @@
-/* Representation spec strings: "structure[:codec][,key=value]..." (DESIGN.md §4). */
+/* Representation spec strings: "structure[:codec][,key=value]..." (the grammar: prt_build in include/packrt.h). */
 #ifndef PRT_CORE_SPEC_H
 #define PRT_CORE_SPEC_H
 
