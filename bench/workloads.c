@@ -69,7 +69,7 @@ prt_status bench_rays_random(const float lo[3], const float hi[3], size_t count,
      * we'll do some raycasts around the edges", takes radius = half the enlarged diagonal, and
      * draws origin = radius * sRandom(), target = radius / 4 * sRandom() about the centre.
      * Its sRandom() draws theta uniformly in [0, pi], which crowds points at the poles, and
-     * puts the target on the small sphere's surface. We use the unbiased version
+     * puts the target on the small sphere's surface. We use the unbiased version:
      * origin uniform on the sphere, target uniform inside the small ball. Same scale, same
      * hit rate in spirit; no pole artefacts that depend on the mesh's orientation. */
     prt_vec3 l = prt_v3_load(lo), h = prt_v3_load(hi);
