@@ -49,26 +49,26 @@ def main():
     print(f"{report['mesh']['path']}: {tris} triangles; {report['machine']}; load {report['load_average']}; "
           f"{report['rounds']} rounds")
     print()
-    print("| budget B/tri | lossy | auto chose | its B/tri | its µs/1024 | best in budget | its B/tri | its µs/1024 | auto / best |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| budget B/tri | lossy | ids=none | auto chose | its B/tri | its µs/1024 | best in budget | its B/tri | its µs/1024 | auto / best |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for budget in budgets:
-        for lossy in (False, True):
+        for lossy, order in ((False, False), (False, True), (True, False), (True, True)):
             cmd = [packrt, "info", mesh] + (["--budget", f"{budget:g}"] if budget else ["--estimate"])
-            cmd += ["--lossy"] if lossy else []
+            cmd += (["--lossy"] if lossy else []) + (["--order"] if order else [])
             info = subprocess.run(cmd, env=env, capture_output=True, text=True)
             m = re.search(r"would build (\S+)", info.stdout)
             chose = m.group(1) if m else None
             fits = [r for r in rows.values() if r["name"] != "embree" and (lossy or "vertex_error" not in r)
+                    and (order or "ids=none" not in r["name"])
                     and (not budget or r["bytes_per_tri_total"] <= budget) and r.get("random_us_per_1024")]
             best = min(fits, key=lambda r: r["random_us_per_1024"]) if fits else None
             a = rows.get(chose) if chose else None
             label = f"{budget:g}" if budget else "none"
-            cells = [label, "yes" if lossy else "no"]
+            cells = [label, "yes" if lossy else "no", "yes" if order else "no"]
             if a:
                 cells += [chose, f"{a['bytes_per_tri_total']:.1f}", f"{a['random_us_per_1024']:.0f}"]
             else:
-                why = info.stderr.strip().split(": ")[-1] if not chose else "not measured"
-                cells += [chose or f"(none: {why})", "-", "-"]
+                cells += [chose or "(nothing fits)", "-", "-"]
             if best:
                 cells += [best["name"], f"{best['bytes_per_tri_total']:.1f}", f"{best['random_us_per_1024']:.0f}"]
             else:

@@ -9,14 +9,15 @@
 #include <string.h>
 
 static int usage(void) {
-    printf("usage: packrt info MESH|FILE.prt [-r SPEC|all] [--estimate] [--budget B | --memory N] [--lossy]\n"
+    printf("usage: packrt info MESH|FILE.prt [-r SPEC|all] [--estimate] [--budget B | --memory N] [--lossy] [--order]\n"
            "  a mesh: triangles, vertices, bounds, degenerate triangles, edge connectivity and the\n"
            "  bytes per triangle of each representation (-r to choose; default all)\n"
            "  --estimate: estimated sizes of one representation of every family and of auto's candidates\n"
            "    instead, without building them over the whole mesh (prt_estimate), and what -r auto\n"
            "    would choose; --budget B (bytes per triangle) or --memory N (bytes, K/M/G) set auto's\n"
            "    budget and imply --estimate; --lossy lets auto choose lossy representations; --verify\n"
-           "    builds each over the whole mesh too and prints the estimate's error\n"
+           "    builds each over the whole mesh too and prints the estimate's error; --order: auto may\n"
+           "    choose ids=none specs, as `packrt build -r auto... --order FILE` does\n"
            "  a .prt file: its representation, bounds and memory\n");
     return 0;
 }
@@ -82,12 +83,17 @@ static void verify_estimate(const prt_mesh *m, const char *spec, size_t estimate
 }
 
 /* Estimated sizes of every default and candidate spec, and auto's choice for auto_spec. */
-static int estimates(const prt_mesh *m, const char *auto_spec, double limit, bool verify) {
+static int estimates(const prt_mesh *m, const char *auto_spec, double limit, bool verify, bool with_order) {
     const char *const *lists[] = {bench_default_specs, bench_calibrate_specs};
     printf("estimated memory (prt_estimate; * fits %s):\n", auto_spec);
     char chosen[96] = "";
     prt_size_estimate ce;
-    prt_status cs = prt_auto_choose(m, auto_spec, NULL, chosen, sizeof chosen, &ce);
+    /* --order: the caller will take the triangle order, so ids=none specs are candidates. */
+    prt_build_options o = {0};
+    o.triangle_order = with_order ? malloc(m->triangle_count * sizeof *o.triangle_order) : NULL;
+    prt_status cs = with_order && !o.triangle_order ? PRT_ERROR_NOMEM
+                                                    : prt_auto_choose(m, auto_spec, &o, chosen, sizeof chosen, &ce);
+    free(o.triangle_order);
     char why[512]; /* the estimates below overwrite prt_last_error() */
     snprintf(why, sizeof why, "%s", cs ? prt_last_error() : "");
     for (int l = 0; l < 2; l++)
@@ -120,7 +126,7 @@ static int estimates(const prt_mesh *m, const char *auto_spec, double limit, boo
 
 int cmd_info(int argc, char **argv) {
     const char *path = NULL, *spec = "all", *budget = NULL, *memory = NULL;
-    bool estimate = false, lossy = false, verify = false;
+    bool estimate = false, lossy = false, verify = false, with_order = false;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
         if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
@@ -129,6 +135,7 @@ int cmd_info(int argc, char **argv) {
         else if (!strcmp(argv[i], "--estimate")) estimate = true;
         else if (!strcmp(argv[i], "--lossy")) lossy = true;
         else if (!strcmp(argv[i], "--verify")) verify = estimate = true;
+        else if (!strcmp(argv[i], "--order")) with_order = true;
         else if (argv[i][0] == '-') return cli_usage("info", "unknown option '%s'", argv[i]);
         else if (!path) path = argv[i];
         else return cli_usage("info", "more than one input given ('%s')", argv[i]);
@@ -179,7 +186,7 @@ int cmd_info(int argc, char **argv) {
         if (budget) snprintf(auto_spec, sizeof auto_spec, "auto,budget=%s", budget);
         if (memory) snprintf(auto_spec, sizeof auto_spec, "auto,memory=%zu", bytes);
         if (lossy) strcat(auto_spec, ",lossy=yes");
-        int rc = estimates(m, auto_spec, limit, verify);
+        int rc = estimates(m, auto_spec, limit, verify, with_order);
         prt_mesh_free(m);
         return rc;
     }
