@@ -26,23 +26,24 @@ static int by_index(const void *a, const void *b) {
  * UINT32_MAX and is left so. */
 static prt_status extract(const prt_mesh *m, uint32_t *tris, size_t n, uint32_t *remap, prt_mesh **out) {
     qsort(tris, n, sizeof *tris, by_index);
+    /* Vertices keep their relative order too (a generator's rows stay rows). */
+    uint32_t *verts = malloc(3 * n * sizeof *verts);
+    if (!verts) return prt__fail(PRT_ERROR_NOMEM, "prt_estimate: no memory");
     size_t used = 0;
     for (size_t i = 0; i < n; i++)
         for (int c = 0; c < 3; c++) {
             uint32_t v = m->triangles[3 * (size_t)tris[i] + c];
-            if (remap[v] == UINT32_MAX) remap[v] = (uint32_t)used++;
+            if (remap[v] == UINT32_MAX) remap[v] = 0, verts[used++] = v;
         }
+    qsort(verts, used, sizeof *verts, by_index);
+    for (size_t k = 0; k < used; k++) remap[verts[k]] = (uint32_t)k;
     prt_status s = prt_mesh_create(used, n, out);
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++) {
-            uint32_t v = m->triangles[3 * (size_t)tris[i] + c];
-            if (!s) {
-                (*out)->triangles[3 * i + c] = remap[v];
-                memcpy(&(*out)->vertices[3 * (size_t)remap[v]], &m->vertices[3 * (size_t)v], 3 * sizeof(float));
-            }
-        }
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++) remap[m->triangles[3 * (size_t)tris[i] + c]] = UINT32_MAX;
+    for (size_t k = 0; k < used && !s; k++)
+        memcpy(&(*out)->vertices[3 * k], &m->vertices[3 * (size_t)verts[k]], 3 * sizeof(float));
+    for (size_t i = 0; i < n && !s; i++)
+        for (int c = 0; c < 3; c++) (*out)->triangles[3 * i + c] = remap[m->triangles[3 * (size_t)tris[i] + c]];
+    for (size_t k = 0; k < used; k++) remap[verts[k]] = UINT32_MAX;
+    free(verts);
     return s;
 }
 
