@@ -12,6 +12,7 @@
 
 #include "bvh/codecs/bitpack_vertices.h"
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/lattice.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
@@ -33,7 +34,7 @@ static inline void bitpack_encode(uint8_t *dst, const prt_mesh *m, const uint32_
             const float *p = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[i] + (size_t)v];
             for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], p[k]), hi[k] = fmaxf(hi[k], p[k]);
         }
-    bpv_grid(lo, hi, grid, grid + 3);
+    for (int k = 0; k < 3; k++) grid[k] = lo[k], grid[3 + k] = bvh_lattice_step((double)hi[k] - lo[k], BPV_MASK);
     memcpy(dst, &ids[0], 4);
     memcpy(dst + 4, grid, sizeof grid);
     dst += BITPACK_HEAD_BYTES;

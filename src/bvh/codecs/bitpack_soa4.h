@@ -16,6 +16,7 @@
 
 #include "bvh/codecs/codec.h"
 #include "bvh/codecs/decode.h"
+#include "bvh/codecs/lattice.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
@@ -49,7 +50,7 @@ static inline void bitpack_soa4_encode(uint8_t *dst, const prt_mesh *m, const ui
                 const float *p = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[4 * b + l] + (size_t)v];
                 for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], p[k]), hi[k] = fmaxf(hi[k], p[k]);
             }
-        for (int k = 0; k < 3; k++) scale[k] = (hi[k] - lo[k]) / (float)BSOA_MASK;
+        for (int k = 0; k < 3; k++) scale[k] = bvh_lattice_step((double)hi[k] - lo[k], BSOA_MASK);
         uint16_t q[9][4];
         for (uint32_t l = 0; l < 4; l++)
             for (int c = 0; c < 9; c++) {
