@@ -320,6 +320,23 @@ static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32
     return s;
 }
 
+/* The triangles of a lattice codec's grid: a block's, or (block 1: bitpack) a leaf's (0). */
+static uint32_t lattice_unit(const bvh_codec *c) { return c->block > 1 ? (uint32_t)c->block : 0; }
+
+/* Codecs with a grid per leaf or block: em's vertices (in) rounded to the tree's lattice
+ * (codecs/lattice.h) into *rounded, and the tree's boxes refitted around them. em: the
+ * leaf-order copy (these codecs have seq_ids), NULL otherwise. */
+static prt_status round_to_lattice(const bvh_codec *c, bvh_tree *t, prt_mesh *em, const float *in, float **rounded) {
+    if (!em) return prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s has a lattice without seq_ids", c->name);
+    *rounded = prt__alloc(prt__mul_size(em->vertex_count ? em->vertex_count : 1, 12));
+    if (!*rounded) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices", em->vertex_count);
+    prt_status s = bvh_lattice_snap_tree(t, em, in, c->lattice, lattice_unit(c), *rounded);
+    if (s) return s;
+    em->vertices = *rounded;
+    bvh_tree_refit(t, em);
+    return PRT_OK;
+}
+
 /* update=refit's copies of the tree's triangles (before any remap) and vertices. */
 static prt_status refit_keep(bvh_accel *b, const prt_mesh *em) {
     bvh_refit *r = prt__calloc(1, sizeof *r);
@@ -390,7 +407,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         m = &cleared;
     }
     const float *truth = m->vertices;
-    if (c->lattice) {
+    if (c->lattice && c->strips) { /* strip leaves are made later: one lattice over the mesh */
         cleared = *m, cleared.vertices = prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 12));
         if (!cleared.vertices) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices", m->vertex_count);
         bvh_lattice_snap(m, m->vertices, c->lattice, cleared.vertices);
@@ -416,6 +433,8 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if (c->seq_ids && !(s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order))) em = &leaf_order;
     if (!s && c->shared_remap && !c->seq_ids)
         s = prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s remaps indices without seq_ids", c->name);
+    float *rounded = NULL;
+    if (!s && c->lattice && !c->strips) s = round_to_lattice(c, &tree, em == &leaf_order ? em : NULL, truth, &rounded);
     if (!s && refit) s = refit_keep(b, em);
     /* shared_remap rewrites the leaf-order copy's indices (seq_ids codecs only). */
     if (!s) s = encode_tree(b, &tree, c->strips ? &leaf_order : em, ids ? o->triangle_order : b->mesh_ids, strip_error,
@@ -423,6 +442,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
     if (em != m) prt__free(leaf_order.triangles);
     if (m == &cleared) prt__free(cleared.vertices);
+    prt__free(rounded);
     if (!s && refit) b->refit->tree = tree;
     else bvh_tree_free(&tree);
     if (s) {
@@ -525,9 +545,10 @@ static prt_status bvh_update(prt_accel *a, const float *vertices) {
                          b->owns_blob ? "was built without update=refit" : "was loaded, without the tree update=refit keeps");
     prt_status s = prt__check_update_vertices(vertices, 3 * r->mesh.vertex_count);
     if (s) return s;
-    const uint32_t lattice = bvh_codecs[b->codec].lattice;
-    if (lattice) bvh_lattice_snap(&r->mesh, vertices, lattice, r->mesh.vertices);
-    else memcpy(r->mesh.vertices, vertices, 12 * r->mesh.vertex_count);
+    const bvh_codec *c = &bvh_codecs[b->codec];
+    if (!c->lattice) memcpy(r->mesh.vertices, vertices, 12 * r->mesh.vertex_count);
+    else if ((s = bvh_lattice_snap_tree(&r->tree, &r->mesh, vertices, c->lattice, lattice_unit(c), r->mesh.vertices)))
+        return s;
     bvh_tree_refit(&r->tree, &r->mesh);
     prt_mesh em = r->mesh;
     if (r->remap) memcpy(r->remap, r->mesh.triangles, 12 * r->mesh.triangle_count), em.triangles = r->remap;

@@ -16,15 +16,30 @@
 
 #include <math.h>
 
-/* The smallest power of two s >= 2^-149 (the smallest float) with span <= steps * s, as a
- * float; 0 when span is 0. Powers of two scale exactly, so the comparisons are exact. */
-static inline float bvh_lattice_step(double span, uint32_t steps) {
-    if (!(span > 0)) return 0.0f;
+#define BVH_LATTICE_NONE (-1000) /* bvh_lattice_exp of an empty span: no constraint */
+
+/* The smallest e >= -149 (2^-149: the smallest float) with span <= steps * 2^e;
+ * BVH_LATTICE_NONE when span is 0. Powers of two scale exactly: the comparisons are exact. */
+static inline int bvh_lattice_exp(double span, uint32_t steps) {
+    if (!(span > 0)) return BVH_LATTICE_NONE;
     int e;
     frexp(span / steps, &e); /* span / steps < 2^e, up to the division's rounding */
     while (e > -149 && span <= steps * ldexp(1.0, e - 1)) e--;
     while (span > steps * ldexp(1.0, e)) e++;
-    return ldexpf(1.0f, e < -149 ? -149 : e);
+    return e < -149 ? -149 : e;
+}
+
+/* The grid step of a leaf or block that spans `span`: 2^bvh_lattice_exp, 0 for no span. */
+static inline float bvh_lattice_step(double span, uint32_t steps) {
+    const int e = bvh_lattice_exp(span, steps);
+    return e == BVH_LATTICE_NONE ? 0.0f : ldexpf(1.0f, e);
+}
+
+/* x rounded to a multiple of 2^e. Exact in double (a float over a power of two); rounding
+ * to float again keeps a multiple: a value a float cannot hold lies where floats are spaced
+ * wider than 2^e. */
+static inline float bvh_lattice_round(float x, int e) {
+    return e == BVH_LATTICE_NONE || !isfinite(x) ? x : (float)(nearbyint(ldexp(x, -e)) * ldexp(1.0, e));
 }
 
 /* out: the vertices `in` (of m's triangles; m->vertices is not read, and out may be it)
@@ -39,16 +54,19 @@ static inline void bvh_lattice_snap(const prt_mesh *m, const float *in, uint32_t
             const float x = in[3 * (size_t)m->triangles[i] + (size_t)k];
             lo[k] = fminf(lo[k], x), hi[k] = fmaxf(hi[k], x);
         }
-    double cell[3];
-    for (int k = 0; k < 3; k++) cell[k] = hi[k] > lo[k] ? (double)bvh_lattice_step((double)hi[k] - lo[k], mask - 1) : 0.0;
+    int e[3];
+    for (int k = 0; k < 3; k++) e[k] = hi[k] > lo[k] ? bvh_lattice_exp((double)hi[k] - lo[k], mask - 1) : BVH_LATTICE_NONE;
     for (size_t v = 0; v < m->vertex_count; v++)
-        for (int k = 0; k < 3; k++) {
-            const float x = in[3 * v + (size_t)k];
-            /* Exact in double (a float over a power of two); rounding to float again keeps a
-             * multiple of the cell: a value a float cannot hold lies where floats are
-             * spaced wider than the cell. */
-            out[3 * v + (size_t)k] = cell[k] > 0 && isfinite(x) ? (float)(nearbyint(x / cell[k]) * cell[k]) : x;
-        }
+        for (int k = 0; k < 3; k++) out[3 * v + (size_t)k] = bvh_lattice_round(in[3 * v + (size_t)k], e[k]);
 }
+
+/* The same as fine as each vertex allows (bvh/lattice_tree.c): for a codec with a grid per
+ * `unit` triangles of a leaf (0: per leaf) over tree t, whose t->prims index m's triangles,
+ * every vertex rounded to the coarsest lattice that a run a layout may make a grid of and
+ * that holds it needs, so that every such run encodes exactly (in and out may not be the
+ * same). PRT_ERROR_NOMEM when out of memory. */
+struct bvh_tree;
+prt_status bvh_lattice_snap_tree(const struct bvh_tree *t, const prt_mesh *m, const float *in, uint32_t mask,
+                                 uint32_t unit, float *out);
 
 #endif
