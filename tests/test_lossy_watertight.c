@@ -6,6 +6,7 @@
  * and any hit must find the surface) and from outside (the number of crossings is even).
  * The target of the issue: at most 1 ray in 10,000 lost per codec, as the lossless ones. */
 #include "core/rng.h"
+#include "support/lossy.h"
 #include "support/meshes.h"
 #include "support/repr.h"
 #include "test.h"
@@ -124,7 +125,39 @@ TEST(test_lossy_codecs_lose_no_ray_through_edges_and_vertices_of_closed_meshes) 
     for (int i = 0; i < 3; i++) free(targets[i]), prt_mesh_free(meshes[i].m);
 }
 
+/* update=refit rounds the moved vertices to the tree's lattice again (the same runs): still
+ * closed, and every hit within the error stated after the update. */
+TEST(test_lossy_codecs_stay_watertight_after_refit) {
+    prt_mesh *sphere = NULL;
+    CHECK_OK(prt_mesh_generate("sphere", 500, 1, &sphere));
+    if (!sphere) return;
+    const char *specs[] = {"quad:bitpack-soa4,update=refit", "wide8:bitpack,update=refit", "skd:bitpack-soa4,update=refit"};
+    for (size_t s = 0; s < COUNT_OF(specs); s++) {
+        prt_accel *a = NULL;
+        CHECK_OK(prt_build(sphere, specs[s], NULL, &a));
+        for (int f = 1; a && f <= 2; f++) {
+            const float scale = 1.0f + 0.3f * (float)f, offset = 0.25f * (float)f;
+            prt_mesh *moved = mesh_transformed(sphere, scale, offset);
+            CHECK_OK(prt_accel_update(a, moved->vertices));
+            size_t n;
+            float *targets = edge_targets(moved, &n, 3);
+            const float centre[1][3] = {{offset, offset, offset}};
+            tally t = {0};
+            rays_from_inside(a, targets, n, centre, 1, &t);
+            const size_t wrong = lossy_hits_outside_the_bound(moved, a, 1000, (uint64_t)f);
+            CHECK_MSG(t.lost == 0 && wrong == 0 && repr_vertex_error(a) > 0,
+                      "%s frame %d: %zu of %zu rays lost, %zu of 1000 hits outside the bound %.3g", specs[s], f, t.lost,
+                      t.rays, wrong, repr_vertex_error(a));
+            free(targets);
+            prt_mesh_free(moved);
+        }
+        prt_accel_free(a);
+    }
+    prt_mesh_free(sphere);
+}
+
 int main(void) {
     RUN(test_lossy_codecs_lose_no_ray_through_edges_and_vertices_of_closed_meshes);
+    RUN(test_lossy_codecs_stay_watertight_after_refit);
     TEST_END();
 }
