@@ -1,16 +1,18 @@
 /* BitPackSOA4 (Rouwé 2019, §3.5): blocks of four triangles with 16-bit vertex components
  * in SOA order (x of vertex 0 of the four, y, z, then vertex 1, vertex 2: 36 u16), then the
  * block's float scale xyz and offset xyz (24 bytes), a component decoded as
- * offset + q * scale with offset = the block's lower corner and scale = its extent / 65535.
+ * offset + q * scale with offset = the block's lower corner and scale the smallest power
+ * of two with which its extent spans 65535 steps.
  * The leaf starts with a u32 leaf-order id of its first triangle (seq_ids) and its u32
  * triangle count (8 bytes, so that wide8's grain, the gcd of head and block, is 8 bytes and
  * a node's leaves fit its 255 grains): 8 + 96 bytes per block, no shared data. Padding
  * lanes hold 0xFFFF everywhere; a lane whose vertex 0
  * and vertex 1 are equal (padding, or a triangle quantized to zero area, which cannot be hit
- * either) is decoded as NaN. Lossy, and each block has its own grid, so a vertex shared by
- * two blocks may decode differently in each and the decoded mesh can have cracks. The
- * vertex error is measured at build time by decoding every leaf as encoded (leaf_error) and
- * kept in the META section. */
+ * either) is decoded as NaN. Lossy: the BVH family rounds the vertices to one lattice per
+ * tree first (lattice.h), on which every block's grid is exact, so a vertex shared by two
+ * blocks decodes to the same bits in both and the decoded mesh is as closed as the mesh.
+ * The vertex error is measured at build time by decoding every leaf as encoded
+ * (leaf_error) and kept in the META section. */
 #ifndef PRT_BVH_CODECS_BITPACK_SOA4_H
 #define PRT_BVH_CODECS_BITPACK_SOA4_H
 

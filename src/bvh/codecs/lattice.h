@@ -1,14 +1,16 @@
 /* One quantization lattice per tree for the codecs with a grid per leaf or block
- * (bitpack, bitpack-soa4, strip-bitpack; issue 31). Before the tree is built, every
- * coordinate is rounded to a multiple of a power of two `cell` per axis, the smallest with
- * which the mesh bounds span at most mask - 1 cells (bvh_lattice_snap); the tree and every
- * leaf then see these vertices. A leaf or block takes as its grid its lower corner and the
- * smallest power of two step with which its span fits mask steps (bvh_lattice_step): never
- * above the cell, so each of its coordinates is lo + q * step for an integer q <= mask, and
- * the decode lo + (float)q * step is exact (every term and the sum are floats: no rounding).
- * A vertex shared by several leaves thus decodes to the same float bit for bit in each, and
- * the decoded mesh is as closed as the mesh. The cost: at most half a cell per component,
- * a cell below 2 * span / (mask - 1), where a grid per leaf erred half a leaf step. */
+ * (bitpack, bitpack-soa4, strip-bitpack; issue 31). A leaf or block takes as its grid its
+ * lower corner and the smallest power of two step with which its span fits mask steps
+ * (bvh_lattice_step). Before encoding, the BVH family rounds every coordinate to a multiple
+ * of a power of two no finer than the step of any leaf or block holding it: per vertex
+ * (bvh_lattice_snap_tree, bitpack and bitpack-soa4) or, where the leaves are made later
+ * (strip-bitpack), the cell with which the mesh bounds span mask - 1 steps
+ * (bvh_lattice_snap). Each coordinate of a leaf is then lo + q * step for an integer
+ * q <= mask, and the decode lo + (float)q * step is exact (every term and the sum are
+ * floats: no rounding, whatever the kernel's order or fusing). A vertex shared by several
+ * leaves thus decodes to the same float bit for bit in each, and the decoded mesh is as
+ * closed as the mesh. The cost: at most half a step of the coarsest grid holding a vertex
+ * per component, where a grid per leaf erred half a step of its own grid (under 2x that). */
 #ifndef PRT_BVH_CODECS_LATTICE_H
 #define PRT_BVH_CODECS_LATTICE_H
 

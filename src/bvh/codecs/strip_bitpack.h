@@ -2,9 +2,9 @@
  * component over a grid (x | y << 20 | z << 40) and the 3-bit context in bits 60..62.
  * The paper takes the grid from the leaf's node box; our layouts do not hand that box to
  * the codec (as for bitpack.h), so the leaf stores its own: u32 leaf-order id of the first
- * triangle, lo xyz and step xyz of its entries' bounds, then 8 bytes per entry. Lossy, a
- * grid per leaf (cracks between leaves up to twice the error); the error is measured at
- * build time by decoding every leaf (leaf_error). */
+ * triangle, lo xyz and step xyz of its entries' bounds (a power of two, lattice.h), then 8
+ * bytes per entry. Lossy, over one lattice per tree on which every leaf is exact (no
+ * cracks); the error is measured at build time by decoding every leaf (leaf_error). */
 #ifndef PRT_BVH_CODECS_STRIP_BITPACK_H
 #define PRT_BVH_CODECS_STRIP_BITPACK_H
 
