@@ -9,8 +9,9 @@
  * q <= mask, and the decode lo + (float)q * step is exact (every term and the sum are
  * floats: no rounding, whatever the kernel's order or fusing). A vertex shared by several
  * leaves thus decodes to the same float bit for bit in each, and the decoded mesh is as
- * closed as the mesh. The cost: at most half a step of the coarsest grid holding a vertex
- * per component, where a grid per leaf erred half a step of its own grid (under 2x that). */
+ * closed as the mesh. The cost: a vertex errs up to half a step of the coarsest grid
+ * holding it per component, where a grid per leaf erred half a step of its own grid
+ * (docs/results/reliability.md measures both). */
 #ifndef PRT_BVH_CODECS_LATTICE_H
 #define PRT_BVH_CODECS_LATTICE_H
 
