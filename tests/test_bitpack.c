@@ -7,6 +7,7 @@
 #include "bvh/codecs/bitpack_soa4.h"
 #include "bvh/codecs/idx16_bitpack_soa4.h"
 #include "bvh/codecs/idx32_bitpack_soa4.h"
+#include "bvh/codecs/lattice.h"
 #include "support/lossy.h"
 #include "support/meshes.h"
 #include "support/reference.h"
@@ -53,24 +54,92 @@ TEST(test_indexed_bitpack_error_within_the_mesh_grid_step) {
     for (size_t i = 0; i < COUNT_OF(meshes); i++) prt_mesh_free(meshes[i]);
 }
 
-/* bitpack-soa4 and bitpack quantize over each block's or leaf's own bounds: the error they
- * state (measured over every leaf) lies within half a step of the mesh-wide grid of 65535
- * or 2^21 - 1 steps, is far below it on a fine mesh, and bounds every hit. */
-TEST(test_bitpack_per_block_and_leaf_errors_are_measured_and_bound_hits) {
-    prt_mesh *meshes[] = {mesh_grid(60), mesh_random_soup(3000, 9)};
+/* Half a cell per component of the tree's lattice (codecs/lattice.h, docs/formats.md): the
+ * smallest power of two with which the mesh bounds span `steps` - 1 cells; the decode is
+ * exact, so nothing is added for rounding but a hair for the error's own float. */
+static double lattice_bound(const prt_mesh *m, double steps) {
+    float lo[3], hi[3];
+    prt_mesh_bounds(m, lo, hi);
+    double half_cell2 = 0;
+    for (int k = 0; k < 3; k++) {
+        const double span = (double)hi[k] - lo[k], cell = span > 0 ? exp2(ceil(log2(span / (steps - 1)))) : 0;
+        half_cell2 += 0.25 * cell * cell;
+    }
+    return sqrt(half_cell2) * (1 + 1e-6);
+}
+
+/* bitpack-soa4, bitpack and strip-bitpack round the mesh to one lattice per tree and
+ * encode each block or leaf on it exactly: the error they state (measured over every leaf)
+ * lies within half a cell of the mesh-wide lattice of 2^16, 2^21 or 2^20 steps, and bounds
+ * every hit. */
+TEST(test_bitpack_lattice_errors_are_measured_and_bound_hits) {
+    prt_mesh *grid = mesh_grid(60), *soup = mesh_random_soup(3000, 9);
+    prt_mesh *meshes[] = {grid, soup, mesh_transformed(soup, 3.0f, 1000.0f)};
     const char *specs[] = {"quad:bitpack-soa4", "wide8:bitpack-soa4", "aabb:bitpack-soa4,leaf=6", "quad:bitpack",
-                           "skd:bitpack"};
+                           "skd:bitpack", "wide8:strip-bitpack"};
     for (size_t i = 0; i < COUNT_OF(meshes); i++)
         for (size_t s = 0; s < COUNT_OF(specs); s++) {
             prt_accel *a;
             CHECK_OK(prt_build(meshes[i], specs[s], NULL, &a));
             if (!a) continue;
-            double err = repr_vertex_error(a), bound = grid_bound(meshes[i], strstr(specs[s], "soa4") ? 65535.0 : BPV_MASK);
-            CHECK_MSG(err > 0 && err <= bound, "mesh %zu %s: stated error %.3g, bound %.3g", i, specs[s], err, bound);
+            const double steps = strstr(specs[s], "soa4") ? 65536.0 : strstr(specs[s], "strip") ? 1048576.0 : 2097152.0;
+            double err = repr_vertex_error(a), bound = lattice_bound(meshes[i], steps - 1);
+            /* Just below 1024 floats lie 2^-14 apart, no closer than the cells of a span of 3
+             * (2^-14 for 2^16 steps, finer for more): every vertex is on the lattice already
+             * and nothing is lost. */
+            const bool coarse_floats = i == 2;
+            CHECK_MSG((err > 0 || coarse_floats) && err <= bound, "mesh %zu %s: stated error %.3g, bound %.3g", i, specs[s],
+                      err, bound);
             size_t wrong = lossy_hits_outside_the_bound(meshes[i], a, 2000, 15 + i);
             CHECK_MSG(wrong == 0, "mesh %zu %s: %zu of 2000 hits outside the error bound", i, specs[s], wrong);
             prt_accel_free(a);
         }
+    for (size_t i = 0; i < COUNT_OF(meshes); i++) prt_mesh_free(meshes[i]);
+}
+
+/* The lattice (codecs/lattice.h): any run of rounded vertices, given the grid a leaf takes
+ * (its lower corner and bvh_lattice_step of its span), is lo + q * step for integers
+ * q <= mask, and decodes to the rounded vertex bit for bit; rounding moved no coordinate
+ * more than half a cell. Meshes near the origin and far from it (where floats are spaced
+ * wider than the cell), with runs of 1 to 16 triangles anywhere in the mesh. */
+TEST(test_bitpack_lattice_runs_decode_exactly) {
+    prt_mesh *soup = mesh_random_soup(2000, 4);
+    prt_mesh *meshes[] = {soup, mesh_transformed(soup, 1e-3f, 4096.0f), mesh_transformed(soup, 100.0f, -7.0f)};
+    const uint32_t masks[] = {BSOA_MASK, BPV_MASK};
+    size_t inexact = 0, runs = 0, moved_too_far = 0;
+    for (size_t i = 0; i < COUNT_OF(meshes); i++)
+        for (size_t mk = 0; mk < COUNT_OF(masks); mk++) {
+            const prt_mesh *m = meshes[i];
+            float *v = malloc(12 * m->vertex_count);
+            bvh_lattice_snap(m, m->vertices, masks[mk], v);
+            float lo[3], hi[3];
+            prt_mesh_bounds(m, lo, hi);
+            for (int k = 0; k < 3; k++) {
+                const double cell = exp2(ceil(log2(((double)hi[k] - lo[k]) / (masks[mk] - 1))));
+                for (size_t x = 0; x < m->vertex_count; x++)
+                    moved_too_far += fabs((double)v[3 * x + k] - m->vertices[3 * x + k]) > 0.5 * cell;
+            }
+            for (size_t first = 0; first < m->triangle_count; first += 7) {
+                const size_t n = 1 + first % 16;
+                if (first + n > m->triangle_count) break;
+                float rlo[3] = {INFINITY, INFINITY, INFINITY}, rhi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                for (size_t c = 3 * first; c < 3 * (first + n); c++)
+                    for (int k = 0; k < 3; k++)
+                        rlo[k] = fminf(rlo[k], v[3 * m->triangles[c] + k]), rhi[k] = fmaxf(rhi[k], v[3 * m->triangles[c] + k]);
+                for (int k = 0; k < 3; k++) {
+                    const float step = bvh_lattice_step((double)rhi[k] - rlo[k], masks[mk]);
+                    for (size_t c = 3 * first; c < 3 * (first + n); c++) {
+                        const float x = v[3 * m->triangles[c] + k];
+                        const double q = step > 0 ? ((double)x - rlo[k]) / step : 0;
+                        inexact += q != floor(q) || q > masks[mk] || bpv_decode(rlo[k], step, (uint32_t)q) != x;
+                    }
+                }
+                runs++;
+            }
+            free(v);
+        }
+    CHECK_MSG(inexact == 0 && moved_too_far == 0 && runs > 1000, "%zu coordinates of %zu runs inexact, %zu moved too far",
+              inexact, runs, moved_too_far);
     for (size_t i = 0; i < COUNT_OF(meshes); i++) prt_mesh_free(meshes[i]);
 }
 
@@ -196,7 +265,8 @@ TEST(test_bitpack_save_and_load_keep_every_hit_and_the_error) {
 
 int main(void) {
     RUN(test_indexed_bitpack_error_within_the_mesh_grid_step);
-    RUN(test_bitpack_per_block_and_leaf_errors_are_measured_and_bound_hits);
+    RUN(test_bitpack_lattice_errors_are_measured_and_bound_hits);
+    RUN(test_bitpack_lattice_runs_decode_exactly);
     RUN(test_bitpack_crafted_leaves_are_invalid);
     RUN(test_indexed_bitpack_geometry_follows_the_format);
     RUN(test_idx16_bitpack_more_than_65536_vertices_is_a_limit);

@@ -83,10 +83,11 @@ static double bf_sampled_d2(const prt_mesh *m, const float *p) {
 static void check_closed_parity(const prt_mesh *m, const char *spec, const char *what) {
     prt_accel *a;
     if (!repr_build(m, spec, &a)) return;
-    /* Lossy codecs decode a vertex shared by two leaves apart (issue 31); lossygrid's
-     * sub-grids of one grid share their borders bit for bit, but not those of two grids or
-     * a grid and its exact records: measured here, 2-11% of these rays find such a crack. */
-    if (repr_vertex_error(a) > 0) {
+    /* The lossy BVH codecs decode a shared vertex alike in every leaf (one lattice per
+     * tree, issue 31) and are checked as the lossless ones; lossygrid's sub-grids of one
+     * grid share their borders bit for bit, but not those of two grids or a grid and its
+     * exact records: measured here, 2-11% of these rays find such a crack. */
+    if (repr_vertex_error(a) > 0 && !strncmp(spec, "lossygrid", 9)) {
         prt_accel_free(a);
         return;
     }
@@ -280,10 +281,10 @@ TEST(test_contains_grid_cube_exactly) {
             wrong += ((in[i] & PRT_INSIDE) != 0) != want;
             winding += (in[i] & PRT_BY_WINDING) != 0;
         }
-        /* Lossy codecs decode a vertex shared by two leaves apart (issue 31): where a ray
-         * slips through such a crack, the parities disagree and the winding number, which
-         * a crack hardly moves, answers instead. */
-        const bool lossy = repr_vertex_error(a) > 0;
+        /* lossygrid leaves cracks between its grids: where a ray slips through one, the
+         * parities disagree and the winding number, which a crack hardly moves, answers
+         * instead. The lossy BVH codecs are closed (issue 31) and answer as lossless ones. */
+        const bool lossy = repr_vertex_error(a) > 0 && !strncmp(g_specs[s], "lossygrid", 9);
         CHECK_MSG(wrong == 0 && (lossy || winding == 0), "%s: %zu of %zu points wrong, %zu needed the winding number",
                   g_specs[s], wrong, n, winding);
         prt_accel_free(a);

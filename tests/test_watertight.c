@@ -1,10 +1,11 @@
 /* Watertightness: rays from inside a closed generated sphere must all hit, for every
  * representation, including rays aimed exactly at vertices and edge midpoints, where a
  * non-watertight test lets rays slip between neighbouring triangles. Lossless
- * representations must not miss once. Lossy ones whose vertices decode differently in
- * different leaves or blocks (bitpack, bitpack-soa4) leave cracks up to their vertex error
- * wide: a miss is accepted there only where ref_lossy_acceptable allows one against the
- * exact answer (the ray passes within the error of an edge). */
+ * representations must not miss once, nor the lossy BVH codecs, whose shared vertices
+ * decode alike in every leaf (one lattice per tree, issue 31; test_lossy_watertight aims
+ * at every edge of more meshes). lossygrid's grids leave cracks up to its vertex error wide
+ * where they meet: a miss is accepted there only where ref_lossy_acceptable allows one
+ * against the exact answer (the ray passes within the error of an edge). */
 #include "core/rng.h"
 #include "support/reference.h"
 #include "support/repr.h"
@@ -43,7 +44,8 @@ static void expect_all_hit(const prt_mesh *m, const prt_ray *rays, size_t n, siz
         if (!a) continue;
         size_t count = repr_in_cover(prt_repr_name(k)) || n_other > n ? n : n_other;
         memcpy(work, rays, count * sizeof *rays);
-        size_t misses = count_misses(a, m, rays, work, count, repr_vertex_error(a));
+        const bool cracks = !strncmp(prt_repr_name(k), "lossygrid", 9);
+        size_t misses = count_misses(a, m, rays, work, count, cracks ? repr_vertex_error(a) : 0);
         CHECK_MSG(misses == 0, "%s: %zu of %zu %s escaped the closed sphere", prt_repr_name(k), misses, count, what);
         prt_accel_free(a);
     }

@@ -6,6 +6,7 @@
  * boxes for new vertex positions and encodes the tree again. */
 #include "api/accel.h"
 #include "bvh/bvh.h"
+#include "bvh/codecs/lattice.h"
 #include "bvh/codecs/strip.h"
 #include "bvh/strip_leaves.h"
 #include "core/vec.h"
@@ -299,7 +300,8 @@ static prt_status encode_strips(bvh_accel *b, bvh_tree *tree, prt_mesh *lm, uint
 /* After the builder: the codec's shared data, the encoded blob and the measured vertex
  * error, from a tree whose leaves name em's triangles (a shared_remap codec rewrites em's
  * indices). What a build does, and what update=refit does again every frame. */
-static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32_t *ids, float strip_error) {
+static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32_t *ids, float strip_error,
+                              const float *truth) {
     const bvh_codec *c = &bvh_codecs[b->codec];
     prt_status s = PRT_OK;
     if (c->shared_build || c->shared_remap) {
@@ -312,8 +314,27 @@ static prt_status encode_tree(bvh_accel *b, bvh_tree *tree, prt_mesh *em, uint32
     }
     if (!s && c->strips) s = encode_strips(b, tree, em, ids, strip_error);
     else if (!s) s = b->layout->encode(tree, c, em, &b->blob);
-    if (!s && c->leaf_error) s = measure_leaf_error(b, c, em);
+    prt_mesh tm = *em; /* lattice codecs: the error against the vertices before rounding (truth) */
+    tm.vertices = (float *)(uintptr_t)truth;
+    if (!s && c->leaf_error) s = measure_leaf_error(b, c, &tm);
     return s;
+}
+
+/* The triangles of a lattice codec's grid: a block's, or (block 1: bitpack) a leaf's (0). */
+static uint32_t lattice_unit(const bvh_codec *c) { return c->block > 1 ? (uint32_t)c->block : 0; }
+
+/* Codecs with a grid per leaf or block: em's vertices (in) rounded to the tree's lattice
+ * (codecs/lattice.h) into *rounded, and the tree's boxes refitted around them. em: the
+ * leaf-order copy (these codecs have seq_ids), NULL otherwise. */
+static prt_status round_to_lattice(const bvh_codec *c, bvh_tree *t, prt_mesh *em, const float *in, float **rounded) {
+    if (!em) return prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s has a lattice without seq_ids", c->name);
+    *rounded = prt__alloc(prt__mul_size(em->vertex_count ? em->vertex_count : 1, 12));
+    if (!*rounded) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices", em->vertex_count);
+    prt_status s = bvh_lattice_snap_tree(t, em, in, c->lattice, lattice_unit(c), *rounded);
+    if (s) return s;
+    em->vertices = *rounded;
+    bvh_tree_refit(t, em);
+    return PRT_OK;
 }
 
 /* update=refit's copies of the tree's triangles (before any remap) and vertices. */
@@ -385,6 +406,13 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         if ((s = clear_low_bits(m, &cleared, &strip_error))) return s;
         m = &cleared;
     }
+    const float *truth = m->vertices;
+    if (c->lattice && c->strips) { /* strip leaves are made later: one lattice over the mesh */
+        cleared = *m, cleared.vertices = prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 12));
+        if (!cleared.vertices) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices", m->vertex_count);
+        bvh_lattice_snap(m, m->vertices, c->lattice, cleared.vertices);
+        m = &cleared;
+    }
     bvh_prim *prims;
     size_t n;
     bvh_tree tree = {0};
@@ -405,12 +433,16 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if (c->seq_ids && !(s = permute_to_leaf_order(m, &tree, ids ? o->triangle_order : NULL, b, &leaf_order))) em = &leaf_order;
     if (!s && c->shared_remap && !c->seq_ids)
         s = prt__fail(PRT_ERROR_ARGUMENT, "internal: codec %s remaps indices without seq_ids", c->name);
+    float *rounded = NULL;
+    if (!s && c->lattice && !c->strips) s = round_to_lattice(c, &tree, em == &leaf_order ? em : NULL, truth, &rounded);
     if (!s && refit) s = refit_keep(b, em);
     /* shared_remap rewrites the leaf-order copy's indices (seq_ids codecs only). */
-    if (!s) s = encode_tree(b, &tree, c->strips ? &leaf_order : em, ids ? o->triangle_order : b->mesh_ids, strip_error);
+    if (!s) s = encode_tree(b, &tree, c->strips ? &leaf_order : em, ids ? o->triangle_order : b->mesh_ids, strip_error,
+                           truth);
     if (!s) memcpy(b->base.bounds, tree.nodes[0].box.lo, 6 * sizeof(float));
     if (em != m) prt__free(leaf_order.triangles);
     if (m == &cleared) prt__free(cleared.vertices);
+    prt__free(rounded);
     if (!s && refit) b->refit->tree = tree;
     else bvh_tree_free(&tree);
     if (s) {
@@ -513,14 +545,17 @@ static prt_status bvh_update(prt_accel *a, const float *vertices) {
                          b->owns_blob ? "was built without update=refit" : "was loaded, without the tree update=refit keeps");
     prt_status s = prt__check_update_vertices(vertices, 3 * r->mesh.vertex_count);
     if (s) return s;
-    memcpy(r->mesh.vertices, vertices, 12 * r->mesh.vertex_count);
+    const bvh_codec *c = &bvh_codecs[b->codec];
+    if (!c->lattice) memcpy(r->mesh.vertices, vertices, 12 * r->mesh.vertex_count);
+    else if ((s = bvh_lattice_snap_tree(&r->tree, &r->mesh, vertices, c->lattice, lattice_unit(c), r->mesh.vertices)))
+        return s;
     bvh_tree_refit(&r->tree, &r->mesh);
     prt_mesh em = r->mesh;
     if (r->remap) memcpy(r->remap, r->mesh.triangles, 12 * r->mesh.triangle_count), em.triangles = r->remap;
     /* Encode beside the old blob, so a failure leaves the accel as it was. */
     bvh_accel t = *b;
     t.shared.data = NULL, t.shared.size = 0, t.blob = (bvh_blob){0};
-    if ((s = encode_tree(&t, &r->tree, &em, NULL, 0.0f))) {
+    if ((s = encode_tree(&t, &r->tree, &em, NULL, 0.0f, vertices))) {
         prt__free(t.blob.data);
         prt__free((void *)t.shared.data);
         return s;

@@ -2,16 +2,19 @@
  * (bitpack_vertices.h: 21 bits per component), tested one triangle at a time with the scalar
  * watertight kernel. The paper quantizes relative to the box of the tree node holding the
  * leaf; our layouts do not hand a node's box to the codec (and several store it quantized
- * or not at all), so the leaf stores its own: the bounds of its triangles as lo xyz and step
- * xyz (step = extent / (2^21 - 1)). Leaf: u32 leaf-order id of its first triangle (seq_ids),
- * the 24-byte grid, then 24 bytes per triangle. Lossy, and each leaf has its own grid, so a
- * vertex shared by two leaves may decode differently in each (cracks); the vertex error is
- * measured at build time by decoding every leaf (leaf_error) and kept in META. */
+ * or not at all), so the leaf stores its own: lo xyz, the lower corner of its triangles,
+ * and step xyz, the smallest power of two with which their extent spans 2^21 - 1 steps.
+ * Leaf: u32 leaf-order id of its first triangle (seq_ids), the 24-byte grid, then 24 bytes
+ * per triangle. Lossy: the BVH family rounds the vertices to one lattice per tree first
+ * (lattice.h), on which every leaf's grid is exact, so a vertex shared by two leaves
+ * decodes to the same bits in both (no cracks); the vertex error is measured at build time
+ * by decoding every leaf (leaf_error) and kept in META. */
 #ifndef PRT_BVH_CODECS_BITPACK_H
 #define PRT_BVH_CODECS_BITPACK_H
 
 #include "bvh/codecs/bitpack_vertices.h"
 #include "bvh/codecs/codec.h"
+#include "bvh/codecs/lattice.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
@@ -33,7 +36,7 @@ static inline void bitpack_encode(uint8_t *dst, const prt_mesh *m, const uint32_
             const float *p = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[i] + (size_t)v];
             for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], p[k]), hi[k] = fmaxf(hi[k], p[k]);
         }
-    bpv_grid(lo, hi, grid, grid + 3);
+    for (int k = 0; k < 3; k++) grid[k] = lo[k], grid[3 + k] = bvh_lattice_step((double)hi[k] - lo[k], BPV_MASK);
     memcpy(dst, &ids[0], 4);
     memcpy(dst + 4, grid, sizeof grid);
     dst += BITPACK_HEAD_BYTES;

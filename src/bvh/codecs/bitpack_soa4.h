@@ -1,21 +1,24 @@
 /* BitPackSOA4 (Rouwé 2019, §3.5): blocks of four triangles with 16-bit vertex components
  * in SOA order (x of vertex 0 of the four, y, z, then vertex 1, vertex 2: 36 u16), then the
  * block's float scale xyz and offset xyz (24 bytes), a component decoded as
- * offset + q * scale with offset = the block's lower corner and scale = its extent / 65535.
+ * offset + q * scale with offset = the block's lower corner and scale the smallest power
+ * of two with which its extent spans 65535 steps.
  * The leaf starts with a u32 leaf-order id of its first triangle (seq_ids) and its u32
  * triangle count (8 bytes, so that wide8's grain, the gcd of head and block, is 8 bytes and
  * a node's leaves fit its 255 grains): 8 + 96 bytes per block, no shared data. Padding
  * lanes hold 0xFFFF everywhere; a lane whose vertex 0
  * and vertex 1 are equal (padding, or a triangle quantized to zero area, which cannot be hit
- * either) is decoded as NaN. Lossy, and each block has its own grid, so a vertex shared by
- * two blocks may decode differently in each and the decoded mesh can have cracks. The
- * vertex error is measured at build time by decoding every leaf as encoded (leaf_error) and
- * kept in the META section. */
+ * either) is decoded as NaN. Lossy: the BVH family rounds the vertices to one lattice per
+ * tree first (lattice.h), on which every block's grid is exact, so a vertex shared by two
+ * blocks decodes to the same bits in both and the decoded mesh is as closed as the mesh.
+ * The vertex error is measured at build time by decoding every leaf as encoded
+ * (leaf_error) and kept in the META section. */
 #ifndef PRT_BVH_CODECS_BITPACK_SOA4_H
 #define PRT_BVH_CODECS_BITPACK_SOA4_H
 
 #include "bvh/codecs/codec.h"
 #include "bvh/codecs/decode.h"
+#include "bvh/codecs/lattice.h"
 #include "bvh/codecs/nearest.h"
 #include "geom/triangle.h"
 
@@ -49,7 +52,7 @@ static inline void bitpack_soa4_encode(uint8_t *dst, const prt_mesh *m, const ui
                 const float *p = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[4 * b + l] + (size_t)v];
                 for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], p[k]), hi[k] = fmaxf(hi[k], p[k]);
             }
-        for (int k = 0; k < 3; k++) scale[k] = (hi[k] - lo[k]) / (float)BSOA_MASK;
+        for (int k = 0; k < 3; k++) scale[k] = bvh_lattice_step((double)hi[k] - lo[k], BSOA_MASK);
         uint16_t q[9][4];
         for (uint32_t l = 0; l < 4; l++)
             for (int c = 0; c < 9; c++) {

@@ -9,11 +9,16 @@
 BVH_CODECS(X)
 #undef X
 
+/* The codecs with a grid per leaf or block, and their steps (bvh_codec.lattice). */
+#define BVH_LATTICE(c) ((c) == BVH_CODEC_bitpack ? BPV_MASK : (c) == BVH_CODEC_bitpack_soa4 ? BSOA_MASK \
+                        : (c) == BVH_CODEC_strip_bitpack ? STRIP_BITPACK_MASK : 0u)
+
 const bvh_codec bvh_codecs[BVH_CODEC_COUNT] = {
 #define X(id, nm, desc)                                                                              \
     [BVH_CODEC_##id] = {nm, desc, id##_block, id##_align, id##_leaf_bytes, id##_encode_fn, id##_shared_build,        \
                         id##_leaf_valid, id##_seq_ids, id##_shared_remap, id##_vertex_error, id##_leaf_error,         \
-                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack, id##_decode},
+                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack, id##_decode, \
+                        BVH_LATTICE(BVH_CODEC_##id)},
     BVH_CODECS(X)
 #undef X
 };

@@ -105,6 +105,10 @@ typedef struct bvh_codec {
      * codecs); padding is skipped. Returns the number written, at most BVH_DECODE_MAX. For the
      * generic walks (bvh/walk.c), which answer point and all-hits queries. */
     uint32_t (*decode)(const uint8_t *leaf, uint32_t count, const bvh_shared *sh, float *v, uint32_t *ids);
+    /* Codecs with a grid per leaf or block: the most steps a grid holds (2^bits - 1). The
+     * BVH family then rounds the mesh to one lattice per tree before building
+     * (codecs/lattice.h), so that shared vertices decode alike in every leaf. 0: none. */
+    uint32_t lattice;
 } bvh_codec;
 
 /* Most triangles one leaf decodes to (bvh_codec.decode): every BVH codec decodes at most

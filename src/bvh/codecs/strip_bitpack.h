@@ -2,12 +2,13 @@
  * component over a grid (x | y << 20 | z << 40) and the 3-bit context in bits 60..62.
  * The paper takes the grid from the leaf's node box; our layouts do not hand that box to
  * the codec (as for bitpack.h), so the leaf stores its own: u32 leaf-order id of the first
- * triangle, lo xyz and step xyz of its entries' bounds, then 8 bytes per entry. Lossy, a
- * grid per leaf (cracks between leaves up to twice the error); the error is measured at
- * build time by decoding every leaf (leaf_error). */
+ * triangle, lo xyz and step xyz of its entries' bounds (a power of two, lattice.h), then 8
+ * bytes per entry. Lossy, over one lattice per tree on which every leaf is exact (no
+ * cracks); the error is measured at build time by decoding every leaf (leaf_error). */
 #ifndef PRT_BVH_CODECS_STRIP_BITPACK_H
 #define PRT_BVH_CODECS_STRIP_BITPACK_H
 
+#include "bvh/codecs/lattice.h"
 #include "bvh/codecs/strip.h"
 
 #define STRIP_BITPACK_BITS 20
@@ -23,7 +24,7 @@ static inline void strip_bitpack_encode(uint8_t *dst, const prt_mesh *m, const u
         const float *p = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[i]];
         for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], p[k]), hi[k] = fmaxf(hi[k], p[k]);
     }
-    for (int k = 0; k < 3; k++) step[k] = (hi[k] - lo[k]) / (float)STRIP_BITPACK_MASK;
+    for (int k = 0; k < 3; k++) step[k] = bvh_lattice_step((double)hi[k] - lo[k], STRIP_BITPACK_MASK);
     memcpy(dst, &id, 4);
     memcpy(dst + 4, lo, 12);
     memcpy(dst + 16, step, 12);
