@@ -209,7 +209,7 @@ static void say(const char *fmt, const char *a, const char *b) {
 
 /* Results of the reference backend, kept for the checks of every later row. */
 typedef struct bench_ref {
-    const char *name;
+    char name[96]; /* empty until the first row measured */
     prt_hit *hits[BENCH_WORKLOAD_COUNT];
     uint8_t *occ[BENCH_WORKLOAD_COUNT];
 } bench_ref;
@@ -225,7 +225,7 @@ static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *
     bench_row_set_stats(row, &s, triangles);
     say("%s: random 1024-ray figures%s", row->name, c->cold ? " (warm, cold)" : "");
     bench_measure_random_1024(b, &wl[BENCH_RANDOM], &o, &row->random_us_per_1024, &row->random_us_per_1024_cold);
-    bool is_ref = ref->name == NULL;
+    bool is_ref = !ref->name[0];
     for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++) {
         if (!on[w] || !wl[w].count) continue;
         say("%s: %s", row->name, bench_workload_name((bench_workload)w));
@@ -248,7 +248,7 @@ static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *
         if (occ && ref->occ[w]) bench_check_occluded(occ, ref->occ[w], n, ly, &row->check[w]);
         free(hits), free(occ);
     }
-    if (is_ref) ref->name = row->name;
+    if (is_ref) snprintf(ref->name, sizeof ref->name, "%s", row->name); /* rows of a round are freed */
 }
 
 /* Primary hits for the secondary workloads: from Embree when it runs, else from the first
@@ -535,7 +535,7 @@ static int report(const bench_cli *c, const bench_input *in, const bench_work *w
     bench_report rep = {0};
     rep.machine = machine, rep.commit = commit, rep.mesh_path = in->name, rep.load_average = load;
     rep.triangles = in->triangles, rep.vertices = in->vertices;
-    rep.reference = ref->name;
+    rep.reference = ref->name[0] ? ref->name : NULL;
     rep.options = (bench_options){c->reps, c->threads, c->flush_bytes, c->cold};
     rep.rounds = c->rounds;
     rep.threads_mt = prt__threads(c->threads);
