@@ -547,6 +547,9 @@ static void bvh_query(const prt_accel *a, struct prt__query *q) {
     bvh_walk(&w, a->bounds, q);
 }
 
+/* Refit: prt_accel_update moves the vertices of the built mesh. */
+static const prt_accel_caps bvh_caps = {.update = bvh_update};
+
 const prt_accel_ops prt__bvh_ops = {
     .name = "bvh",
     .build = bvh_build_accel,
@@ -557,8 +560,8 @@ const prt_accel_ops prt__bvh_ops = {
     .save = bvh_save,
     .load = bvh_load,
     .destroy = bvh_destroy,
-    .update = bvh_update,
     .query = bvh_query,
+    .caps = &bvh_caps,
 };
 
-const prt_repr_family prt__bvh_family = {&prt__bvh_ops, bvh_accepts, bvh_name_at};
+const prt_repr_family prt__family_bvh = {&prt__bvh_ops, bvh_accepts, bvh_name_at};
