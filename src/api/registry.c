@@ -12,7 +12,8 @@
     X(raystrips)    \
     X(lossygrid)    \
     X(cgrid)        \
-    X(ooc)
+    X(ooc)          \
+    /* a new family: one line above this one (docs/extending.md) */
 
 #define X(name) extern const prt_repr_family prt__family_##name;
 FAMILIES(X)

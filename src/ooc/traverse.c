@@ -616,34 +616,27 @@ static void pwalk16_init(pwalk16 *s, const walker *w, packet_state *ps, packet16
     s->leaf_p = NULL, s->leaf_size = 0;
 }
 
-/* The packet walk on vectors (see above) for the walks of live (bits of walks[]), in turns:
- * a walk's state is loaded into locals, runs to a yield, is saved, and the next one is
- * loaded. A walk resumes at the top of the loop, which for the state saved is the same as
- * going on where it stopped: the block is held, the node lies inside it, the depth is
- * within bounds, and a leaf whose triangles were asked for finds them in leaf_p. */
-static void packet_walks16(pwalk16 *walks, uint32_t live) {
-    int g = __builtin_ctz(live);
-    pwalk16 *s;
-    walker *w;
-    packet_state *ps;
-    packet16 *pk;
-    pentry16 *stack;
-    int sp;
-    uint32_t block, off, mask;
-    int nvox, depth;
-    const uint8_t *vox;
-    float vox_radius;
-    vf16 tmin, tmax;
-    vi16 axis_in;
-    const vf16 C = vf16_set1(walks[g].w.C);
-#define LOAD_WALK()                                                                                                 \
-    do {                                                                                                            \
-        s = &walks[g], w = &s->w, ps = s->ps, pk = s->pk, stack = s->stack, sp = s->sp;                            \
-        block = s->block, off = s->off, mask = s->mask, nvox = s->nvox, depth = s->depth;                          \
-        vox = s->vox;                                                                                               \
-        vox_radius = s->vox_radius, tmin = s->tmin, tmax = s->tmax, axis_in = s->axis_in;                          \
-    } while (0)
-    LOAD_WALK();
+enum { WALK_YIELDS, WALK_ENDS };
+
+/* The packet walk on vectors (see above): walk s from where it stopped until it yields
+ * (WALK_YIELDS, its state saved in s) or has no segment left (WALK_ENDS). Its state is
+ * loaded into locals and saved at a yield; it resumes at the top of the loop, which for
+ * the state saved is the same as going on where it stopped: the block is held, the node
+ * lies inside it, the depth is within bounds, and a leaf whose triangles were asked for
+ * finds them in leaf_p. A walk alone never yields: nothing else could run meanwhile. */
+static int walk16_run(pwalk16 *s, bool alone) {
+    walker *w = &s->w;
+    packet_state *ps = s->ps;
+    packet16 *pk = s->pk;
+    pentry16 *stack = s->stack;
+    int sp = s->sp;
+    uint32_t block = s->block, off = s->off, mask = s->mask;
+    int nvox = s->nvox, depth = s->depth;
+    const uint8_t *vox = s->vox;
+    float vox_radius = s->vox_radius;
+    vf16 tmin = s->tmin, tmax = s->tmax;
+    vi16 axis_in = s->axis_in;
+    const vf16 C = vf16_set1(w->C);
     for (;;) {
         bool pop = false;
         if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
@@ -757,9 +750,7 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
         for (;;) {
             if (sp == 0) {
                 finish(w);
-                live &= ~(1u << g);
-                if (!live) return;
-                goto next;
+                return WALK_ENDS;
             }
             pentry16 *e = &stack[--sp];
             uint32_t m2 = e->mask & ~pk->done & ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), e->tmin)));
@@ -772,15 +763,24 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
         }
         continue;
     yield:
-        if (!(live & (live - 1))) continue; /* alone: its state is where it stopped */
+        if (alone) continue; /* its state is where it stopped */
         s->sp = sp, s->block = block, s->off = off, s->mask = mask;
         s->nvox = nvox, s->depth = depth, s->vox_radius = vox_radius, s->vox = vox;
         s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
-    next: /* the next live walk after g, round and round */
-        g = __builtin_ctz(live & ~((2u << g) - 1) ? live & ~((2u << g) - 1) : live);
-        LOAD_WALK();
+        return WALK_YIELDS;
     }
-#undef LOAD_WALK
+}
+
+/* The walks of live (bits of walks[]) in turns, round and round, until each has ended. */
+static void packet_walks16(pwalk16 *walks, uint32_t live) {
+    for (int g = __builtin_ctz(live);;) {
+        if (walk16_run(&walks[g], !(live & (live - 1))) == WALK_ENDS) {
+            live &= ~(1u << g);
+            if (!live) return;
+        }
+        const uint32_t after = live & ~((2u << g) - 1); /* the next live walk after g */
+        g = __builtin_ctz(after ? after : live);
+    }
 }
 
 /* Packets walked together by a call (the renderer passes a tile of 64 rays: 4 packets). */
