@@ -74,13 +74,12 @@ prt_status prt__check_update_vertices(const float *vertices, size_t count) {
 
 prt_status prt_accel_update(prt_accel *a, const float *vertices) {
     if (!a || !vertices) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_update: NULL argument");
-    prt_status (*update)(prt_accel *, const float *) = PRT_CAP(a, update);
-    if (!update)
+    if (!PRT_CAP(a, update))
         return prt__fail(PRT_ERROR_UNSUPPORTED,
                          "prt_accel_update: representation '%s' cannot be updated in place; build it again from the moved mesh",
                          a->spec);
     double t0 = prt__now();
-    prt_status s = update(a, vertices);
+    prt_status s = a->ops->caps->update(a, vertices);
     if (!s) a->build_seconds = prt__now() - t0;
     return s;
 }
@@ -216,8 +215,7 @@ bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit 
         h->hit = prt__miss();
         return false;
     }
-    bool (*lod_query)(const prt_accel *, prt_ray *, float, bool, prt_lod_hit *) = PRT_CAP(a, lod_query);
-    if (lod_query) return lod_query(a, r, error, false, h);
+    if (PRT_CAP(a, lod_query)) return a->ops->caps->lod_query(a, r, error, false, h);
     a->ops->intersect1(a, r, &h->hit);
     return h->hit.prim != PRT_INVALID;
 }
@@ -225,9 +223,8 @@ bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit 
 void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hits, uint32_t n, float error) {
     bool valid = true;
     for (uint32_t i = 0; i < n && valid; i++) valid = prt__ray_valid(&rays[i]);
-    void (*lod_packet)(const prt_accel *, prt_ray *, prt_lod_hit *, uint32_t, float) = PRT_CAP(a, lod_packet);
-    if (valid && lod_packet) {
-        lod_packet(a, rays, hits, n, error);
+    if (valid && PRT_CAP(a, lod_packet)) {
+        a->ops->caps->lod_packet(a, rays, hits, n, error);
         return;
     }
     for (uint32_t i = 0; i < n; i++) prt_intersect_lod(a, &rays[i], error, &hits[i]);
@@ -235,11 +232,10 @@ void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hi
 
 bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
     if (PRT_UNLIKELY(!prt__ray_valid(r))) return false;
-    bool (*lod_query)(const prt_accel *, prt_ray *, float, bool, prt_lod_hit *) = PRT_CAP(a, lod_query);
-    if (lod_query) {
+    if (PRT_CAP(a, lod_query)) {
         prt_ray copy = *r;
         prt_lod_hit h;
-        return lod_query(a, &copy, error, true, &h);
+        return a->ops->caps->lod_query(a, &copy, error, true, &h);
     }
     return a->ops->occluded1(a, r);
 }
@@ -247,10 +243,8 @@ bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
 void prt_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error) {
     bool valid = true;
     for (uint32_t i = 0; i < n && valid; i++) valid = prt__ray_valid(&rays[i]);
-    void (*lod_occluded)(const prt_accel *, const prt_ray *, uint8_t *, uint32_t, float) =
-        PRT_CAP(a, lod_occluded_packet);
-    if (valid && lod_occluded) {
-        lod_occluded(a, rays, occluded, n, error);
+    if (valid && PRT_CAP(a, lod_occluded_packet)) {
+        a->ops->caps->lod_occluded_packet(a, rays, occluded, n, error);
         return;
     }
     for (uint32_t i = 0; i < n; i++) occluded[i] = prt_occluded_lod(a, &rays[i], error);

@@ -26,7 +26,8 @@ prt_status prt_build_file(const char *mesh_path, const char *spec, const char *o
     const prt_repr_family *f;
     prt_status s = find_family(spec, &parsed, &f);
     if (s) return s;
-    if (f->ops->caps && f->ops->caps->build_file) return f->ops->caps->build_file(mesh_path, &parsed, out_path, o);
+    if (f->ops->caps && f->ops->caps->build_file)
+        return f->ops->caps->build_file(mesh_path, &parsed, out_path, o);
     prt_mesh *m;
     if ((s = prt_mesh_load(mesh_path, &m))) return s;
     s = build_save(m, spec, out_path, o);
