@@ -1,5 +1,6 @@
 /* Helpers shared by the subcommands: errors, counts, progress bars, opening an accel. */
 #include "cli.h"
+#include "api/accel.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -40,15 +41,13 @@ bool cli_parse_count(const char *s, size_t *out) {
 bool cli_is_prt_file(const char *path) {
     FILE *f = fopen(path, "rb");
     if (!f) return false;
-    unsigned char magic[256] = {0};
-    size_t n = fread(magic, 1, sizeof magic, f);
+    unsigned char head[PRT_PROBE_BYTES] = {0};
+    size_t n = fread(head, 1, sizeof head, f);
     fclose(f);
-    /* A .prt container, or an out-of-core block file; 256 zeros are the header of a block
-     * file whose build was interrupted, which prt_accel_load names as such. */
-    size_t zeros = 0;
-    while (zeros < n && !magic[zeros]) zeros++;
-    return (n >= 4 && !memcmp(magic, "PRT1", 4)) || (n >= 8 && !memcmp(magic, "PRTOOC1\n", 8)) ||
-           (n == sizeof magic && zeros == n);
+    /* A .prt container, or a file in a family's own format, as its probe knows it (the
+     * out-of-core family's takes the 256 zeros of a block file whose build was
+     * interrupted, which prt_accel_load names as such). */
+    return (n >= 4 && !memcmp(head, PRT_FILE_MAGIC, 4)) || prt__registry_probe(head, n);
 }
 
 int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec,

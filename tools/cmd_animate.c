@@ -262,316 +262,411 @@ typedef struct series {
     uint8_t *occluded;
 } series;
 
-int cmd_animate(int argc, char **argv) {
-    const char *src = NULL, *outdir = NULL;
+/* The command line of `packrt animate`. */
+typedef struct anim_args {
+    const char *src, *outdir;
     const char *specs[MAX_SPECS];
-    int nspecs = 0, threads = 0, repeat = 1;
-    bool bench = false, vs_embree = false, json = false, counters = false, shadows = false, have_light = false;
-    float light[3] = {0, 0, 0};
-    uint32_t W = 1024, H = 1024, packet = 8;
-    size_t frames = 0, tris = 100000;
-    uint64_t seed = 1;
-    float camv[7] = {0, 0, 0, 0, 0, 0, 40};
-    bool have_cam = false;
+    int nspecs, threads, repeat;
+    bool bench, vs_embree, json, counters, shadows, have_light, have_cam;
+    float light[3], camv[7];
+    uint32_t W, H, packet;
+    size_t frames, tris;
+    uint64_t seed;
+} anim_args;
+
+/* --camera ex,ey,ez,tx,ty,tz[,fov] into camv; false when malformed. */
+static bool parse_camera(const char *v, float camv[7]) {
+    int got = 0;
+    for (const char *q = v; got < 7;) {
+        char *e;
+        double x = strtod(q, &e);
+        if (e == q || !isfinite(x)) break;
+        camv[got++] = (float)x;
+        if (*e != ',') {
+            if (*e) got = 0;
+            break;
+        }
+        q = e + 1;
+    }
+    return got == 6 || got == 7;
+}
+
+/* --light x,y,z; false when malformed (an empty y or z reads as 0, as it always has). */
+static bool parse_light(const char *v, float light[3]) {
+    const char *q = v;
+    for (int k = 0; k < 3; k++) {
+        char *e;
+        light[k] = strtof(q, &e);
+        if ((k == 0 && e == q) || !isfinite(light[k]) || *e != (k < 2 ? ',' : '\0')) return false;
+        q = e + 1;
+    }
+    return true;
+}
+
+/* An option that takes a value v; 0 or the exit status (usage printed). */
+static int parse_valued(const char *a, const char *v, anim_args *g) {
+    size_t n;
+    if (!strcmp(a, "-r")) {
+        if (g->nspecs == MAX_SPECS) return cli_usage("animate", "at most %d -r", MAX_SPECS);
+        g->specs[g->nspecs++] = v;
+    } else if (!strcmp(a, "-o")) g->outdir = v;
+    else if (!strcmp(a, "--vs")) {
+        if (strcmp(v, "embree")) return cli_usage("animate", "--vs: only 'embree'");
+        g->vs_embree = true;
+    } else if (!strcmp(a, "--size")) {
+        if (!parse_size(v, &g->W, &g->H)) return cli_usage("animate", "--size: '%s' is not WxH", v);
+    } else if (!strcmp(a, "--camera")) {
+        if (!parse_camera(v, g->camv)) return cli_usage("animate", "--camera: ex,ey,ez,tx,ty,tz[,fov]");
+        g->have_cam = true;
+    } else if (!strcmp(a, "--light")) {
+        if (!parse_light(v, g->light)) return cli_usage("animate", "--light: x,y,z");
+        g->have_light = g->shadows = true;
+    } else if (!strcmp(a, "--packet")) {
+        if (!cli_parse_count(v, &n) || (n != 1 && n != 2 && n != 4 && n != 8 && n != 16))
+            return cli_usage("animate", "--packet: 1, 2, 4, 8 or 16");
+        g->packet = (uint32_t)n;
+    } else if (!strcmp(a, "--frames")) {
+        if (!cli_parse_count(v, &g->frames) || !g->frames) return cli_usage("animate", "--frames: a count >= 1");
+    } else if (!strcmp(a, "--tris")) {
+        if (!cli_parse_count(v, &g->tris) || !g->tris) return cli_usage("animate", "--tris: a count >= 1");
+    } else if (!strcmp(a, "--seed")) {
+        if (!cli_parse_count(v, &n)) return cli_usage("animate", "--seed: an unsigned integer");
+        g->seed = n;
+    } else if (!strcmp(a, "--repeat")) {
+        if (!cli_parse_count(v, &n) || !n || n > 64) return cli_usage("animate", "--repeat: 1..64");
+        g->repeat = (int)n;
+    } else if (!strcmp(a, "--threads")) {
+        if (!cli_parse_count(v, &n) || n > 1024) return cli_usage("animate", "--threads: a count");
+        g->threads = (int)n;
+    } else
+        return cli_usage("animate", "unknown option '%s'", a);
+    return 0;
+}
+
+/* 0 when the arguments parse; -1 after --help; else the exit status (usage printed). */
+static int parse_args(int argc, char **argv, anim_args *g) {
+    *g = (anim_args){.repeat = 1, .W = 1024, .H = 1024, .packet = 8, .tris = 100000, .seed = 1,
+                     .camv = {0, 0, 0, 0, 0, 0, 40}};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage();
-        if (!strcmp(a, "--bench")) { bench = true; continue; }
-        if (!strcmp(a, "--json")) { json = true; continue; }
-        if (!strcmp(a, "--counters")) { counters = true; continue; }
-        if (!strcmp(a, "--shadows")) { shadows = true; continue; }
-        if (a[0] != '-') {
-            if (src) return cli_usage("animate", "more than one scene: '%s' and '%s'", src, a);
-            src = a;
-            continue;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage();
+            return -1;
         }
-        if (i + 1 >= argc) return cli_usage("animate", "%s needs a value", a);
-        const char *v = argv[++i];
-        size_t n;
-        if (!strcmp(a, "-r")) {
-            if (nspecs == MAX_SPECS) return cli_usage("animate", "at most %d -r", MAX_SPECS);
-            specs[nspecs++] = v;
-        } else if (!strcmp(a, "-o")) outdir = v;
-        else if (!strcmp(a, "--vs")) {
-            if (strcmp(v, "embree")) return cli_usage("animate", "--vs: only 'embree'");
-            vs_embree = true;
-        } else if (!strcmp(a, "--size")) {
-            if (!parse_size(v, &W, &H)) return cli_usage("animate", "--size: '%s' is not WxH", v);
-        } else if (!strcmp(a, "--camera")) {
-            int got = 0;
-            for (const char *q = v; got < 7;) {
-                char *e;
-                double x = strtod(q, &e);
-                if (e == q || !isfinite(x)) break;
-                camv[got++] = (float)x;
-                if (*e != ',') {
-                    q = e;
-                    if (*e) got = 0;
-                    break;
-                }
-                q = e + 1;
-            }
-            if (got != 6 && got != 7) return cli_usage("animate", "--camera: ex,ey,ez,tx,ty,tz[,fov]");
-            have_cam = true;
-        } else if (!strcmp(a, "--light")) {
-            char *e1, *e2, *e3;
-            light[0] = strtof(v, &e1);
-            light[1] = *e1 == ',' ? strtof(e1 + 1, &e2) : (e2 = e1, 0.0f);
-            light[2] = *e2 == ',' ? strtof(e2 + 1, &e3) : (e3 = e2, 0.0f);
-            if (e1 == v || *e1 != ',' || *e2 != ',' || *e3 || !isfinite(light[0]) || !isfinite(light[1]) || !isfinite(light[2]))
-                return cli_usage("animate", "--light: x,y,z");
-            have_light = shadows = true;
-        } else if (!strcmp(a, "--packet")) {
-            if (!cli_parse_count(v, &n) || (n != 1 && n != 2 && n != 4 && n != 8 && n != 16))
-                return cli_usage("animate", "--packet: 1, 2, 4, 8 or 16");
-            packet = (uint32_t)n;
-        } else if (!strcmp(a, "--frames")) {
-            if (!cli_parse_count(v, &frames) || !frames) return cli_usage("animate", "--frames: a count >= 1");
-        } else if (!strcmp(a, "--tris")) {
-            if (!cli_parse_count(v, &tris) || !tris) return cli_usage("animate", "--tris: a count >= 1");
-        } else if (!strcmp(a, "--seed")) {
-            if (!cli_parse_count(v, &n)) return cli_usage("animate", "--seed: an unsigned integer");
-            seed = n;
-        } else if (!strcmp(a, "--repeat")) {
-            if (!cli_parse_count(v, &n) || !n || n > 64) return cli_usage("animate", "--repeat: 1..64");
-            repeat = (int)n;
-        } else if (!strcmp(a, "--threads")) {
-            if (!cli_parse_count(v, &n) || n > 1024) return cli_usage("animate", "--threads: a count");
-            threads = (int)n;
-        } else
-            return cli_usage("animate", "unknown option '%s'", a);
+        if (!strcmp(a, "--bench")) g->bench = true;
+        else if (!strcmp(a, "--json")) g->json = true;
+        else if (!strcmp(a, "--counters")) g->counters = true;
+        else if (!strcmp(a, "--shadows")) g->shadows = true;
+        else if (a[0] != '-') {
+            if (g->src) return cli_usage("animate", "more than one scene: '%s' and '%s'", g->src, a);
+            g->src = a;
+        } else if (i + 1 >= argc) return cli_usage("animate", "%s needs a value", a);
+        else {
+            int rc = parse_valued(a, argv[++i], g);
+            if (rc) return rc;
+        }
     }
-    if (!src) return cli_usage("animate", "give a frame directory or a scene (twist, marbles, toys)");
-    if (!bench && !outdir) return cli_usage("animate", "nothing to do: give -o DIR and/or --bench");
-    if (!nspecs) specs[nspecs++] = "cgrid";
-    if (!threads) threads = omp_get_max_threads();
+    if (!g->src) return cli_usage("animate", "give a frame directory or a scene (twist, marbles, toys)");
+    if (!g->bench && !g->outdir) return cli_usage("animate", "nothing to do: give -o DIR and/or --bench");
+    if (!g->nspecs) g->specs[g->nspecs++] = "cgrid";
+    if (!g->threads) g->threads = omp_get_max_threads();
+    return 0;
+}
 
-    anim an = {{0}, NULL, NULL, 0, 0, seed};
+/* The frames: a generated scene or a directory of meshes; 0 or the exit status. */
+static int open_scene(const anim_args *g, anim *an) {
+    static const char *const scenes[] = {"twist", "marbles", "toys"};
+    *an = (anim){{0}, NULL, NULL, 0, 0, g->seed};
+    for (int k = 0; k < 3; k++)
+        if (!strcmp(g->src, scenes[k])) {
+            an->kind = k + 1;
+            an->nframes = g->frames ? g->frames : 21;
+            snprintf(an->name, sizeof an->name, "%s", g->src);
+            prt_status s = prt_mesh_generate(g->src, g->tris, g->seed, &an->base);
+            return s ? cli_fail("animate", g->src, s) : 0;
+        }
     struct stat st;
-    int rc = 0;
-    if (!strcmp(src, "twist") || !strcmp(src, "marbles") || !strcmp(src, "toys")) {
-        an.kind = !strcmp(src, "twist") ? 1 : !strcmp(src, "marbles") ? 2 : 3;
-        an.nframes = frames ? frames : 21;
-        snprintf(an.name, sizeof an.name, "%s", src);
-        prt_status s = prt_mesh_generate(src, tris, seed, &an.base);
-        if (s) return cli_fail("animate", src, s);
-    } else if (!stat(src, &st) && S_ISDIR(st.st_mode)) {
-        if ((rc = load_dir(src, frames, &an))) {
-            anim_free(&an);
-            return rc;
-        }
-    } else {
-        return cli_usage("animate", "'%s' is neither a directory of frames nor a scene (twist, marbles, toys)", src);
-    }
-    if (outdir && mkdir(outdir, 0777) && errno != EEXIST) {
-        fprintf(stderr, "packrt animate: %s: %s\n", outdir, strerror(errno));
-        anim_free(&an);
-        return 1;
-    }
+    if (stat(g->src, &st) || !S_ISDIR(st.st_mode))
+        return cli_usage("animate", "'%s' is neither a directory of frames nor a scene (twist, marbles, toys)", g->src);
+    return load_dir(g->src, g->frames, an);
+}
 
-    /* The current frame: the base faces with this frame's positions. */
-    prt_mesh *cur;
-    prt_status s = prt_mesh_create(an.base->vertex_count, an.base->triangle_count, &cur);
-    if (s) {
-        anim_free(&an);
-        return cli_fail("animate", "mesh", s);
-    }
-    memcpy(cur->triangles, an.base->triangles, 12 * cur->triangle_count);
-    /* One camera for the whole sequence: the default framing of the union of all frames. */
+/* One camera for the whole sequence (the default framing of the union of all frames'
+ * bounds, or --camera), and the light unless --light placed it. */
+static prt_status frame_camera(const anim *an, prt_mesh *cur, anim_args *g, prt_camera *cam, render_camera *rcam) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t f = 0; f < an.nframes; f++) {
-        frame_vertices(&an, f, cur->vertices);
+    for (size_t f = 0; f < an->nframes; f++) {
+        frame_vertices(an, f, cur->vertices);
         float l[3], h[3];
         prt_mesh_bounds(cur, l, h);
-        for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], l[k]), hi[k] = fmaxf(hi[k], h[k]);
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], l[k]);
+            hi[k] = fmaxf(hi[k], h[k]);
+        }
     }
-    prt_camera cam;
-    prt_camera_default(lo, hi, &cam);
-    if (have_cam) {
-        memcpy(cam.eye, camv, sizeof cam.eye);
-        memcpy(cam.target, camv + 3, sizeof cam.target);
-        cam.up[0] = 0, cam.up[1] = 1, cam.up[2] = 0;
-        cam.fov_y_deg = camv[6];
+    prt_camera_default(lo, hi, cam);
+    if (g->have_cam) {
+        memcpy(cam->eye, g->camv, sizeof cam->eye);
+        memcpy(cam->target, g->camv + 3, sizeof cam->target);
+        memcpy(cam->up, (const float[3]){0, 1, 0}, sizeof cam->up);
+        cam->fov_y_deg = g->camv[6];
     }
-    if (!have_light) /* above the scene, a little off centre: shadows fall beside their casters */
-        light[0] = 0.5f * (lo[0] + hi[0]) + 0.3f * (hi[0] - lo[0]), light[1] = hi[1] + 1.0f * (hi[1] - lo[1]),
-        light[2] = 0.5f * (lo[2] + hi[2]) + 0.2f * (hi[2] - lo[2]);
-    render_camera rcam;
-    if ((s = render_camera_setup(&cam, W, H, &rcam))) {
-        prt_mesh_free(cur);
-        anim_free(&an);
-        return cli_fail("animate", "camera", s);
+    if (!g->have_light) { /* above the scene, a little off centre: shadows fall beside their casters */
+        g->light[0] = 0.5f * (lo[0] + hi[0]) + 0.3f * (hi[0] - lo[0]);
+        g->light[1] = hi[1] + 1.0f * (hi[1] - lo[1]);
+        g->light[2] = 0.5f * (lo[2] + hi[2]) + 0.2f * (hi[2] - lo[2]);
     }
+    return render_camera_setup(cam, g->W, g->H, rcam);
+}
 
-    const int nser = nspecs + (vs_embree ? 1 : 0);
-    series ser[MAX_SPECS + 1];
-    memset(ser, 0, sizeof ser);
+static void series_init(series *r, const anim_args *g, size_t nframes, int i) {
+    const size_t pixels = (size_t)g->W * g->H;
+    r->rebuild = calloc(nframes, sizeof(double));
+    r->trace = calloc(nframes, sizeof(double));
+    r->rebuild_cpu = calloc(nframes, sizeof(double));
+    r->trace_cpu = calloc(nframes, sizeof(double));
+    r->shadow = calloc(nframes, sizeof(double));
+    r->shadow_cpu = calloc(nframes, sizeof(double));
+    r->prims = g->bench ? malloc(sizeof(uint32_t) * pixels) : NULL;
+    r->t = g->bench ? malloc(sizeof(float) * pixels) : NULL;
+    r->occluded = g->bench && g->shadows ? malloc(pixels) : NULL;
+    snprintf(r->label, sizeof r->label, "%s", i < g->nspecs ? g->specs[i] : "embree,dynamic,low,packet16");
+}
+
+static void series_free(series *r) {
+    prt_accel_free(r->accel);
+    bench_embree_anim_free(r->embree);
+    free(r->rebuild);
+    free(r->trace);
+    free(r->prims);
+    free(r->rebuild_cpu);
+    free(r->trace_cpu);
+    free(r->shadow);
+    free(r->shadow_cpu);
+    free(r->t);
+    free(r->occluded);
+}
+
+/* Series i at frame f: Embree's scene created or updated, an accel updated in place where
+ * it can be, else built again; the time it took (an update probed on frame 0 is timed
+ * alone, not with the build before it). */
+static prt_status advance_series(series *r, const anim_args *g, int i, size_t f, const prt_mesh *cur) {
+    double t0 = prt__now(), c0 = prt__thread_seconds();
+    prt_status s;
+    if (i >= g->nspecs) {
+        s = f == 0 ? bench_embree_anim_create(cur, g->threads, &r->embree) : bench_embree_anim_update(r->embree, cur->vertices);
+    } else if (f > 0 && r->updates) {
+        s = prt_accel_update(r->accel, cur->vertices);
+    } else {
+        prt_accel_free(r->accel);
+        r->accel = NULL;
+        const prt_build_options bo = {.threads = g->threads};
+        s = prt_build(cur, g->specs[i], &bo, &r->accel);
+        if (!s && f == 0) {
+            /* Probe update once: a representation without it says UNSUPPORTED. */
+            r->updates = prt_accel_update(r->accel, cur->vertices) == PRT_OK;
+            if (r->updates) {
+                t0 = prt__now();
+                c0 = prt__thread_seconds();
+            }
+        }
+    }
+    r->rebuild[f] = prt__now() - t0;
+    r->rebuild_cpu[f] = prt__thread_seconds() - c0;
+    if (!s && i < g->nspecs && f == 0) snprintf(r->label, sizeof r->label, "%s", prt_accel_spec(r->accel));
+    return s;
+}
+
+/* --counters: one untimed single-thread pass counting cells and triangle tests (cgrid). */
+static void count_cells(series *r, const tracer *t, const render_camera *rcam, const anim_args *g) {
+    prt__cgrid_counters_reset();
+    trace_image(t, rcam, g->packet, 1);
+    if (g->shadows) shadow_image(t, rcam, g->packet, 1, g->light);
+    cg_counters c = prt__cgrid_counters_get();
+    r->cells += c.cells;
+    r->tests += c.tests;
+    if (getenv("PRT_CGRID_COUNTERS"))
+        fprintf(stderr, "packets %llu slices %llu macro skips %llu cells %llu tests %llu culled %llu mailboxed %llu dda rays %llu\n",
+                (unsigned long long)c.packets, (unsigned long long)c.slices, (unsigned long long)c.macro_skips,
+                (unsigned long long)c.cells, (unsigned long long)c.tests, (unsigned long long)c.culled,
+                (unsigned long long)c.mailboxed, (unsigned long long)c.dda_rays);
+}
+
+/* --bench at frame f: primary (and shadow) rays traced --repeat times, the medians kept,
+ * and the answers compared with series 0's. */
+static void bench_series(series *r, const series *first, int i, size_t f, const render_camera *rcam,
+                         const anim_args *g) {
+    const size_t pixels = (size_t)g->W * g->H;
+    const tracer t = {r->accel, r->embree, r->prims, r->t, r->occluded};
+    double tt[64], tc[64];
+    for (int k = 0; k < g->repeat; k++) {
+        double c1 = prt__thread_seconds();
+        tt[k] = trace_image(&t, rcam, g->packet, g->threads);
+        tc[k] = prt__thread_seconds() - c1;
+    }
+    r->trace[f] = bench_median(tt, (size_t)g->repeat);
+    r->trace_cpu[f] = bench_median(tc, (size_t)g->repeat);
+    if (g->shadows) {
+        for (int k = 0; k < g->repeat; k++) {
+            double c1 = prt__thread_seconds();
+            tt[k] = shadow_image(&t, rcam, g->packet, g->threads, g->light);
+            tc[k] = prt__thread_seconds() - c1;
+        }
+        r->shadow[f] = bench_median(tt, (size_t)g->repeat);
+        r->shadow_cpu[f] = bench_median(tc, (size_t)g->repeat);
+        for (size_t p = 0; p < pixels; p++) {
+            r->shadowed += r->occluded[p];
+            r->lit += r->t[p] < INFINITY && !r->occluded[p];
+            if (i > 0) r->shadow_agree += r->occluded[p] == first->occluded[p];
+        }
+    }
+    if (g->counters && r->accel && !strncmp(prt_accel_spec(r->accel), "cgrid", 5)) count_cells(r, &t, rcam, g);
+    if (i > 0) {
+        for (size_t p = 0; p < pixels; p++) r->agree += r->prims[p] == first->prims[p];
+        r->compared += pixels;
+    }
+    if (!g->json) {
+        printf("frame %3zu  %-52s rebuild %8.2f ms  trace %8.2f ms", f, r->label, 1e3 * r->rebuild[f], 1e3 * r->trace[f]);
+        if (g->shadows) printf("  shadow %8.2f ms", 1e3 * r->shadow[f]);
+        printf("\n");
+    }
+}
+
+/* -o DIR: series i's frame f rendered (diffuse) to DIR/frame_NNN.png (.ppm without libpng);
+ * 0 or the exit status. */
+static int save_frame(const series *r, int i, size_t f, const prt_mesh *cur, const prt_camera *cam,
+                             const anim_args *g, prt_image *img) {
+    prt_render_options ro = {.width = g->W, .height = g->H, .shade = PRT_SHADE_DIFFUSE, .threads = g->threads};
+    prt_status s = prt_render(r->accel, cur, cam, &ro, img);
+    if (s) return cli_fail("animate", "render", s);
+    char path[4096];
+    if (g->nspecs == 1) snprintf(path, sizeof path, "%s/frame_%03zu.png", g->outdir, f);
+    else snprintf(path, sizeof path, "%s/r%d_frame_%03zu.png", g->outdir, i, f);
+    if ((s = prt_image_save_png(img, path)) == PRT_ERROR_UNSUPPORTED) {
+        size_t l = strlen(path);
+        memcpy(path + l - 4, ".ppm", 4);
+        s = prt_image_save_ppm(img, path);
+    }
+    return s ? cli_fail("animate", path, s) : 0;
+}
+
+/* The medians over frames 1.. (frame 0 holds the first build, allocations included), as a
+ * table or one JSON object. */
+static void print_medians(const series *ser, int nser, const anim *an, const anim_args *g) {
+    size_t first = an->nframes > 1 ? 1 : 0, n = an->nframes - first;
+    const double ntri = (double)an->base->triangle_count;
+    if (g->json) {
+        printf("{\"scene\": \"%s\", \"frames\": %zu, \"triangles\": %zu, \"width\": %u, \"height\": %u, \"packet\": %u, "
+               "\"threads\": %d, \"results\": [",
+               an->name, an->nframes, an->base->triangle_count, g->W, g->H, g->packet, g->threads);
+    } else {
+        printf("\nmedians over frames %zu..%zu%s:\n%-52s %10s %10s %10s %8s %12s %12s", first, an->nframes - 1,
+               g->counters ? " (cells, tests: totals over the frames, one thread)" : "", "representation", "rebuild ms",
+               "trace ms", "total ms", "fps", "build Mtri/s", "same prim %");
+        if (g->shadows) printf(" %10s %10s %8s %10s %10s", "shadow ms", "total+shd", "fps+shd", "shadowed %", "same shd %");
+        printf("\n");
+    }
     for (int i = 0; i < nser; i++) {
-        ser[i].rebuild = calloc(an.nframes, sizeof(double));
-        ser[i].trace = calloc(an.nframes, sizeof(double));
-        ser[i].rebuild_cpu = calloc(an.nframes, sizeof(double));
-        ser[i].trace_cpu = calloc(an.nframes, sizeof(double));
-        ser[i].shadow = calloc(an.nframes, sizeof(double));
-        ser[i].shadow_cpu = calloc(an.nframes, sizeof(double));
-        ser[i].prims = bench ? malloc(sizeof(uint32_t) * W * H) : NULL;
-        ser[i].t = bench ? malloc(sizeof(float) * W * H) : NULL;
-        ser[i].occluded = bench && shadows ? malloc((size_t)W * H) : NULL;
-        snprintf(ser[i].label, sizeof ser[i].label, "%s", i < nspecs ? specs[i] : "embree,dynamic,low,packet16");
+        const series *r = &ser[i];
+        double rb = bench_median(r->rebuild + first, n), tr = bench_median(r->trace + first, n);
+        double rbc = bench_median(r->rebuild_cpu + first, n), trc = bench_median(r->trace_cpu + first, n);
+        double sh = g->shadows ? bench_median(r->shadow + first, n) : 0;
+        double shc = g->shadows ? bench_median(r->shadow_cpu + first, n) : 0;
+        double shaded = r->shadowed + r->lit ? 100.0 * (double)r->shadowed / (double)(r->shadowed + r->lit) : 0;
+        double same_shd = r->compared ? 100.0 * (double)r->shadow_agree / (double)r->compared : 100.0;
+        double agree = r->compared ? 100.0 * (double)r->agree / (double)r->compared : 100.0;
+        if (g->json) {
+            printf("%s{\"representation\": \"%s\", \"updates\": %s, \"rebuild_ms\": %.3f, \"trace_ms\": %.3f, "
+                   "\"fps\": %.2f, \"build_mtris_per_s\": %.2f, \"same_prim_percent\": %.3f, \"cells\": %llu, "
+                   "\"tests\": %llu, \"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f, \"shadow_ms\": %.3f, "
+                   "\"shadow_cpu_ms\": %.3f, \"shadowed_percent\": %.3f, \"same_shadow_percent\": %.3f}",
+                   i ? ", " : "", r->label, r->updates ? "true" : "false", 1e3 * rb, 1e3 * tr, 1.0 / (rb + tr),
+                   ntri / rb * 1e-6, agree, (unsigned long long)r->cells, (unsigned long long)r->tests, 1e3 * rbc,
+                   1e3 * trc, 1e3 * sh, 1e3 * shc, shaded, same_shd);
+            continue;
+        }
+        printf("%-52s %10.2f %10.2f %10.2f %8.2f %12.2f %12.3f", r->label, 1e3 * rb, 1e3 * tr, 1e3 * (rb + tr),
+               1.0 / (rb + tr), ntri / rb * 1e-6, agree);
+        if (g->shadows)
+            printf(" %10.2f %10.2f %8.2f %10.2f %10.3f", 1e3 * sh, 1e3 * (rb + tr + sh), 1.0 / (rb + tr + sh), shaded,
+                   same_shd);
+        if (g->threads == 1) printf("  cpu: rebuild %.2f trace %.2f ms", 1e3 * rbc, 1e3 * trc);
+        if (g->threads == 1 && g->shadows) printf(" shadow %.2f ms", 1e3 * shc);
+        if (g->counters && r->cells) printf("  cells %.3fM tests %.3fM", (double)r->cells * 1e-6, (double)r->tests * 1e-6);
+        printf("\n");
     }
-    if (bench && !json)
-        printf("scene %s: %zu frames, %zu triangles, %zu vertices; %ux%u primary rays, %ux%u packets, %d threads\n",
-               an.name, an.nframes, an.base->triangle_count, an.base->vertex_count, W, H, packet, packet, threads);
-    if (bench && !json && shadows)
-        printf("shadow rays from every primary hit to the point light %g,%g,%g\n", (double)light[0], (double)light[1],
-               (double)light[2]);
+    if (g->json) printf("]}\n");
+}
+
+/* Every frame: each series advanced, then benched and/or saved; 0 or the exit status. */
+static int run_frames(series *ser, int nser, const anim *an, prt_mesh *cur, const prt_camera *cam,
+                      const render_camera *rcam, const anim_args *g) {
     prt_image img = {0};
-    prt_build_options bo = {.threads = threads};
-    for (size_t f = 0; f < an.nframes && !rc; f++) {
-        frame_vertices(&an, f, cur->vertices);
+    int rc = 0;
+    for (size_t f = 0; f < an->nframes && !rc; f++) {
+        frame_vertices(an, f, cur->vertices);
         for (int i = 0; i < nser && !rc; i++) {
-            series *r = &ser[i];
-            double t0 = prt__now(), c0 = prt__thread_seconds();
-            if (i >= nspecs) {
-                s = f == 0 ? bench_embree_anim_create(cur, threads, &r->embree) : bench_embree_anim_update(r->embree, cur->vertices);
-            } else if (f > 0 && r->updates) {
-                s = prt_accel_update(r->accel, cur->vertices);
-            } else {
-                prt_accel_free(r->accel);
-                r->accel = NULL;
-                s = prt_build(cur, specs[i], &bo, &r->accel);
-                if (!s && f == 0) {
-                    /* Probe update once: a representation without it says UNSUPPORTED. */
-                    r->updates = prt_accel_update(r->accel, cur->vertices) == PRT_OK;
-                    if (r->updates) t0 = prt__now(), c0 = prt__thread_seconds(); /* time the update, not build + update */
-                }
-            }
-            r->rebuild[f] = prt__now() - t0;
-            r->rebuild_cpu[f] = prt__thread_seconds() - c0;
-            if (s) {
-                rc = cli_fail("animate", r->label, s);
-                break;
-            }
-            if (i < nspecs && f == 0) snprintf(r->label, sizeof r->label, "%s", prt_accel_spec(r->accel));
-            if (bench) {
-                tracer t = {r->accel, r->embree, r->prims, r->t, r->occluded};
-                double tt[64], tc[64];
-                for (int k = 0; k < repeat; k++) {
-                    double c1 = prt__thread_seconds();
-                    tt[k] = trace_image(&t, &rcam, packet, threads);
-                    tc[k] = prt__thread_seconds() - c1;
-                }
-                r->trace[f] = bench_median(tt, (size_t)repeat);
-                r->trace_cpu[f] = bench_median(tc, (size_t)repeat);
-                if (shadows) {
-                    for (int k = 0; k < repeat; k++) {
-                        double c1 = prt__thread_seconds();
-                        tt[k] = shadow_image(&t, &rcam, packet, threads, light);
-                        tc[k] = prt__thread_seconds() - c1;
-                    }
-                    r->shadow[f] = bench_median(tt, (size_t)repeat);
-                    r->shadow_cpu[f] = bench_median(tc, (size_t)repeat);
-                    for (size_t p = 0; p < (size_t)W * H; p++) {
-                        r->shadowed += r->occluded[p];
-                        r->lit += r->t[p] < INFINITY && !r->occluded[p];
-                        if (i > 0) r->shadow_agree += r->occluded[p] == ser[0].occluded[p];
-                    }
-                }
-                if (counters && r->accel && !strncmp(prt_accel_spec(r->accel), "cgrid", 5)) {
-                    prt__cgrid_counters_reset();
-                    trace_image(&t, &rcam, packet, 1);
-                    if (shadows) shadow_image(&t, &rcam, packet, 1, light);
-                    cg_counters c = prt__cgrid_counters_get();
-                    r->cells += c.cells, r->tests += c.tests;
-                    if (getenv("PRT_CGRID_COUNTERS"))
-                        fprintf(stderr, "packets %llu slices %llu macro skips %llu cells %llu tests %llu culled %llu mailboxed %llu dda rays %llu\n",
-                                (unsigned long long)c.packets, (unsigned long long)c.slices, (unsigned long long)c.macro_skips,
-                                (unsigned long long)c.cells, (unsigned long long)c.tests, (unsigned long long)c.culled,
-                                (unsigned long long)c.mailboxed, (unsigned long long)c.dda_rays);
-                }
-                if (i > 0)
-                    for (size_t p = 0; p < (size_t)W * H; p++) r->agree += r->prims[p] == ser[0].prims[p];
-                if (i > 0) r->compared += (size_t)W * H;
-                if (!json) {
-                    printf("frame %3zu  %-52s rebuild %8.2f ms  trace %8.2f ms", f, r->label, 1e3 * r->rebuild[f],
-                           1e3 * r->trace[f]);
-                    if (shadows) printf("  shadow %8.2f ms", 1e3 * r->shadow[f]);
-                    printf("\n");
-                }
-            }
-            if (outdir && i < nspecs) {
-                prt_render_options ro = {.width = W, .height = H, .shade = PRT_SHADE_DIFFUSE, .threads = threads};
-                if ((s = prt_render(r->accel, cur, &cam, &ro, &img))) {
-                    rc = cli_fail("animate", "render", s);
-                    break;
-                }
-                char path[4096];
-                if (nspecs == 1)
-                    snprintf(path, sizeof path, "%s/frame_%03zu.png", outdir, f);
-                else
-                    snprintf(path, sizeof path, "%s/r%d_frame_%03zu.png", outdir, i, f);
-                if ((s = prt_image_save_png(&img, path)) == PRT_ERROR_UNSUPPORTED) {
-                    size_t l = strlen(path);
-                    memcpy(path + l - 4, ".ppm", 4);
-                    s = prt_image_save_ppm(&img, path);
-                }
-                if (s) rc = cli_fail("animate", path, s);
-            }
+            prt_status s = advance_series(&ser[i], g, i, f, cur);
+            if (s) rc = cli_fail("animate", ser[i].label, s);
+            if (!rc && g->bench) bench_series(&ser[i], &ser[0], i, f, rcam, g);
+            if (!rc && g->outdir && i < g->nspecs) rc = save_frame(&ser[i], i, f, cur, cam, g, &img);
         }
-    }
-    if (!rc && bench) {
-        /* Medians over frames 1.. (frame 0 holds the first build, allocations included). */
-        size_t first = an.nframes > 1 ? 1 : 0, n = an.nframes - first;
-        const double ntri = (double)an.base->triangle_count;
-        if (json) {
-            printf("{\"scene\": \"%s\", \"frames\": %zu, \"triangles\": %zu, \"width\": %u, \"height\": %u, \"packet\": %u, "
-                   "\"threads\": %d, \"results\": [",
-                   an.name, an.nframes, an.base->triangle_count, W, H, packet, threads);
-        } else {
-            printf("\nmedians over frames %zu..%zu%s:\n%-52s %10s %10s %10s %8s %12s %12s", first, an.nframes - 1,
-                   counters ? " (cells, tests: totals over the frames, one thread)" : "", "representation", "rebuild ms",
-                   "trace ms", "total ms", "fps", "build Mtri/s", "same prim %");
-            if (shadows) printf(" %10s %10s %8s %10s %10s", "shadow ms", "total+shd", "fps+shd", "shadowed %", "same shd %");
-            printf("\n");
-        }
-        for (int i = 0; i < nser; i++) {
-            series *r = &ser[i];
-            double rb = bench_median(r->rebuild + first, n), tr = bench_median(r->trace + first, n);
-            double rbc = bench_median(r->rebuild_cpu + first, n), trc = bench_median(r->trace_cpu + first, n);
-            double sh = shadows ? bench_median(r->shadow + first, n) : 0, shc = shadows ? bench_median(r->shadow_cpu + first, n) : 0;
-            double shaded = r->shadowed + r->lit ? 100.0 * (double)r->shadowed / (double)(r->shadowed + r->lit) : 0;
-            double same_shd = r->compared ? 100.0 * (double)r->shadow_agree / (double)r->compared : 100.0;
-            double agree = r->compared ? 100.0 * (double)r->agree / (double)r->compared : 100.0;
-            if (json)
-                printf("%s{\"representation\": \"%s\", \"updates\": %s, \"rebuild_ms\": %.3f, \"trace_ms\": %.3f, "
-                       "\"fps\": %.2f, \"build_mtris_per_s\": %.2f, \"same_prim_percent\": %.3f, \"cells\": %llu, "
-                       "\"tests\": %llu, \"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f, \"shadow_ms\": %.3f, "
-                       "\"shadow_cpu_ms\": %.3f, \"shadowed_percent\": %.3f, \"same_shadow_percent\": %.3f}",
-                       i ? ", " : "", r->label, r->updates ? "true" : "false", 1e3 * rb, 1e3 * tr, 1.0 / (rb + tr),
-                       ntri / rb * 1e-6, agree, (unsigned long long)r->cells, (unsigned long long)r->tests, 1e3 * rbc,
-                       1e3 * trc, 1e3 * sh, 1e3 * shc, shaded, same_shd);
-            else {
-                printf("%-52s %10.2f %10.2f %10.2f %8.2f %12.2f %12.3f", r->label, 1e3 * rb, 1e3 * tr, 1e3 * (rb + tr),
-                       1.0 / (rb + tr), ntri / rb * 1e-6, agree);
-                if (shadows)
-                    printf(" %10.2f %10.2f %8.2f %10.2f %10.3f", 1e3 * sh, 1e3 * (rb + tr + sh), 1.0 / (rb + tr + sh), shaded,
-                           same_shd);
-                if (threads == 1) printf("  cpu: rebuild %.2f trace %.2f ms", 1e3 * rbc, 1e3 * trc);
-                if (threads == 1 && shadows) printf(" shadow %.2f ms", 1e3 * shc);
-                if (counters && r->cells) printf("  cells %.3fM tests %.3fM", (double)r->cells * 1e-6, (double)r->tests * 1e-6);
-                printf("\n");
-            }
-        }
-        if (json) printf("]}\n");
     }
     prt_image_free(&img);
-    for (int i = 0; i < nser; i++) {
-        prt_accel_free(ser[i].accel);
-        bench_embree_anim_free(ser[i].embree);
-        free(ser[i].rebuild), free(ser[i].trace), free(ser[i].prims);
-        free(ser[i].rebuild_cpu), free(ser[i].trace_cpu);
-        free(ser[i].shadow), free(ser[i].shadow_cpu), free(ser[i].t), free(ser[i].occluded);
+    return rc;
+}
+
+/* The current frame's mesh: the base faces, positions set frame by frame. */
+static prt_status current_frame(const anim *an, prt_mesh **cur) {
+    prt_status s = prt_mesh_create(an->base->vertex_count, an->base->triangle_count, cur);
+    if (!s) memcpy((*cur)->triangles, an->base->triangles, 12 * (*cur)->triangle_count);
+    return s;
+}
+
+/* The frames opened, the camera set: every series run, the medians printed. */
+static int animate(const anim *an, anim_args *g) {
+    prt_mesh *cur;
+    prt_status s = current_frame(an, &cur);
+    if (s) return cli_fail("animate", "mesh", s);
+    prt_camera cam;
+    render_camera rcam;
+    if ((s = frame_camera(an, cur, g, &cam, &rcam))) {
+        prt_mesh_free(cur);
+        return cli_fail("animate", "camera", s);
     }
+    const int nser = g->nspecs + (g->vs_embree ? 1 : 0);
+    series ser[MAX_SPECS + 1];
+    memset(ser, 0, sizeof ser);
+    for (int i = 0; i < nser; i++) series_init(&ser[i], g, an->nframes, i);
+    if (g->bench && !g->json)
+        printf("scene %s: %zu frames, %zu triangles, %zu vertices; %ux%u primary rays, %ux%u packets, %d threads\n",
+               an->name, an->nframes, an->base->triangle_count, an->base->vertex_count, g->W, g->H, g->packet, g->packet,
+               g->threads);
+    if (g->bench && !g->json && g->shadows)
+        printf("shadow rays from every primary hit to the point light %g,%g,%g\n", (double)g->light[0],
+               (double)g->light[1], (double)g->light[2]);
+    int rc = run_frames(ser, nser, an, cur, &cam, &rcam, g);
+    if (!rc && g->bench) print_medians(ser, nser, an, g);
+    for (int i = 0; i < nser; i++) series_free(&ser[i]);
     prt_mesh_free(cur);
+    return rc;
+}
+
+int cmd_animate(int argc, char **argv) {
+    anim_args g;
+    int rc = parse_args(argc, argv, &g);
+    if (rc) return rc < 0 ? 0 : rc;
+    anim an;
+    if ((rc = open_scene(&g, &an))) {
+        anim_free(&an);
+        return rc;
+    }
+    if (g.outdir && mkdir(g.outdir, 0777) && errno != EEXIST) {
+        fprintf(stderr, "packrt animate: %s: %s\n", g.outdir, strerror(errno));
+        rc = 1;
+    } else {
+        rc = animate(&an, &g);
+    }
     anim_free(&an);
     return rc;
 }

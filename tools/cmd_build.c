@@ -1,7 +1,9 @@
 /* packrt build MESH -r SPEC -o out.prt: preprocess a mesh and save the representation. */
 #include "cli.h"
+#include "api/accel.h"
 #include "io/atomic_file.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #if defined(__GLIBC__)
@@ -36,128 +38,160 @@ static int usage(void) {
     return 0;
 }
 
-int cmd_build(int argc, char **argv) {
-    const char *mesh_path = NULL, *spec = NULL, *out = NULL, *gen = NULL, *order_path = NULL;
-    int threads = 0;
-    size_t memory = 0;
+/* The command line of `packrt build`. */
+typedef struct build_args {
+    const char *mesh_path, *spec, *out, *gen, *order_path;
+    int threads;
+    size_t memory;
+} build_args;
+
+/* 0 when the arguments parse; -1 after --help; else the exit status (usage printed). */
+static int parse_args(int argc, char **argv, build_args *b) {
+    memset(b, 0, sizeof *b);
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
-        if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
-        else if (!strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
-        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--gen") && i + 1 < argc) gen = argv[++i];
-        else if (!strcmp(argv[i], "--order") && i + 1 < argc) order_path = argv[++i];
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage();
+            return -1;
+        }
+        if (!strcmp(argv[i], "-r") && i + 1 < argc) b->spec = argv[++i];
+        else if (!strcmp(argv[i], "-o") && i + 1 < argc) b->out = argv[++i];
+        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) b->threads = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--gen") && i + 1 < argc) b->gen = argv[++i];
+        else if (!strcmp(argv[i], "--order") && i + 1 < argc) b->order_path = argv[++i];
         else if (!strcmp(argv[i], "--memory") && i + 1 < argc) {
-            if (!cli_parse_count(argv[++i], &memory)) return cli_usage("build", "--memory: bad size '%s'", argv[i]);
+            if (!cli_parse_count(argv[++i], &b->memory)) return cli_usage("build", "--memory: bad size '%s'", argv[i]);
         }
         else if (argv[i][0] == '-') return cli_usage("build", "unknown option '%s'", argv[i]);
-        else if (!mesh_path) mesh_path = argv[i];
+        else if (!b->mesh_path) b->mesh_path = argv[i];
         else return cli_usage("build", "more than one mesh given ('%s')", argv[i]);
     }
-    if ((!mesh_path == !gen) || !spec || !out) return cli_usage("build", "needs MESH (or --gen), -r SPEC and -o out.prt");
-    if (order_path && !strstr(spec, "ids=none") && strncmp(spec, "auto", 4)) /* auto may choose ids=none */
-        return cli_usage("build", "--order: only ids=none specs hand out a triangle order");
-    if ((gen || !strncmp(spec, "ooc", 3)) && order_path)
-        return cli_usage("build", "--order: out-of-core and generated builds keep mesh ids; no order to write");
-    if (gen || !strncmp(spec, "ooc", 3)) {
-        /* Straight to the file: out-of-core builds stream, never holding the mesh. */
-        keep_freed_memory();
-        cli_progress bar;
-        cli_progress_begin(&bar, "building");
-        prt_build_options o = {.threads = threads, .progress = cli_progress_callback, .progress_user = &bar,
-                               .memory_budget = memory};
-        prt_status s;
-        if (gen) {
-            char kind[32];
-            size_t tris = 0, seed = 1;
-            const char *c1 = strchr(gen, ':');
-            if (!c1 || (size_t)(c1 - gen) >= sizeof kind) return cli_usage("build", "--gen: expected KIND:TRIANGLES[:SEED]");
-            memcpy(kind, gen, (size_t)(c1 - gen));
-            kind[c1 - gen] = 0;
-            char num[64];
-            const char *c2 = strchr(c1 + 1, ':');
-            snprintf(num, sizeof num, "%.*s", (int)(c2 ? (size_t)(c2 - c1 - 1) : strlen(c1 + 1)), c1 + 1);
-            if (!cli_parse_count(num, &tris) || (c2 && !cli_parse_count(c2 + 1, &seed)))
-                return cli_usage("build", "--gen: expected KIND:TRIANGLES[:SEED], got '%s'", gen);
-            s = prt_build_generated(kind, tris, seed, spec, out, &o);
-        } else {
-            s = prt_build_file(mesh_path, spec, out, &o);
-        }
-        cli_progress_end(&bar);
-        if (s) return cli_fail("build", gen ? gen : mesh_path, s);
-        prt_accel *a;
-        if ((s = prt_accel_load(out, &a))) return cli_fail("build", out, s);
-        prt_stats st;
-        prt_accel_stats(a, &st);
-        double n = (double)st.triangles;
-        fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s, %.2f B/tri (tree %.2f, geometry %.2f)\n", out,
-                prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds,
-                (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) / n, (double)st.bytes_tree / n,
-                (double)st.bytes_geometry / n);
-        if (st.detail[0]) fprintf(stderr, "  %s\n", st.detail);
-        prt_accel_free(a);
-        return 0;
-    }
-    prt_mesh *m;
-    prt_status s = prt_mesh_load(mesh_path, &m);
-    if (s) return cli_fail("build", mesh_path, s);
+    if ((!b->mesh_path == !b->gen) || !b->spec || !b->out)
+        return cli_usage("build", "needs MESH (or --gen), -r SPEC and -o out.prt");
+    return 0;
+}
+
+/* What was built: spec, triangles, time, bytes per triangle (and the build's peak memory
+ * when it was measured in this process). */
+static void print_summary(const char *out, const prt_accel *a, bool peak) {
+    prt_stats st;
+    prt_accel_stats(a, &st);
+    double n = (double)st.triangles;
+    char peak_text[64] = "";
+    if (peak) snprintf(peak_text, sizeof peak_text, ", peak %.1f MB", st.build_peak_bytes / 1e6);
+    fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s%s, %.2f B/tri (tree %.2f, geometry %.2f)\n", out,
+            prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds, peak_text,
+            (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) / n, (double)st.bytes_tree / n,
+            (double)st.bytes_geometry / n);
+    if (st.detail[0]) fprintf(stderr, "  %s\n", st.detail);
+}
+
+/* --gen KIND:TRIANGLES[:SEED] into its parts; false when malformed. */
+static bool parse_gen(const char *gen, char kind[32], size_t *tris, size_t *seed) {
+    *tris = 0, *seed = 1;
+    const char *c1 = strchr(gen, ':');
+    if (!c1 || (size_t)(c1 - gen) >= 32) return false;
+    memcpy(kind, gen, (size_t)(c1 - gen));
+    kind[c1 - gen] = 0;
+    char num[64];
+    const char *c2 = strchr(c1 + 1, ':');
+    snprintf(num, sizeof num, "%.*s", (int)(c2 ? (size_t)(c2 - c1 - 1) : strlen(c1 + 1)), c1 + 1);
+    return cli_parse_count(num, tris) && (!c2 || cli_parse_count(c2 + 1, seed));
+}
+
+/* Straight to the file (prt_build_file, prt_build_generated): families with a streaming
+ * build never hold the mesh. */
+static int build_to_file(const build_args *b) {
+    keep_freed_memory();
+    char kind[32];
+    size_t tris, seed;
+    if (b->gen && !parse_gen(b->gen, kind, &tris, &seed))
+        return cli_usage("build", "--gen: expected KIND:TRIANGLES[:SEED], got '%s'", b->gen);
     cli_progress bar;
     cli_progress_begin(&bar, "building");
-    uint32_t *order = order_path ? malloc((m->triangle_count ? m->triangle_count : 1) * sizeof *order) : NULL;
-    prt_build_options o = {.threads = threads, .progress = cli_progress_callback, .progress_user = &bar,
+    prt_build_options o = {.threads = b->threads, .progress = cli_progress_callback, .progress_user = &bar,
+                           .memory_budget = b->memory};
+    prt_status s = b->gen ? prt_build_generated(kind, tris, seed, b->spec, b->out, &o)
+                          : prt_build_file(b->mesh_path, b->spec, b->out, &o);
+    cli_progress_end(&bar);
+    if (s) return cli_fail("build", b->gen ? b->gen : b->mesh_path, s);
+    prt_accel *a;
+    if ((s = prt_accel_load(b->out, &a))) return cli_fail("build", b->out, s);
+    print_summary(b->out, a, false);
+    prt_accel_free(a);
+    return 0;
+}
+
+/* The accel's triangle order (positions below triangles_built: degenerate triangles have
+ * none), little endian whatever the host, byte by byte. */
+static prt_status write_order(const char *path, const uint32_t *order, size_t triangles) {
+    prt__afile f;
+    prt_status s = prt__afile_open(&f, path);
+    for (size_t i = 0; !s && i < triangles; i++) {
+        const unsigned char b[4] = {(unsigned char)order[i], (unsigned char)(order[i] >> 8),
+                                    (unsigned char)(order[i] >> 16), (unsigned char)(order[i] >> 24)};
+        s = prt__afile_write(&f, b, 4);
+    }
+    if (s) prt__afile_abort(&f);
+    else s = prt__afile_commit(&f);
+    return s;
+}
+
+/* Load the mesh, build in core, save; the order goes to --order for ids=none specs. */
+static int build_in_core(const build_args *b) {
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(b->mesh_path, &m);
+    if (s) return cli_fail("build", b->mesh_path, s);
+    cli_progress bar;
+    cli_progress_begin(&bar, "building");
+    uint32_t *order = b->order_path ? malloc((m->triangle_count ? m->triangle_count : 1) * sizeof *order) : NULL;
+    prt_build_options o = {.threads = b->threads, .progress = cli_progress_callback, .progress_user = &bar,
                            .triangle_order = order};
     prt_accel *a;
-    s = order_path && !order ? PRT_ERROR_NOMEM : prt_build(m, spec, &o, &a);
+    s = b->order_path && !order ? PRT_ERROR_NOMEM : prt_build(m, b->spec, &o, &a);
     cli_progress_end(&bar);
     prt_mesh_free(m);
-    if (s == PRT_ERROR_ARGUMENT && !order_path && strstr(spec, "ids=none")) {
-        free(order);
+    if (s == PRT_ERROR_ARGUMENT && !b->order_path && strstr(b->spec, "ids=none")) {
         fprintf(stderr, "packrt build: %s: ids=none stores no triangle ids, so hits name positions in the accel's own "
-                        "order; give --order FILE to receive it\n", spec);
+                        "order; give --order FILE to receive it\n", b->spec);
         return 1;
     }
     if (s) {
         free(order);
-        return cli_fail("build", spec, s);
+        return cli_fail("build", b->spec, s);
     }
-    prt_stats st;
-    prt_accel_stats(a, &st);
-    if (order_path && !strstr(prt_accel_spec(a), "ids=none")) {
+    const char *failed = NULL;
+    if (order && !strstr(prt_accel_spec(a), "ids=none")) { /* auto chose a spec that keeps mesh ids */
         fprintf(stderr, "packrt build: %s keeps the mesh's triangle ids: no order to write to %s\n", prt_accel_spec(a),
-                order_path);
+                b->order_path);
         free(order);
-        order_path = NULL;
+        order = NULL;
     }
-    if (order_path) {
-        /* Positions below triangles_built (degenerate triangles have none); little endian
-         * whatever the host, byte by byte. */
-        const size_t triangles = st.triangles_built;
-        prt__afile f;
-        prt_status ws = prt__afile_open(&f, order_path);
-        for (size_t i = 0; !ws && i < triangles; i++) {
-            const unsigned char b[4] = {(unsigned char)order[i], (unsigned char)(order[i] >> 8),
-                                        (unsigned char)(order[i] >> 16), (unsigned char)(order[i] >> 24)};
-            ws = prt__afile_write(&f, b, 4);
-        }
-        if (ws) prt__afile_abort(&f);
-        else ws = prt__afile_commit(&f);
+    if (order) {
+        prt_stats st;
+        prt_accel_stats(a, &st);
+        s = write_order(b->order_path, order, st.triangles_built);
         free(order);
-        if (ws) {
-            prt_accel_free(a);
-            return cli_fail("build", order_path, ws);
-        }
+        failed = b->order_path;
     }
-    s = prt_accel_save(a, out);
-    if (s) {
-        prt_accel_free(a);
-        return cli_fail("build", out, s);
+    if (!s) {
+        s = prt_accel_save(a, b->out);
+        failed = b->out;
     }
-    double n = (double)st.triangles;
-    fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s, peak %.1f MB, %.2f B/tri (tree %.2f, geometry %.2f)\n",
-            out, prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds, st.build_peak_bytes / 1e6,
-            (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) / n, (double)st.bytes_tree / n,
-            (double)st.bytes_geometry / n);
-    if (st.detail[0]) fprintf(stderr, "  %s\n", st.detail);
+    if (!s) print_summary(b->out, a, true);
     prt_accel_free(a);
-    return 0;
+    return s ? cli_fail("build", failed, s) : 0;
+}
+
+int cmd_build(int argc, char **argv) {
+    build_args b;
+    int rc = parse_args(argc, argv, &b);
+    if (rc) return rc < 0 ? 0 : rc;
+    if (b.order_path && !strstr(b.spec, "ids=none") && strncmp(b.spec, "auto", 4)) /* auto may choose ids=none */
+        return cli_usage("build", "--order: only ids=none specs hand out a triangle order");
+    /* Families with a streaming build (prt_accel_caps.build_file) go straight to the file. */
+    const prt_accel_caps *caps = prt__registry_caps(b.spec);
+    const bool streams = b.gen || (caps && caps->build_file);
+    if (streams && b.order_path)
+        return cli_usage("build", "--order: out-of-core and generated builds keep mesh ids; no order to write");
+    return streams ? build_to_file(&b) : build_in_core(&b);
 }

@@ -15,87 +15,114 @@ static int usage(void) {
     return 0;
 }
 
-int cmd_sdf(int argc, char **argv) {
-    const char *path = NULL, *spec = NULL, *out = NULL;
-    size_t res = 0;
-    float pad = 0.05f;
-    int threads = 0;
-    bool unsigned_dist = false;
+typedef struct sdf_args {
+    const char *path, *spec, *out;
+    size_t res;
+    float pad;
+    int threads;
+    bool unsigned_dist;
+} sdf_args;
+
+/* 0 when the arguments parse; -1 after --help; else the exit status (usage printed). */
+static int parse_args(int argc, char **argv, sdf_args *a) {
+    *a = (sdf_args){.pad = 0.05f};
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
-        if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
-        else if (!strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
-        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--unsigned")) unsigned_dist = true;
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage();
+            return -1;
+        }
+        if (!strcmp(argv[i], "-r") && i + 1 < argc) a->spec = argv[++i];
+        else if (!strcmp(argv[i], "-o") && i + 1 < argc) a->out = argv[++i];
+        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) a->threads = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--unsigned")) a->unsigned_dist = true;
         else if (!strcmp(argv[i], "--res") && i + 1 < argc) {
-            if (!cli_parse_count(argv[++i], &res) || res < 2 || res > 4096)
+            if (!cli_parse_count(argv[++i], &a->res) || a->res < 2 || a->res > 4096)
                 return cli_usage("sdf", "--res needs a count of samples from 2 to 4096, not '%s'", argv[i]);
         } else if (!strcmp(argv[i], "--pad") && i + 1 < argc) {
             char *end;
-            pad = strtof(argv[++i], &end);
-            if (*end || !(pad >= 0 && pad <= 10)) return cli_usage("sdf", "--pad needs a fraction from 0 to 10, not '%s'", argv[i]);
+            a->pad = strtof(argv[++i], &end);
+            if (*end || !(a->pad >= 0 && a->pad <= 10))
+                return cli_usage("sdf", "--pad needs a fraction from 0 to 10, not '%s'", argv[i]);
         } else if (argv[i][0] == '-') return cli_usage("sdf", "unknown option '%s'", argv[i]);
-        else if (!path) path = argv[i];
+        else if (!a->path) a->path = argv[i];
         else return cli_usage("sdf", "more than one input given ('%s')", argv[i]);
     }
-    if (!path || !out || !res) return cli_usage("sdf", "needs MESH|FILE, --res N and -o field.raw");
-    prt_accel *a;
-    int rc = cli_open_accel("sdf", path, spec, "wide8:idx8-soa4", NULL, &a);
-    if (rc) return rc;
-    float lo[3], hi[3], origin[3];
+    if (!a->path || !a->out || !a->res) return cli_usage("sdf", "needs MESH|FILE, --res N and -o field.raw");
+    return 0;
+}
+
+/* The sample grid: cubic cells of side h from origin, dims samples along each axis. */
+typedef struct sdf_grid {
+    float origin[3], h;
+    size_t dims[3], total;
+} sdf_grid;
+
+static sdf_grid grid_over(const prt_accel *a, size_t res, float pad) {
+    float lo[3], hi[3];
     prt_accel_bounds(a, lo, hi);
     const float longest = fmaxf(hi[0] - lo[0], fmaxf(hi[1] - lo[1], hi[2] - lo[2]));
-    const float h = longest * (1 + 2 * pad) / (float)(res - 1);
-    size_t dims[3], total = 1;
+    sdf_grid g = {.h = longest * (1 + 2 * pad) / (float)(res - 1), .total = 1};
     for (int k = 0; k < 3; k++) {
-        origin[k] = lo[k] - pad * longest;
-        dims[k] = (size_t)ceilf((hi[k] - lo[k] + 2 * pad * longest) / h) + 1;
-        total *= dims[k];
+        g.origin[k] = lo[k] - pad * longest;
+        g.dims[k] = (size_t)ceilf((hi[k] - lo[k] + 2 * pad * longest) / g.h) + 1;
+        g.total *= g.dims[k];
     }
-    float *pts = malloc(total * 12), *field = malloc(total * 4);
+    return g;
+}
+
+/* The field at every sample of g, x fastest. */
+static prt_status sample_field(const prt_accel *a, const sdf_grid *g, const sdf_args *args, float *pts, float *field) {
+    for (size_t z = 0, i = 0; z < g->dims[2]; z++)
+        for (size_t y = 0; y < g->dims[1]; y++)
+            for (size_t x = 0; x < g->dims[0]; x++, i++) {
+                pts[3 * i] = g->origin[0] + g->h * (float)x;
+                pts[3 * i + 1] = g->origin[1] + g->h * (float)y;
+                pts[3 * i + 2] = g->origin[2] + g->h * (float)z;
+            }
+    if (!args->unsigned_dist) return prt_signed_distance(a, pts, g->total, INFINITY, field, args->threads);
+    prt_closest *c = malloc(g->total * sizeof *c);
+    prt_status s = c ? prt_closest_points(a, pts, g->total, INFINITY, c, args->threads) : PRT_ERROR_NOMEM;
+    for (size_t i = 0; !s && i < g->total; i++) field[i] = c[i].distance;
+    free(c);
+    return s;
+}
+
+/* field.raw and its description, field.raw.json; the exit status. */
+static int write_field(const sdf_args *args, const sdf_grid *g, const float *field) {
+    char json[1024], text[1024];
+    snprintf(json, sizeof json, "%s.json", args->out);
+    const int len = snprintf(text, sizeof text,
+                             "{\"dims\": [%zu, %zu, %zu], \"origin\": [%.9g, %.9g, %.9g], \"spacing\": %.9g, "
+                             "\"signed\": %s, \"order\": \"x fastest, then y, then z\", \"type\": \"float32\"}\n",
+                             g->dims[0], g->dims[1], g->dims[2], g->origin[0], g->origin[1], g->origin[2], g->h,
+                             args->unsigned_dist ? "false" : "true");
+    const void *field_part = field, *text_part = text;
+    const size_t field_bytes = g->total * 4, text_bytes = (size_t)len;
+    prt_status ws = qf_write_parts(args->out, &field_part, &field_bytes, 1);
+    if (!ws) ws = qf_write_parts(json, &text_part, &text_bytes, 1);
+    if (ws) return cli_fail("sdf", args->out, ws);
+    printf("grid %zu x %zu x %zu, origin %g %g %g, spacing %g: %s (%s)\n", g->dims[0], g->dims[1], g->dims[2],
+           g->origin[0], g->origin[1], g->origin[2], g->h, args->out, json);
+    return 0;
+}
+
+int cmd_sdf(int argc, char **argv) {
+    sdf_args args;
+    int rc = parse_args(argc, argv, &args);
+    if (rc) return rc < 0 ? 0 : rc;
+    prt_accel *a;
+    if ((rc = cli_open_accel("sdf", args.path, args.spec, "wide8:idx8-soa4", NULL, &a))) return rc;
+    const sdf_grid g = grid_over(a, args.res, args.pad);
+    float *pts = malloc(g.total * 12), *field = malloc(g.total * 4);
     if (!pts || !field) {
-        fprintf(stderr, "packrt sdf: out of memory for %zu samples\n", total);
+        fprintf(stderr, "packrt sdf: out of memory for %zu samples\n", g.total);
         rc = 1;
     } else {
-        for (size_t z = 0, i = 0; z < dims[2]; z++)
-            for (size_t y = 0; y < dims[1]; y++)
-                for (size_t x = 0; x < dims[0]; x++, i++) {
-                    pts[3 * i] = origin[0] + h * (float)x;
-                    pts[3 * i + 1] = origin[1] + h * (float)y;
-                    pts[3 * i + 2] = origin[2] + h * (float)z;
-                }
-        prt_status s = PRT_OK;
-        if (unsigned_dist) {
-            prt_closest *c = malloc(total * sizeof *c);
-            if (!c) s = PRT_ERROR_NOMEM;
-            else if (!(s = prt_closest_points(a, pts, total, INFINITY, c, threads)))
-                for (size_t i = 0; i < total; i++) field[i] = c[i].distance;
-            free(c);
-        } else {
-            s = prt_signed_distance(a, pts, total, INFINITY, field, threads);
-        }
-        if (s) rc = cli_fail("sdf", path, s);
-        else {
-            char json[1024], text[1024];
-            snprintf(json, sizeof json, "%s.json", out);
-            const int len = snprintf(text, sizeof text,
-                                     "{\"dims\": [%zu, %zu, %zu], \"origin\": [%.9g, %.9g, %.9g], \"spacing\": %.9g, "
-                                     "\"signed\": %s, \"order\": \"x fastest, then y, then z\", \"type\": \"float32\"}\n",
-                                     dims[0], dims[1], dims[2], origin[0], origin[1], origin[2], h, unsigned_dist ? "false" : "true");
-            const void *field_part = field, *text_part = text;
-            const size_t field_bytes = total * 4, text_bytes = (size_t)len;
-            prt_status ws = qf_write_parts(out, &field_part, &field_bytes, 1);
-            if (!ws) ws = qf_write_parts(json, &text_part, &text_bytes, 1);
-            const bool ok = !ws;
-            if (!ok) {
-                rc = cli_fail("sdf", out, ws);
-            } else {
-                printf("grid %zu x %zu x %zu, origin %g %g %g, spacing %g: %s (%s)\n", dims[0], dims[1], dims[2], origin[0],
-                       origin[1], origin[2], h, out, json);
-            }
-        }
+        prt_status s = sample_field(a, &g, &args, pts, field);
+        rc = s ? cli_fail("sdf", args.path, s) : write_field(&args, &g, field);
     }
-    free(pts), free(field);
+    free(pts);
+    free(field);
     prt_accel_free(a);
     return rc;
 }

@@ -2,7 +2,6 @@
  * representation's ops, and provides the generic packet and stream paths. */
 #include "api/accel.h"
 #include "api/auto.h"
-#include "ooc/ooc_accel.h"
 #include "geom/ray.h"
 #include "mesh/mesh.h"
 
@@ -77,12 +76,12 @@ prt_status prt__check_update_vertices(const float *vertices, size_t count) {
 
 prt_status prt_accel_update(prt_accel *a, const float *vertices) {
     if (!a || !vertices) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_update: NULL argument");
-    if (!a->ops->update)
+    if (!PRT_CAP(a, update))
         return prt__fail(PRT_ERROR_UNSUPPORTED,
                          "prt_accel_update: representation '%s' cannot be updated in place; build it again from the moved mesh",
                          a->spec);
     double t0 = prt__now();
-    prt_status s = a->ops->update(a, vertices);
+    prt_status s = a->ops->caps->update(a, vertices);
     if (!s) a->build_seconds = prt__now() - t0;
     return s;
 }
@@ -218,7 +217,7 @@ bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit 
         h->hit = prt__miss();
         return false;
     }
-    if (a->ops->lod_query) return a->ops->lod_query(a, r, error, false, h);
+    if (PRT_CAP(a, lod_query)) return a->ops->caps->lod_query(a, r, error, false, h);
     a->ops->intersect1(a, r, &h->hit);
     return h->hit.prim != PRT_INVALID;
 }
@@ -226,8 +225,8 @@ bool prt_intersect_lod(const prt_accel *a, prt_ray *r, float error, prt_lod_hit 
 void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hits, uint32_t n, float error) {
     bool valid = true;
     for (uint32_t i = 0; i < n && valid; i++) valid = prt__ray_valid(&rays[i]);
-    if (valid && a->ops->lod_packet) {
-        a->ops->lod_packet(a, rays, hits, n, error);
+    if (valid && PRT_CAP(a, lod_packet)) {
+        a->ops->caps->lod_packet(a, rays, hits, n, error);
         return;
     }
     for (uint32_t i = 0; i < n; i++) prt_intersect_lod(a, &rays[i], error, &hits[i]);
@@ -235,10 +234,10 @@ void prt_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *hi
 
 bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
     if (PRT_UNLIKELY(!prt__ray_valid(r))) return false;
-    if (a->ops->lod_query) {
+    if (PRT_CAP(a, lod_query)) {
         prt_ray copy = *r;
         prt_lod_hit h;
-        return a->ops->lod_query(a, &copy, error, true, &h);
+        return a->ops->caps->lod_query(a, &copy, error, true, &h);
     }
     return a->ops->occluded1(a, r);
 }
@@ -246,8 +245,8 @@ bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error) {
 void prt_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error) {
     bool valid = true;
     for (uint32_t i = 0; i < n && valid; i++) valid = prt__ray_valid(&rays[i]);
-    if (valid && a->ops->lod_occluded_packet) {
-        a->ops->lod_occluded_packet(a, rays, occluded, n, error);
+    if (valid && PRT_CAP(a, lod_occluded_packet)) {
+        a->ops->caps->lod_occluded_packet(a, rays, occluded, n, error);
         return;
     }
     for (uint32_t i = 0; i < n; i++) occluded[i] = prt_occluded_lod(a, &rays[i], error);
@@ -255,12 +254,12 @@ void prt_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *o
 
 void prt_accel_frame(prt_accel *a, prt_cache_info *info) {
     if (info) memset(info, 0, sizeof *info);
-    if (a && a->ops->frame) a->ops->frame(a, info);
+    if (a && PRT_CAP(a, frame)) a->ops->caps->frame(a, info);
 }
 
 prt_status prt_accel_check(const prt_accel *a) {
     if (!a) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_check: NULL accel");
-    return a->ops->check ? a->ops->check(a) : PRT_OK;
+    return PRT_CAP(a, check) ? a->ops->caps->check(a) : PRT_OK;
 }
 
 /* --- .prt files ---------------------------------------------------------------------- */
@@ -272,21 +271,22 @@ static prt_status fill_sections(const void *ctx, prt_writer *w) {
 
 prt_status prt_accel_save(const prt_accel *a, const char *path) {
     if (!a || !path) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_save: NULL argument");
-    if (a->ops->save_file) return a->ops->save_file(a, path);
+    if (PRT_CAP(a, save_file)) return a->ops->caps->save_file(a, path);
     prt_file_info info = {{0}, {0}, a->triangles, a->triangles_built, a->build_seconds};
     snprintf(info.spec, sizeof info.spec, "%s", a->spec);
     memcpy(info.bounds, a->bounds, sizeof info.bounds);
     return prt__file_save(path, &info, fill_sections, a);
 }
 
-prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out) {
+prt_status prt__accel_open_own(const void *mem, uint64_t size, int fd, const void *head, size_t head_size,
+                               const char *name, const prt_open_options *o, bool verify_crc, prt_accel **out) {
     *out = NULL;
-    if (ooc_is_block_file(data, size)) {
-        ooc_accel *a;
-        prt_status s = ooc_open(data, size, -1, 0, "block file in memory", NULL, verify_crc, &a);
-        if (!s) *out = &a->base;
-        return s;
-    }
+    const prt_repr_family *f = prt__registry_probe(head, head_size);
+    return f ? f->ops->caps->open(mem, size, fd, name, o, verify_crc, out) : PRT_OK;
+}
+
+/* A checked container's accel, loaded by the family its spec names. */
+static prt_status open_container(const void *data, size_t size, bool verify_crc, prt_accel **out) {
     prt_file_info info;
     prt_reader r;
     prt_status s = prt__file_open(data, size, verify_crc, &info, &r);
@@ -297,6 +297,9 @@ prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_a
     const prt_repr_family *f = prt__registry_find(&spec);
     if (!f)
         return prt__fail(PRT_ERROR_UNSUPPORTED, "the file holds representation '%.64s', unknown to this packrt",
+                         info.spec);
+    if (!f->ops->load)
+        return prt__fail(PRT_ERROR_CORRUPT, "a .prt container names representation '%.64s', which is stored in a format of its own",
                          info.spec);
     prt_accel *a = NULL;
     if ((s = f->ops->load(&r, &spec, &a))) return s;
@@ -309,21 +312,23 @@ prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_a
     return PRT_OK;
 }
 
+prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out) {
+    prt_status s = prt__accel_open_own(data, size, -1, data, size, "file in memory", NULL, verify_crc, out);
+    if (s || *out) return s;
+    return open_container(data, size, verify_crc, out);
+}
+
 prt_status prt_accel_load_memory(const void *data, size_t size, prt_accel **out) {
     if (!data || !out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_load_memory: NULL argument");
-    *out = NULL;
-    if (ooc_is_block_file(data, size)) {
-        ooc_accel *a;
-        prt_status s = ooc_open(data, size, -1, 0, "block file in memory", NULL, true, &a);
-        if (!s) *out = &a->base;
-        return s;
-    }
-    if ((uintptr_t)data % 64 == 0) return prt__accel_open(data, size, true, out);
+    /* A family's own format is read where it lies; containers need 64-byte alignment. */
+    prt_status s = prt__accel_open_own(data, size, -1, data, size, "file in memory", NULL, true, out);
+    if (s || *out) return s;
+    if ((uintptr_t)data % 64 == 0) return open_container(data, size, true, out);
     /* Layouts read their nodes in place and need the container's 64-byte alignment. */
     void *copy = prt__alloc(size);
     if (!copy) return prt__fail(PRT_ERROR_NOMEM, "out of memory copying a %zu-byte .prt image", size);
     memcpy(copy, data, size);
-    prt_status s = prt__accel_open(copy, size, true, out);
+    s = open_container(copy, size, true, out);
     if (s) {
         prt__free(copy);
         return s;

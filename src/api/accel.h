@@ -30,28 +30,51 @@ typedef struct prt_accel_ops {
     /* Load from a checked container; sections point into memory that outlives the accel. */
     prt_status (*load)(prt_reader *r, prt_spec *spec, prt_accel **out);
     void (*destroy)(prt_accel *a);
-    /* Rebuild in place from new positions of the same vertices (prt_accel_update): the
-     * array holds 3 floats per vertex of the mesh the accel was built from. NULL: the
-     * representation cannot update; prt_accel_update says so. */
-    prt_status (*update)(prt_accel *a, const float *vertices);
-    /* Representations stored in a format of their own rather than a .prt container (ooc's
-     * block file): write it to path. NULL: save() into a container. */
-    prt_status (*save_file)(const prt_accel *a, const char *path);
-    /* Level-of-detail queries (prt_intersect_lod, prt_occluded_lod); NULL: exact queries. */
-    bool (*lod_query)(const prt_accel *a, prt_ray *r, float error, bool any, prt_lod_hit *h);
-    /* prt_intersect_lod_packet (rays already checked); NULL: one lod_query per ray. */
-    void (*lod_packet)(const prt_accel *a, prt_ray *rays, prt_lod_hit *h, uint32_t n, float error);
-    /* prt_occluded_lod_packet (rays already checked); NULL: one any-hit lod_query per ray. */
-    void (*lod_occluded_packet)(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error);
-    /* The cache update between frames (prt_accel_frame); NULL: nothing to do. */
-    void (*frame)(prt_accel *a, prt_cache_info *info);
-    /* Failures met by queries so far (prt_accel_check); NULL: none possible. */
-    prt_status (*check)(const prt_accel *a);
     /* The mesh queries' walk (api/query.h): hand q->leaf the triangles of every part q does
      * not cull. NULL: the family answers no such query (prt_intersect_all and the others
      * say so). */
     void (*query)(const prt_accel *a, struct prt__query *q);
+    /* What the family offers beyond the queries every family answers (below); NULL: none. */
+    const struct prt_accel_caps *caps;
 } prt_accel_ops;
+
+/* Bytes of a file's start that a family's probe sees (fewer when the file is shorter). */
+#define PRT_PROBE_BYTES 256
+
+/* Optional capabilities of a family, each found through the registry or the accel's ops
+ * rather than by naming the family; a NULL member is a capability the family lacks, and
+ * the API layer then answers as the comment says. */
+typedef struct prt_accel_caps {
+    /* Own file format (instead of a .prt container, whose save/load the family then leaves
+     * NULL). probe: true when these first bytes start such a file (prt_accel_load, _open and
+     * _load_memory ask every family). open: an accel over the file in memory (mem, size;
+     * fd < 0) or on disk (fd, size bytes; the accel owns fd on success, the caller closes it
+     * on failure); name for messages; verify_crc=false skips checksums (fuzzing). save_file:
+     * write the accel in that format. */
+    bool (*probe)(const void *head, size_t n);
+    prt_status (*open)(const void *mem, uint64_t size, int fd, const char *name, const prt_open_options *o,
+                       bool verify_crc, prt_accel **out);
+    prt_status (*save_file)(const prt_accel *a, const char *path);
+    /* Streaming builds straight into a file, never holding the mesh (prt_build_file,
+     * prt_build_generated); NULL: the mesh is loaded or generated, built, then saved. */
+    prt_status (*build_file)(const char *mesh_path, prt_spec *spec, const char *out_path, const prt_build_options *o);
+    prt_status (*build_generated)(const char *kind, uint64_t triangles, uint64_t seed, prt_spec *spec,
+                                  const char *out_path, const prt_build_options *o);
+    /* Level-of-detail queries (prt_intersect_lod, prt_occluded_lod); NULL: exact queries.
+     * lod_packet (prt_intersect_lod_packet) and lod_occluded_packet (prt_occluded_lod_packet)
+     * get rays already checked; NULL: one lod_query per ray. */
+    bool (*lod_query)(const prt_accel *a, prt_ray *r, float error, bool any, prt_lod_hit *h);
+    void (*lod_packet)(const prt_accel *a, prt_ray *rays, prt_lod_hit *h, uint32_t n, float error);
+    void (*lod_occluded_packet)(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error);
+    /* A block cache with frames: the update between frames (prt_accel_frame; NULL: nothing
+     * to do) and the failures its reads met so far (prt_accel_check; NULL: none possible). */
+    void (*frame)(prt_accel *a, prt_cache_info *info);
+    prt_status (*check)(const prt_accel *a);
+    /* Refit: rebuild in place from new positions of the same vertices (prt_accel_update),
+     * 3 floats per vertex of the mesh the accel was built from. NULL: it cannot update;
+     * prt_accel_update says so. */
+    prt_status (*update)(prt_accel *a, const float *vertices);
+} prt_accel_caps;
 
 struct prt_accel {
     const prt_accel_ops *ops;
@@ -84,7 +107,23 @@ typedef struct prt_repr_family {
  * verify_crc=false skips the checksums so fuzzing reaches the structural checks. */
 prt_status prt__accel_open(const void *data, size_t size, bool verify_crc, prt_accel **out);
 
+/* An accel over a file in a family's own format (prt_accel_caps.open: mem and size, or fd
+ * and size) when a family's probe knows its first bytes, head; *out stays NULL (PRT_OK)
+ * when none does. */
+prt_status prt__accel_open_own(const void *mem, uint64_t size, int fd, const void *head, size_t head_size,
+                               const char *name, const prt_open_options *o, bool verify_crc, prt_accel **out);
+
 /* Family that accepts spec, or NULL with an error message naming the valid ones. */
 const prt_repr_family *prt__registry_find(const prt_spec *spec);
+
+/* Family whose own file format starts with these bytes (prt_accel_caps.probe), or NULL. */
+const prt_repr_family *prt__registry_probe(const void *head, size_t n);
+
+/* The capabilities of the family that spec_text names, or NULL when it names none (or has
+ * none): for callers that choose a path by capability (the CLI's streaming build). */
+const prt_accel_caps *prt__registry_caps(const char *spec_text);
+
+/* A capability member of a's family, or NULL when the family lacks it. */
+#define PRT_CAP(a, member) ((a)->ops->caps ? (a)->ops->caps->member : NULL)
 
 #endif

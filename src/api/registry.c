@@ -1,21 +1,28 @@
-/* The list of representation families: what prt_build dispatches on and `packrt list`
- * prints. A new family is one line here. */
+/* The list of representation families: what prt_build dispatches on, `packrt list`
+ * prints, and the API asks for optional capabilities (prt_accel_caps): which family's file
+ * format a file is, and what a spec's family offers. A new family is one line here. */
 #include "api/accel.h"
 
 #include <stdio.h>
 
-extern const prt_repr_family prt__bvh_family;
-extern const prt_repr_family prt__raystrips_family;
-extern const prt_repr_family prt__lossygrid_family;
-extern const prt_repr_family prt__cgrid_family;
-extern const prt_repr_family prt__ooc_family;
+/* The families, in the order `packrt list` prints them; each defines prt__family_<name>
+ * (its prt_repr_family) in its own folder. */
+#define FAMILIES(X) \
+    X(bvh)          \
+    X(raystrips)    \
+    X(lossygrid)    \
+    X(cgrid)        \
+    X(ooc)          \
+    /* a new family: one line above this one (docs/extending.md) */
+
+#define X(name) extern const prt_repr_family prt__family_##name;
+FAMILIES(X)
+#undef X
 
 static const prt_repr_family *const g_families[] = {
-    &prt__bvh_family,
-    &prt__raystrips_family,
-    &prt__lossygrid_family,
-    &prt__cgrid_family,
-    &prt__ooc_family,
+#define X(name) &prt__family_##name,
+    FAMILIES(X)
+#undef X
 };
 
 const prt_repr_family *prt__registry_find(const prt_spec *spec) {
@@ -24,6 +31,21 @@ const prt_repr_family *prt__registry_find(const prt_spec *spec) {
     prt__fail(PRT_ERROR_ARGUMENT, "unknown representation '%s%s%s' (`packrt list` prints the valid names)",
               spec->structure, spec->codec[0] ? ":" : "", spec->codec);
     return NULL;
+}
+
+const prt_repr_family *prt__registry_probe(const void *head, size_t n) {
+    for (size_t i = 0; i < PRT_ARRAY_SIZE(g_families); i++) {
+        const prt_accel_caps *c = g_families[i]->ops->caps;
+        if (c && c->probe && c->probe(head, n)) return g_families[i];
+    }
+    return NULL;
+}
+
+const prt_accel_caps *prt__registry_caps(const char *spec_text) {
+    prt_spec spec;
+    if (!spec_text || prt__spec_parse(spec_text, &spec)) return NULL;
+    const prt_repr_family *f = prt__registry_find(&spec);
+    return f ? f->ops->caps : NULL;
 }
 
 static bool name_at(size_t i, const char **name, const char **desc) {

@@ -1,8 +1,13 @@
 /* Chains each leaf's triangles into Rouwé's strips (§3.10) and rewrites the tree so its
- * leaves hold strip entries (bvh/strip_leaves.h). */
+ * leaves hold strip entries (bvh/strip_leaves.h); the strip codecs' leaf kinds
+ * (bvh/leaf_kind.h) around it. */
 #include "bvh/strip_leaves.h"
+#include "bvh/codecs/strip.h"
+#include "bvh/leaf_kind.h"
 #include "core/vec.h"
 
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #define LEAF_MAX BVH_MAX_LEAF
@@ -243,3 +248,79 @@ void bvh_strip_set_free(bvh_strip_set *s) {
     prt__free(s->rotations);
     memset(s, 0, sizeof *s);
 }
+
+/* --- The strip codecs' leaf kinds -------------------------------------------------------- */
+
+/* strip stores vertices without their lowest bit (codecs/strip.h): a copy of m's vertices
+ * so, for the tree and every leaf alike, and the largest distance that moved a vertex. */
+static prt_status clear_low_bits(const prt_mesh *m, prt_mesh *out, float *error) {
+    float *v = prt__alloc(prt__mul_size(m->vertex_count ? m->vertex_count : 1, 3 * sizeof(float)));
+    if (!v) return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu vertices", m->vertex_count);
+    double err2 = 0;
+    for (size_t i = 0; i < m->vertex_count; i++) {
+        double d2 = 0;
+        for (int k = 0; k < 3; k++) {
+            v[3 * i + k] = strip_clear_low_bit(m->vertices[3 * i + k]);
+            d2 += ((double)v[3 * i + k] - m->vertices[3 * i + k]) * ((double)v[3 * i + k] - m->vertices[3 * i + k]);
+        }
+        err2 = fmax(err2, d2);
+    }
+    *out = (prt_mesh){.vertices = v, .triangles = m->triangles, .vertex_count = m->vertex_count, .triangle_count = m->triangle_count};
+    *error = (float)sqrt(err2);
+    if ((double)*error * *error < err2) *error = nextafterf(*error, INFINITY); /* not below it */
+    return PRT_OK;
+}
+
+/* The tree's leaves become strip entries (bvh_strip_leaves over the mesh in leaf order, lm),
+ * encoded from an entry mesh; the shared data is the rotation of each triangle behind a
+ * strip_shared_head. */
+static prt_status encode_strips(const bvh_layout *l, const bvh_codec *c, bvh_tree *tree, prt_mesh *lm, uint32_t *ids,
+                                float vertex_error, bvh_blob *blob, bvh_shared *sh) {
+    bvh_strip_set set;
+    prt_status s = bvh_strip_leaves(tree, lm, ids, &set);
+    if (s) return s;
+    const size_t n = sh->triangles, rot = (n + 3) / 4;
+    uint8_t *data = prt__alloc(sizeof(strip_shared_head) + rot);
+    if (!data) {
+        bvh_strip_set_free(&set);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu strip rotations", n);
+    }
+    const strip_shared_head hd = {vertex_error, (uint32_t)n, (uint32_t)set.count, (uint32_t)set.strips};
+    memcpy(data, &hd, sizeof hd);
+    memcpy(data + sizeof hd, set.rotations, rot);
+    sh->data = data;
+    sh->size = sizeof hd + rot;
+    sh->rotations = data + sizeof hd;
+    const prt_mesh em = {.vertices = lm->vertices, .triangles = set.entries, .vertex_count = lm->vertex_count,
+                         .triangle_count = set.count};
+    s = l->encode(tree, c, &em, blob);
+    bvh_strip_set_free(&set);
+    return s;
+}
+
+/* A strip codec's shared data from a file: its head names the tree's triangles, a finite
+ * error and a rotation (below 3) for each. */
+static prt_status load_shared(bvh_shared *sh) {
+    const uint64_t triangles = sh->triangles;
+    strip_shared_head hd;
+    if (sh->size < sizeof hd || sh->size - sizeof hd != (triangles + 3) / 4)
+        return prt__fail(PRT_ERROR_CORRUPT, "strip SHRD section holds %zu bytes for %llu triangles", sh->size,
+                         (unsigned long long)triangles);
+    memcpy(&hd, sh->data, sizeof hd);
+    bool ok = hd.triangles == triangles && hd.vertex_error >= 0 && hd.vertex_error < INFINITY;
+    for (size_t i = 0; ok && i < triangles; i++) ok = (sh->data[sizeof hd + i / 4] >> (2 * (i % 4)) & 3) != 3;
+    if (!ok) return prt__fail(PRT_ERROR_CORRUPT, "strip SHRD section is inconsistent");
+    sh->rotations = sh->data + sizeof hd;
+    return PRT_OK;
+}
+
+static void detail(const bvh_shared *sh, char *text, size_t size) {
+    strip_shared_head hd;
+    memcpy(&hd, sh->data, sizeof hd);
+    snprintf(text, size, "%u strips of %.2f triangles on average, %.3f entries per triangle", hd.strips,
+             hd.strips ? (double)hd.triangles / hd.strips : 0.0, hd.triangles ? (double)hd.entries / hd.triangles : 0.0);
+}
+
+/* Strip leaves are tested 8 triangles at a time (codecs/strip_kernel.inc). */
+const bvh_leaf_kind strip_leaf_kind = {"strip entries", 8, clear_low_bits, encode_strips, load_shared, detail};
+const bvh_leaf_kind strip_bitpack_leaf_kind = {"strip entries", 8, NULL, encode_strips, load_shared, detail};

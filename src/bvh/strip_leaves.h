@@ -39,10 +39,12 @@ prt_status bvh_strip_leaves(bvh_tree *t, prt_mesh *m, uint32_t *ids, bvh_strip_s
 void bvh_strip_set_free(bvh_strip_set *s);
 
 /* u, v of a hit on the strip triangle (A, B, C) as the mesh triangle's, for rotation r. */
-static inline void bvh_strip_rotate_uv(uint32_t r, float *u, float *v) {
-    const float w = 1.0f - *u - *v, a = *u, b = *v;
-    if (r == 1) *u = w, *v = a;
-    else if (r == 2) *u = b, *v = w;
-}
+static inline void bvh_strip_rotate_uv(uint32_t r, float *u, float *v) { bvh_rotate_uv(r, u, v); }
+
+/* The leaf kinds of the strip codecs (bvh/leaf_kind.h): strip stores vertices without their
+ * lowest bit, so its kind clears it in every vertex before building; strip-bitpack's
+ * packs each leaf's vertices itself. */
+struct bvh_leaf_kind;
+extern const struct bvh_leaf_kind strip_leaf_kind, strip_bitpack_leaf_kind;
 
 #endif

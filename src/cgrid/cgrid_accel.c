@@ -220,6 +220,9 @@ static bool cg_name_at(size_t i, const char **name, const char **desc) {
     return true;
 }
 
+/* Refit: prt_accel_update moves the vertices of the built mesh. */
+static const prt_accel_caps cgrid_caps = {.update = cg_update};
+
 const prt_accel_ops prt__cgrid_ops = {
     .name = "cgrid",
     .build = cg_build,
@@ -231,7 +234,7 @@ const prt_accel_ops prt__cgrid_ops = {
     .save = cg_save,
     .load = cg_load,
     .destroy = cg_destroy,
-    .update = cg_update,
+    .caps = &cgrid_caps,
 };
 
-const prt_repr_family prt__cgrid_family = {&prt__cgrid_ops, cg_accepts, cg_name_at};
+const prt_repr_family prt__family_cgrid = {&prt__cgrid_ops, cg_accepts, cg_name_at};

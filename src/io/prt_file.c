@@ -3,7 +3,6 @@
 #include "api/accel.h"
 #include "io/atomic_file.h"
 #include "io/prt_file.h"
-#include "ooc/ooc_accel.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -204,14 +203,15 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
         return prt__fail(PRT_ERROR_IO, "%s: not a regular file", path);
     }
     size_t size = (size_t)st.st_size;
-    /* An out-of-core block file is read block by block through its cache, never mapped. */
-    char head[256]; /* OOC_HEADER_BYTES: an interrupted block file's header is zeros */
+    /* A family's own format is opened by that family (it may read it piece by piece rather
+     * than map it); the rest are .prt containers. */
+    char head[PRT_PROBE_BYTES];
     ssize_t got = pread(fd, head, sizeof head, 0);
-    if (got > 0 && ooc_is_block_file(head, (size_t)got)) {
-        ooc_accel *a;
-        prt_status s = ooc_open(NULL, 0, fd, (uint64_t)st.st_size, path, o, true, &a);
+    prt_accel *own;
+    prt_status s = prt__accel_open_own(NULL, (uint64_t)st.st_size, fd, head, got > 0 ? (size_t)got : 0, path, o, true, &own);
+    if (s || own) {
         if (s) close(fd);
-        else *out = &a->base;
+        *out = own;
         return s;
     }
     if (size < PRT_FILE_HEADER_BYTES) {
@@ -222,7 +222,7 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
     close(fd);
     if (map == MAP_FAILED) return prt__fail(PRT_ERROR_IO, "%s: mmap failed: %s", path, strerror(errno));
     prt_accel *a;
-    prt_status s = prt__accel_open(map, size, true, &a);
+    s = prt__accel_open(map, size, true, &a);
     if (s) {
         munmap(map, size);
         char msg[1024];

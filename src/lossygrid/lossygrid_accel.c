@@ -307,4 +307,4 @@ const prt_accel_ops prt__lossygrid_ops = {
     .query = lg_query,
 };
 
-const prt_repr_family prt__lossygrid_family = {&prt__lossygrid_ops, lg_accepts, lg_name_at};
+const prt_repr_family prt__family_lossygrid = {&prt__lossygrid_ops, lg_accepts, lg_name_at};

@@ -191,18 +191,28 @@ fail:
     return s;
 }
 
+/* A build job for spec (parsed and written back canonical into h) with o's options;
+ * out_path NULL: an image in memory. */
+static prt_status job_init(prt_spec *spec, const prt_build_options *opt, const char *out_path, ooc_build_job *job,
+                           ooc_header *h) {
+    memset(job, 0, sizeof *job);
+    memset(h, 0, sizeof *h);
+    prt_status s = ooc_parse_spec(spec, &job->params);
+    if (s) return s;
+    prt__spec_format(spec, h->spec, sizeof h->spec);
+    job->params.threads = opt ? opt->threads : 0;
+    job->out_path = out_path;
+    job->memory_budget = opt ? opt->memory_budget : 0;
+    job->progress = opt ? opt->progress : NULL;
+    job->progress_user = opt ? opt->progress_user : NULL;
+    return PRT_OK;
+}
+
 static prt_status ooc_build_op(const prt_mesh *m, prt_spec *spec, const prt_build_options *opt, prt_accel **out) {
     ooc_build_job job;
-    memset(&job, 0, sizeof job);
-    prt_status s = ooc_parse_spec(spec, &job.params);
-    if (s) return s;
-    job.params.threads = opt ? opt->threads : 0;
-    job.memory_budget = opt ? opt->memory_budget : 0;
-    job.progress = opt ? opt->progress : NULL;
-    job.progress_user = opt ? opt->progress_user : NULL;
     ooc_header h;
-    memset(&h, 0, sizeof h);
-    prt__spec_format(spec, h.spec, sizeof h.spec);
+    prt_status s = job_init(spec, opt, NULL, &job, &h);
+    if (s) return s;
     void *image = NULL;
     size_t image_size = 0;
     double t0 = prt__now();
@@ -216,6 +226,31 @@ static prt_status ooc_build_op(const prt_mesh *m, prt_spec *spec, const prt_buil
     o->base.build_seconds = prt__now() - t0;
     *out = &o->base;
     return PRT_OK;
+}
+
+/* The streaming builds (prt_build_file, prt_build_generated): the mesh never held. */
+static prt_status build_file_op(const char *mesh_path, prt_spec *spec, const char *out_path, const prt_build_options *o) {
+    ooc_build_job job;
+    ooc_header h;
+    prt_status s = job_init(spec, o, out_path, &job, &h);
+    return s ? s : ooc_build_file(mesh_path, &job, &h);
+}
+
+static prt_status build_generated_op(const char *kind, uint64_t triangles, uint64_t seed, prt_spec *spec,
+                                     const char *out_path, const prt_build_options *o) {
+    ooc_build_job job;
+    ooc_header h;
+    prt_status s = job_init(spec, o, out_path, &job, &h);
+    return s ? s : ooc_build_generated(kind, triangles, seed, &job, &h);
+}
+
+/* prt_accel_caps.open: a block file in memory (mem) or on disk (fd). */
+static prt_status open_op(const void *mem, uint64_t size, int fd, const char *name, const prt_open_options *o,
+                          bool verify_crc, prt_accel **out) {
+    ooc_accel *a;
+    prt_status s = ooc_open(mem, size, fd, size, name, o, verify_crc, &a);
+    if (!s) *out = &a->base;
+    return s;
 }
 
 static void ooc_stats(const prt_accel *a, prt_stats *st) {
@@ -235,11 +270,6 @@ static void ooc_stats(const prt_accel *a, prt_stats *st) {
              (double)o->cache.nslots * OOC_BLOCK / 1e6);
 }
 
-static prt_status ooc_save(const prt_accel *a, prt_writer *w) {
-    (void)a, (void)w;
-    return prt__fail(PRT_ERROR_UNSUPPORTED, "ooc accels are block files, not .prt containers (internal error)");
-}
-
 /* Write the block file: the image when it was built in memory, else a copy of the file. */
 static prt_status ooc_save_file(const prt_accel *a, const char *path) {
     const ooc_accel *o = (const ooc_accel *)a;
@@ -255,11 +285,6 @@ static prt_status ooc_save_file(const prt_accel *a, const char *path) {
     }
     if (s) prt__afile_abort(&f);
     return s ? s : prt__afile_commit(&f);
-}
-
-static prt_status ooc_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
-    (void)r, (void)spec, (void)out;
-    return prt__fail(PRT_ERROR_CORRUPT, "a .prt container names representation 'ooc', which is stored as a block file");
 }
 
 static void ooc_frame(prt_accel *a, prt_cache_info *info) {
@@ -320,16 +345,12 @@ static bool ooc_name_at(size_t i, const char **name, const char **desc) {
     return true;
 }
 
-const prt_accel_ops prt__ooc_ops = {
-    .name = "ooc",
-    .build = ooc_build_op,
-    .intersect1 = ooc_intersect1,
-    .occluded1 = ooc_occluded1,
-    .stats = ooc_stats,
-    .save = ooc_save,
+static const prt_accel_caps ooc_caps = {
+    .probe = ooc_is_block_file,
+    .open = open_op,
     .save_file = ooc_save_file,
-    .load = ooc_load,
-    .destroy = ooc_destroy,
+    .build_file = build_file_op,
+    .build_generated = build_generated_op,
     .lod_query = lod_query,
     .lod_packet = lod_packet,
     .lod_occluded_packet = lod_occluded_packet,
@@ -337,4 +358,15 @@ const prt_accel_ops prt__ooc_ops = {
     .check = ooc_check,
 };
 
-const prt_repr_family prt__ooc_family = {&prt__ooc_ops, ooc_accepts, ooc_name_at};
+/* No save or load: the block file is its own format (ooc_caps). */
+const prt_accel_ops prt__ooc_ops = {
+    .name = "ooc",
+    .build = ooc_build_op,
+    .intersect1 = ooc_intersect1,
+    .occluded1 = ooc_occluded1,
+    .stats = ooc_stats,
+    .destroy = ooc_destroy,
+    .caps = &ooc_caps,
+};
+
+const prt_repr_family prt__family_ooc = {&prt__ooc_ops, ooc_accepts, ooc_name_at};

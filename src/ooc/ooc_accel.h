@@ -22,8 +22,8 @@ bool ooc_intersect_lod(const prt_accel *a, prt_ray *r, float C, bool any, prt_lo
 /* Closest LOD hits of n rays, 16 at a time as packets (rays whose direction signs differ
  * from the packet's are traced alone); the same answers as ooc_intersect_lod. */
 void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
-/* The same with the lanes of each packet walked one by one: the reference the SIMD packets
- * (traverse.c) are tested against. */
+/* The same answers from one walk per ray (ooc_intersect_lod): the reference the SIMD
+ * packets (traverse.c) are tested against, bit for bit. */
 void ooc_intersect_lod_packet_scalar(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C);
 /* Shadow packets (§6.1): any-hit LOD queries of n rays, 16 at a time; occluded[i] is
  * ooc_intersect_lod(any)'s answer for ray i. */

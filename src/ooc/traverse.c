@@ -70,6 +70,12 @@ static void finish(walker *w) {
     w->held = UINT32_MAX;
 }
 
+/* The end of a walk: its block let go, its answer returned. */
+static inline bool done(walker *w, bool hit) {
+    finish(w);
+    return hit;
+}
+
 /* An inner node's split axis and plane (w0, w1 its two words): false, counted as a
  * failure, for a corrupt axis or a path deeper than any the builder writes. */
 static inline bool inner_plane(const walker *w, uint32_t w0, uint32_t w1, int depth, int *axis, float *split) {
@@ -200,6 +206,19 @@ static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, floa
     return tmin <= tmax;
 }
 
+/* A LOD walk stops the ray at the last voxel above it (nvox samples at vox, 0: none) when
+ * it enters the cell (at tmin, through axis a) before its hit so far: the hit becomes the
+ * voxel's, with the sample facing the ray and the voxel's radius. True when it stops. */
+static inline bool voxel_stop(const prt__rayx *rx, float tmin, int a, int nvox, const uint8_t *vox, float vox_radius,
+                              prt__hitx *hit, uint32_t *sample, float *radius) {
+    const float t = MAXF(tmin, rx->tnear);
+    if (!nvox || !(t < hit->t)) return false;
+    hit->t = t, hit->prim = PRT_VOXEL_HIT, hit->u = hit->v = 0.0f;
+    memcpy(sample, vox + 4 * (nvox == 6 ? 2 * a + (rx->dir[a] < 0.0f) : 0), 4);
+    *radius = vox_radius;
+    return true;
+}
+
 /* The walk shared by all queries. Returns true on a hit: a triangle (hit->prim) or, for
  * LOD queries, a voxel (hit->prim = PRT_VOXEL_HIT, *sample its shading sample). */
 static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t *sample, float *voxel_radius) {
@@ -221,21 +240,11 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
     bool found = false;
     int depth = 0;
 
-#define VOXEL_HIT()                                                                                                         \
-    do {                                                                                                                    \
-        if (nvox && tmin < hit->t) {                                                                                        \
-            hit->t = MAXF(tmin, r->tnear), hit->prim = PRT_VOXEL_HIT, hit->u = hit->v = 0.0f;                             \
-            memcpy(sample, vox + 4 * (nvox == 6 ? 2 * axis_in + (rx.dir[axis_in] < 0.0f) : 0), 4);                          \
-            *voxel_radius = vox_radius;                                                                                     \
-            finish(w);                                                                                                      \
-            return true;                                                                                                    \
-        }                                                                                                                   \
-    } while (0)
 
     for (;;) {
         bool pop = false;
         if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
-            if (w->lod) VOXEL_HIT();
+            if (w->lod && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
             pop = true;
         }
         while (!pop) {
@@ -244,7 +253,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             memcpy(&w1, w->blk + off + 4, 4);
             if (!(w0 & OOC_INNER)) {
                 bool ok = leaf(w, &rx, w0, w1, hit, any, &found);
-                if (!ok && w->lod) VOXEL_HIT();
+                if (!ok && w->lod && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
                 if (found && (any || hit->t < tmax)) { /* at tmax exactly, a tie may lie beyond */
                     finish(w);
                     return true;
@@ -265,7 +274,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
                     pop = true;
                     break;
                 }
-                if (w->lod && radius <= tmin * w->C) VOXEL_HIT();
+                if (w->lod && radius <= tmin * w->C && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
                 base = 0;
             }
             uint32_t kid[2];
@@ -322,7 +331,7 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             if (child_block != block) {
                 block = child_block;
                 if (!enter_block(w, block) || off + 8 > w->size) {
-                    if (w->lod) VOXEL_HIT();
+                    if (w->lod && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
                     pop = true;
                     break;
                 }
@@ -345,7 +354,6 @@ static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t
             break;
         }
     }
-#undef VOXEL_HIT
 }
 
 void ooc_intersect1(const prt_accel *acc, prt_ray *r, prt_hit *h) {
@@ -392,7 +400,7 @@ bool ooc_intersect_lod(const prt_accel *acc, prt_ray *r, float C, bool any, prt_
     return true;
 }
 
-/* --- 4x4 packets (§6.1: primary rays in packets of 4x4, Wald 2004) ----------------------
+/* --- 4x4 packets (§6.1: primary rays in packets of 4x4, Wald 2004) -----------------------
  * The rays of a packet share their direction signs, so they visit a node's children in the
  * same order: one walk fetches each node and block once for all of them, with a segment
  * [tmin, tmax] and an entry axis per ray, and a mask of the rays still looking. A ray
@@ -400,16 +408,6 @@ bool ooc_intersect_lod(const prt_accel *acc, prt_ray *r, float C, bool any, prt_
  * its segment's end. */
 
 #define PK 16
-
-typedef struct pentry {
-    uint32_t block, off;
-    uint32_t mask;
-    int depth, nvox;
-    const uint8_t *vox;
-    float vox_radius;
-    float tmin[PK], tmax[PK];
-    int8_t axis[PK];
-} pentry;
 
 typedef struct packet_state {
     prt__rayx rx[PK];
@@ -424,223 +422,18 @@ typedef struct packet_state {
  * hit so far; true when it does. */
 static inline bool voxel_hit(packet_state *ps, int i, float tmin, int a, int nvox, const uint8_t *vox,
                              float vox_radius) {
-    float t = MAXF(tmin, ps->rx[i].tnear);
-    if (!(t < ps->hit[i].t)) return false;
-    ps->hit[i].t = t, ps->hit[i].prim = PRT_VOXEL_HIT, ps->hit[i].u = ps->hit[i].v = 0.0f;
-    memcpy(&ps->sample[i], vox + 4 * (nvox == 6 ? 2 * a + (ps->rx[i].dir[a] < 0.0f) : 0), 4);
-    ps->radius[i] = vox_radius;
-    return true;
+    return voxel_stop(&ps->rx[i], tmin, a, nvox, vox, vox_radius, &ps->hit[i], &ps->sample[i], &ps->radius[i]);
 }
 
-/* The rays of mask that stop at the current voxel (entering at tmin, through axis). */
-static uint32_t voxel_hits(packet_state *ps, uint32_t mask, const float *tmin, const int8_t *axis, int nvox,
-                           const uint8_t *vox, float vox_radius) {
-    if (!nvox) return 0;
-    uint32_t stopped = 0;
-    for (uint32_t m = mask; m; m &= m - 1) {
-        int i = __builtin_ctz(m);
-        if (voxel_hit(ps, i, tmin[i], axis[i], nvox, vox, vox_radius)) stopped |= 1u << i;
-    }
-    return stopped;
-}
-
-/* Intersect a leaf's triangles with the rays of mask; false when its block is missing. */
-static bool packet_leaf(walker *w, packet_state *ps, uint32_t mask, uint32_t w0, uint32_t tb) {
-    uint32_t size;
-    const uint8_t *p = acquire(w, tb, OOC_BLOCK_TRIS, &size);
-    if (!p) return false;
-    uint16_t sec[2];
-    memcpy(sec, p, 4);
-    uint32_t list, n, ntri, nvert;
-    bool ok = leaf_list(p, size, w0, &list, &n, &ntri, &nvert);
-    for (uint32_t j = 0; ok && j < n; j++) {
-        uint16_t ti;
-        memcpy(&ti, p + list + 2 * j, 2);
-        ooc_tri t;
-        if (ti >= ntri) break;
-        memcpy(&t, p + sec[0] + (size_t)ti * sizeof(ooc_tri), sizeof t);
-        if (t.v[0] >= nvert || t.v[1] >= nvert || t.v[2] >= nvert) {
-            ok = false;
-            break;
-        }
-        float v[3][3];
-        for (int k = 0; k < 3; k++) memcpy(v[k], p + sec[1] + 12u * t.v[k], 12);
-        for (uint32_t m = mask; m; m &= m - 1) {
-            int i = __builtin_ctz(m);
-            float tt, u, vv;
-            prt__hitx *h = &ps->hit[i];
-            if (!prt__tri_hit(&ps->rx[i], v[0], v[1], v[2], h->t, &tt, &u, &vv)) continue;
-            if (tt < h->t || t.prim < h->prim) {
-                h->t = tt, h->u = u, h->v = vv, h->prim = t.prim;
-                float e1[3], e2[3];
-                for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
-                ps->tn[i][0] = e1[1] * e2[2] - e1[2] * e2[1];
-                ps->tn[i][1] = e1[2] * e2[0] - e1[0] * e2[2];
-                ps->tn[i][2] = e1[0] * e2[1] - e1[1] * e2[0];
-                ps->tcolor[i] = t.color;
-            }
-        }
-    }
-    release(w, tb);
-    if (!ok) atomic_fetch_add(&w->a->cache.failures, 1);
-    return ok;
-}
-
-/* Walk the rays of `mask` (same direction signs, no zero component) through the tree. */
-static void packet_walk(walker *w, packet_state *ps, uint32_t mask, float *tmin, float *tmax, int8_t *axis_in) {
-    static _Thread_local pentry stack[OOC_MAX_DEPTH + 2];
-    int sp = 0;
-    uint32_t block = w->a->h.root_block, off = w->a->h.root_offset;
-    int nvox = 0, depth = 0;
-    const uint8_t *vox = NULL; /* the last LOD voxel (lod_node) */
-    float vox_radius = 0.0f;
-    for (;;) {
-        bool pop = false;
-        if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
-            mask &= ~voxel_hits(ps, mask, tmin, axis_in, nvox, vox, vox_radius);
-            pop = true;
-        }
-        while (!pop && mask) {
-            uint32_t w0, w1;
-            memcpy(&w0, w->blk + off, 4);
-            memcpy(&w1, w->blk + off + 4, 4);
-            if (!(w0 & OOC_INNER)) {
-                if (!packet_leaf(w, ps, mask, w0, w1)) {
-                    mask &= ~voxel_hits(ps, mask, tmin, axis_in, nvox, vox, vox_radius);
-                } else {
-                    /* Rays with a hit before their segment's end are done. */
-                    for (uint32_t m = mask; m; m &= m - 1) {
-                        int i = __builtin_ctz(m);
-                        if (ps->hit[i].prim != PRT_INVALID && ps->hit[i].t < tmax[i]) mask &= ~(1u << i);
-                    }
-                }
-                pop = true;
-                break;
-            }
-            int axis;
-            float split;
-            uint32_t base = off, child_block = block;
-            if (!inner_plane(w, w0, w1, depth, &axis, &split)) {
-                pop = true;
-                break;
-            }
-            if (w0 & OOC_LOD) {
-                float radius;
-                if (!lod_node(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
-                    pop = true;
-                    break;
-                }
-                /* Each ray's own LOD test (§6.2). */
-                uint32_t small = 0;
-                for (uint32_t m = mask; m; m &= m - 1) {
-                    int i = __builtin_ctz(m);
-                    if (radius <= tmin[i] * w->C) small |= 1u << i;
-                }
-                if (small) mask &= ~voxel_hits(ps, small, tmin, axis_in, nvox, vox, vox_radius);
-                if (!mask) {
-                    pop = true;
-                    break;
-                }
-                base = 0;
-            }
-            uint32_t kid[2];
-            bool has[2];
-            inner_children(w0, base, kid, has);
-            const int first = __builtin_ctz(mask);
-            const int front = ps->rx[first].dir[axis] > 0.0f ? 0 : 1, back = 1 - front;
-            /* Per ray: the front part [tmin, min(tmax, t)], the back part [max(tmin, t), tmax];
-             * strict comparisons as in walk(). */
-            uint32_t fmask = 0, bmask = 0;
-            float t[PK];
-            for (uint32_t m = mask; m; m &= m - 1) {
-                int i = __builtin_ctz(m);
-                t[i] = (split - ps->rx[i].org[axis]) * ps->rx[i].inv[axis];
-                if (!(t[i] < tmin[i])) fmask |= 1u << i;
-                if (!(t[i] > tmax[i])) bmask |= 1u << i;
-            }
-            if (!has[front]) fmask = 0;
-            if (!has[back]) bmask = 0;
-            depth++;
-            if (bmask && fmask) {
-                pentry *e = &stack[sp++];
-                e->block = child_block, e->off = kid[back], e->mask = bmask, e->depth = depth;
-                e->nvox = nvox, e->vox_radius = vox_radius, e->vox = vox;
-                for (uint32_t m = bmask; m; m &= m - 1) {
-                    int i = __builtin_ctz(m);
-                    e->tmin[i] = MAXF(tmin[i], t[i]), e->tmax[i] = tmax[i];
-                    e->axis[i] = (int8_t)(t[i] > tmin[i] ? axis : axis_in[i]);
-                }
-                for (uint32_t m = fmask; m; m &= m - 1) {
-                    int i = __builtin_ctz(m);
-                    tmax[i] = MINF(tmax[i], t[i]);
-                }
-                mask = fmask;
-                off = kid[front];
-            } else if (fmask) {
-                for (uint32_t m = fmask; m; m &= m - 1) {
-                    int i = __builtin_ctz(m);
-                    tmax[i] = MINF(tmax[i], t[i]);
-                }
-                mask = fmask;
-                off = kid[front];
-            } else if (bmask) {
-                /* Rays that cross the plane inside their segment enter the back part
-                 * through it; the others entered it where they entered the cell. */
-                for (uint32_t m = bmask; m; m &= m - 1) {
-                    int i = __builtin_ctz(m);
-                    if (t[i] > tmin[i]) axis_in[i] = (int8_t)axis;
-                    tmin[i] = MAXF(tmin[i], t[i]);
-                }
-                mask = bmask;
-                off = kid[back];
-            } else {
-                pop = true;
-                break;
-            }
-            if (child_block != block) {
-                block = child_block;
-                if (!enter_block(w, block) || off + 8 > w->size) {
-                    mask &= ~voxel_hits(ps, mask, tmin, axis_in, nvox, vox, vox_radius);
-                    pop = true;
-                    break;
-                }
-            } else if (off + 8 > w->size) {
-                pop = true;
-                break;
-            }
-        }
-        /* Pop: the rays of the entry that are still looking and have no hit before it. */
-        for (;;) {
-            if (sp == 0) {
-                finish(w);
-                return;
-            }
-            pentry *e = &stack[--sp];
-            uint32_t m2 = 0;
-            for (uint32_t m = e->mask; m; m &= m - 1) {
-                int i = __builtin_ctz(m);
-                if (ps->hit[i].prim == PRT_VOXEL_HIT) continue; /* stopped at a voxel */
-                if (ps->hit[i].prim != PRT_INVALID && ps->hit[i].t < e->tmin[i]) continue;
-                m2 |= 1u << i;
-                tmin[i] = e->tmin[i], tmax[i] = e->tmax[i], axis_in[i] = e->axis[i];
-            }
-            if (!m2) continue;
-            mask = m2;
-            block = e->block, off = e->off, depth = e->depth, nvox = e->nvox, vox_radius = e->vox_radius;
-            vox = e->vox;
-            break;
-        }
-    }
-}
-
-/* --- The same walk with 16 lanes in SIMD registers ------------------------------------
- * packet_walks16 runs packet_walk's steps on whole vectors: a node's plane distance, the
+/* --- The packet walk, 16 lanes in SIMD registers ---------------------------------------
+ * packet_walks16 takes walk()'s steps on whole vectors: a node's plane distance, the
  * front and back masks, the segment updates and the LOD test take a few vector operations
- * for all 16 rays instead of a loop over the active ones. Lanes outside the mask compute
- * too, harmlessly: a ray's segment is live only while its lane is in the mask, and comes
- * back from the stack entry that holds it. Every lane does the scalar walk's arithmetic,
- * operation for operation (min/max as MINF/MAXF), so both give the same bits; packet_walk
- * stays as the reference (ooc_intersect_lod_packet_scalar, compared by test_ooc).
+ * for all 16 rays. Lanes outside the mask compute too, harmlessly: a ray's segment is live
+ * only while its lane is in the mask, and comes back from the stack entry that holds it.
+ * Every lane does walk()'s arithmetic, operation for operation (min/max as MINF/MAXF), so
+ * a ray gets the same bits in a packet as alone: walk() one ray at a time is the reference
+ * (ooc_intersect_lod_packet_scalar, compared by test_ooc). Only a corrupt leaf list is
+ * taken differently: the packet keeps the triangles before a bad index, as it always did.
  *
  * Leaves: by the time rays reach a leaf their packet has split (1.2-2.5 rays a leaf on
  * close-up views of the 355M Mandelbulb, docs/results/ooc.md), so the leaf test is SIMD
@@ -699,8 +492,8 @@ static void leaf_prefetch_tris(const uint8_t *p, uint32_t size, uint32_t w0) {
 }
 
 /* The rays of mask against a leaf's triangles in triangle block tb (at p, size bytes,
- * acquired by the caller), 8 at a time. The same answers, and the same handling of a
- * corrupt list, as packet_leaf; false for a corrupt list. */
+ * acquired by the caller), 8 at a time: each ray's answer is leaf()'s. False for a corrupt
+ * list (a triangle index out of range ends the list instead). */
 static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t mask, uint32_t w0, uint32_t tb,
                           const uint8_t *p, uint32_t size) {
     uint16_t sec[2];
@@ -718,7 +511,7 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             uint16_t ti;
             memcpy(&ti, p + list + 2 * j, 2);
             if (ti >= ntri) {
-                more = false; /* as packet_leaf: the triangles before it count */
+                more = false; /* the triangles before it count */
                 break;
             }
             /* Field by field rather than a copy of the record: straight from the block
@@ -823,34 +616,27 @@ static void pwalk16_init(pwalk16 *s, const walker *w, packet_state *ps, packet16
     s->leaf_p = NULL, s->leaf_size = 0;
 }
 
-/* packet_walk on vectors (see above) for the walks of live (bits of walks[]), in turns:
- * a walk's state is loaded into locals, runs to a yield, is saved, and the next one is
- * loaded. A walk resumes at the top of the loop, which for the state saved is the same as
- * going on where it stopped: the block is held, the node lies inside it, the depth is
- * within bounds, and a leaf whose triangles were asked for finds them in leaf_p. */
-static void packet_walks16(pwalk16 *walks, uint32_t live) {
-    int g = __builtin_ctz(live);
-    pwalk16 *s;
-    walker *w;
-    packet_state *ps;
-    packet16 *pk;
-    pentry16 *stack;
-    int sp;
-    uint32_t block, off, mask;
-    int nvox, depth;
-    const uint8_t *vox;
-    float vox_radius;
-    vf16 tmin, tmax;
-    vi16 axis_in;
-    const vf16 C = vf16_set1(walks[g].w.C);
-#define LOAD_WALK()                                                                                                 \
-    do {                                                                                                            \
-        s = &walks[g], w = &s->w, ps = s->ps, pk = s->pk, stack = s->stack, sp = s->sp;                            \
-        block = s->block, off = s->off, mask = s->mask, nvox = s->nvox, depth = s->depth;                          \
-        vox = s->vox;                                                                                               \
-        vox_radius = s->vox_radius, tmin = s->tmin, tmax = s->tmax, axis_in = s->axis_in;                          \
-    } while (0)
-    LOAD_WALK();
+enum { WALK_YIELDS, WALK_ENDS };
+
+/* The packet walk on vectors (see above): walk s from where it stopped until it yields
+ * (WALK_YIELDS, its state saved in s) or has no segment left (WALK_ENDS). Its state is
+ * loaded into locals and saved at a yield; it resumes at the top of the loop, which for
+ * the state saved is the same as going on where it stopped: the block is held, the node
+ * lies inside it, the depth is within bounds, and a leaf whose triangles were asked for
+ * finds them in leaf_p. A walk alone never yields: nothing else could run meanwhile. */
+static int walk16_run(pwalk16 *s, bool alone) {
+    walker *w = &s->w;
+    packet_state *ps = s->ps;
+    packet16 *pk = s->pk;
+    pentry16 *stack = s->stack;
+    int sp = s->sp;
+    uint32_t block = s->block, off = s->off, mask = s->mask;
+    int nvox = s->nvox, depth = s->depth;
+    const uint8_t *vox = s->vox;
+    float vox_radius = s->vox_radius;
+    vf16 tmin = s->tmin, tmax = s->tmax;
+    vi16 axis_in = s->axis_in;
+    const vf16 C = vf16_set1(w->C);
     for (;;) {
         bool pop = false;
         if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
@@ -964,9 +750,7 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
         for (;;) {
             if (sp == 0) {
                 finish(w);
-                live &= ~(1u << g);
-                if (!live) return;
-                goto next;
+                return WALK_ENDS;
             }
             pentry16 *e = &stack[--sp];
             uint32_t m2 = e->mask & ~pk->done & ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), e->tmin)));
@@ -979,15 +763,24 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
         }
         continue;
     yield:
-        if (!(live & (live - 1))) continue; /* alone: its state is where it stopped */
+        if (alone) continue; /* its state is where it stopped */
         s->sp = sp, s->block = block, s->off = off, s->mask = mask;
         s->nvox = nvox, s->depth = depth, s->vox_radius = vox_radius, s->vox = vox;
         s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
-    next: /* the next live walk after g, round and round */
-        g = __builtin_ctz(live & ~((2u << g) - 1) ? live & ~((2u << g) - 1) : live);
-        LOAD_WALK();
+        return WALK_YIELDS;
     }
-#undef LOAD_WALK
+}
+
+/* The walks of live (bits of walks[]) in turns, round and round, until each has ended. */
+static void packet_walks16(pwalk16 *walks, uint32_t live) {
+    for (int g = __builtin_ctz(live);;) {
+        if (walk16_run(&walks[g], !(live & (live - 1))) == WALK_ENDS) {
+            live &= ~(1u << g);
+            if (!live) return;
+        }
+        const uint32_t after = live & ~((2u << g) - 1); /* the next live walk after g */
+        g = __builtin_ctz(after ? after : live);
+    }
 }
 
 /* Packets walked together by a call (the renderer passes a tile of 64 rays: 4 packets). */
@@ -1222,11 +1015,10 @@ _Static_assert(offsetof(prt_lod_hit, normal) == 20 && offsetof(prt_lod_hit, colo
                "prt_lod_hit layout");
 #endif
 
-/* Packets of 16 rays, walked by packet_walks16 (simd, GROUP packets in turns) or
- * packet_walk (the reference, one by one). With occluded (any-hit, SIMD only): occluded[i]
- * is set for a ray blocked by a triangle or stopped at a voxel, and out is not written. */
-static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C, bool simd,
-                        uint8_t *occluded) {
+/* Packets of 16 rays, walked by packet_walks16 (GROUP packets in turns). With occluded
+ * (any-hit): occluded[i] is set for a ray blocked by a triangle or stopped at a voxel, and
+ * out is not written. */
+static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C, uint8_t *occluded) {
     const ooc_accel *a = (const ooc_accel *)acc;
     static _Thread_local pentry16 stacks[GROUP][OOC_MAX_DEPTH + 2];
     for (uint32_t base0 = 0; base0 < n; base0 += GROUP * PK) {
@@ -1245,13 +1037,6 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
             const uint32_t mask = packet_setup(a, &rays[base], cnt, &ps[g], &single[g], sign, org, inv, tmin, tmax, ax);
             if (!mask) continue;
             const walker w = {.a = (ooc_accel *)a, .held = UINT32_MAX, .lod = true, .C = C};
-            if (!simd) {
-                int8_t axis_in[PK];
-                for (int i = 0; i < PK; i++) axis_in[i] = (int8_t)ax[i];
-                walker ws = w;
-                packet_walk(&ws, &ps[g], mask, tmin, tmax, axis_in);
-                continue;
-            }
             /* Field by field: assigning a whole packet16 cleared its 512 bytes with rep stos. */
             packet16 *p = &pk[g];
             for (int k = 0; k < 3; k++) {
@@ -1323,14 +1108,14 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
 }
 
 void ooc_intersect_lod_packet(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C) {
-    lod_packets(a, rays, out, n, C, true, NULL);
+    lod_packets(a, rays, out, n, C, NULL);
 }
 
 void ooc_intersect_lod_packet_scalar(const prt_accel *a, prt_ray *rays, prt_lod_hit *out, uint32_t n, float C) {
-    lod_packets(a, rays, out, n, C, false, NULL);
+    for (uint32_t i = 0; i < n; i++) ooc_intersect_lod(a, &rays[i], C, false, &out[i]);
 }
 
 void ooc_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float C) {
     /* The walk reads rays but writes only its own state (tfar shrinks in out, not written). */
-    lod_packets(a, (prt_ray *)(uintptr_t)rays, NULL, n, C, true, occluded);
+    lod_packets(a, (prt_ray *)(uintptr_t)rays, NULL, n, C, occluded);
 }

@@ -416,4 +416,4 @@ const prt_accel_ops prt__raystrips_ops_single = {
     .destroy = rs_destroy,
 };
 
-const prt_repr_family prt__raystrips_family = {&prt__raystrips_ops, rs_accepts, rs_name_at};
+const prt_repr_family prt__family_raystrips = {&prt__raystrips_ops, rs_accepts, rs_name_at};

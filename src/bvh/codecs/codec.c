@@ -13,13 +13,19 @@ BVH_CODECS(X)
 #define BVH_LATTICE(c) ((c) == BVH_CODEC_bitpack ? BPV_MASK : (c) == BVH_CODEC_bitpack_soa4 ? BSOA_MASK \
                         : (c) == BVH_CODEC_strip_bitpack ? STRIP_BITPACK_MASK : 0u)
 
+/* The fields every codec header defines. */
+#define CODEC_FIELDS(id, nm, desc)                                                                                   \
+    .name = nm, .description = desc, .block = id##_block, .align = id##_align, .leaf_bytes = id##_leaf_bytes,       \
+    .encode = id##_encode_fn, .shared_build = id##_shared_build, .leaf_valid = id##_leaf_valid,                    \
+    .seq_ids = id##_seq_ids, .shared_remap = id##_shared_remap, .vertex_error = id##_vertex_error,                 \
+    .leaf_error = id##_leaf_error, .decode = id##_decode, .lattice = BVH_LATTICE(BVH_CODEC_##id)
+
 const bvh_codec bvh_codecs[BVH_CODEC_COUNT] = {
-#define X(id, nm, desc)                                                                              \
-    [BVH_CODEC_##id] = {nm, desc, id##_block, id##_align, id##_leaf_bytes, id##_encode_fn, id##_shared_build,        \
-                        id##_leaf_valid, id##_seq_ids, id##_shared_remap, id##_vertex_error, id##_leaf_error,         \
-                        BVH_CODEC_##id == BVH_CODEC_strip || BVH_CODEC_##id == BVH_CODEC_strip_bitpack, id##_decode, \
-                        BVH_LATTICE(BVH_CODEC_##id)},
-    BVH_CODECS(X)
+#define X(id, nm, desc) [BVH_CODEC_##id] = {CODEC_FIELDS(id, nm, desc)},
+    BVH_TRIANGLE_CODECS(X)
+#undef X
+#define X(id, nm, desc) [BVH_CODEC_##id] = {CODEC_FIELDS(id, nm, desc), .leaves = &id##_leaf_kind, .strips = true},
+    BVH_KIND_CODECS(X)
 #undef X
 };
 

@@ -4,7 +4,8 @@
  * them (bvh/layouts/instantiate.inc); the table below holds what encoding and loading
  * need, where an indirect call costs nothing.
  *
- * Adding a codec: codecs/<name>.h, one line in BVH_CODECS below, one include in
+ * Adding a codec: codecs/<name>.h, one line in BVH_TRIANGLE_CODECS below (or, for leaves
+ * that are not runs of triangles, BVH_KIND_CODECS), one include in
  * codecs/codecs.h and two lines in layouts/instantiate.inc. A codec header defines
  * <name>_block, <name>_align, <name>_leaf_bytes, <name>_encode, <name>_ray (per-ray state),
  * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded,
@@ -17,9 +18,12 @@
 
 #include "core/common.h"
 
-/* X(id, name, description) */
-#define BVH_CODECS(X)                                                                                 \
-    X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle")       \
+/* X(id, name, description): every codec, in the order `packrt list` prints them. */
+#define BVH_CODECS(X) BVH_TRIANGLE_CODECS(X) BVH_KIND_CODECS(X)
+
+/* Codecs whose leaves are runs of triangles. */
+#define BVH_TRIANGLE_CODECS(X) \
+    X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle") \
     X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test") \
     X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test") \
     X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle") \
@@ -31,7 +35,11 @@
     X(idx16_bitpack_soa4, "idx16-bitpack-soa4", "Indexed16BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 16-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
     X(idx32_bitpack_soa4, "idx32-bitpack-soa4", "Indexed32BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 32-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
     X(bitpack_soa4, "bitpack-soa4", "BitPackSOA4 (Rouwe 3.5): 16-bit components of 4 triangles in SOA form over a float grid per block, one id per leaf; lossy") \
-    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy") \
+    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy")
+
+/* Codecs whose leaves hold entries of a kind of their own (bvh/leaf_kind.h), which each
+ * names as <id>_leaf_kind in its header. */
+#define BVH_KIND_CODECS(X) \
     X(strip, "strip", "UncompressedStrip (Rouwe 3.10): strips of 12-byte vertices with the 3-bit context in their low bits, one id per leaf; lossy by one ulp") \
     X(strip_bitpack, "strip-bitpack", "CompressedStrip (Rouwe 3.10): strips of 20-bit packed vertices and the 3-bit context in a u64, a grid and one id per leaf; lossy")
 
@@ -57,7 +65,27 @@ typedef struct bvh_shared {
      * below triangles. NULL for the BVH family. */
     uint32_t (*map_id)(const void *map, uint32_t id);
     const void *map;
+    /* Codecs that store triangles as rotations of the mesh's (strip leaves): 2 bits per
+     * leaf-order triangle, 4 a byte, low bits first, within data; NULL for the others
+     * (bvh_rotate_uv). */
+    const uint8_t *rotations;
+    /* The state of a leaf_valid stand-in that visits leaves rather than checks them (the
+     * BVH family measures leaf errors through the layout's validate walk); else NULL. */
+    void *visit;
 } bvh_shared;
+
+/* The rotation of leaf-order triangle prim (sh->rotations not NULL). */
+static inline uint32_t bvh_rotation(const bvh_shared *sh, uint32_t prim) {
+    return sh->rotations[prim / 4] >> (2 * (prim % 4)) & 3;
+}
+
+/* u, v of a hit on a triangle stored as rotation r of the mesh's, (A, B, C) = (v_r, v_r+1,
+ * v_r+2), as the mesh triangle's. */
+static inline void bvh_rotate_uv(uint32_t r, float *u, float *v) {
+    const float w = 1.0f - *u - *v, a = *u, b = *v;
+    if (r == 1) *u = w, *v = a;
+    else if (r == 2) *u = b, *v = w;
+}
 
 typedef struct bvh_codec {
     const char *name;
@@ -95,8 +123,11 @@ typedef struct bvh_codec {
      * (seq_ids). The BVH family takes the maximum over every leaf of the encoded tree once
      * after building and keeps it in the META section. NULL for the others. */
     double (*leaf_error)(const uint8_t *leaf, uint32_t count, const prt_mesh *m);
-    /* Strip codecs (Rouwé §3.10): leaves hold strip entries, not triangles; the BVH family
-     * rewrites the tree for them (bvh/strip_leaves.h) and keeps their shared data itself. */
+    /* Codecs of BVH_KIND_CODECS: the kind of entries their leaves hold (Rouwé's strip
+     * entries, bvh/leaf_kind.h), through which the BVH family rewrites the tree for them and
+     * keeps their shared data; NULL for runs of triangles. strips: leaves != NULL (the
+     * strip kinds are the only ones), for the walks that rotate triangles back. */
+    const struct bvh_leaf_kind *leaves;
     bool strips;
     /* The triangles of a leaf of count entries (as the layout's kernels hand them to this
      * codec), exactly as its kernels test them: 9 floats each in v (the decoded vertices, in
