@@ -112,7 +112,7 @@ static bool ends_with(const char *s, const char *suffix) {
     return n >= m && !strcasecmp(s + n - m, suffix);
 }
 
-static int save(const prt_image *img, const char *path) {
+int cli_render_save(const prt_image *img, const char *path) {
     prt_status s =
         ends_with(path, ".ppm") ? prt_image_save_ppm(img, path) : prt_image_save_png(img, path);
     return s ? cli_fail("render", path, s) : 0;
@@ -189,7 +189,7 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
         char name[1024];
         derived_name(out, spec[k], name, sizeof name);
         rc = render_timed(a, m, cam, o, repeat, &img[k], &t);
-        if (!rc) rc = save(&img[k], name);
+        if (!rc) rc = cli_render_save(&img[k], name);
         if (!rc) report(spec[k], o, &img[k], t, name, threads);
         prt_accel_free(a);
     }
@@ -204,7 +204,7 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
         if (s)
             rc = cli_fail("render", "compare", s);
         else
-            rc = save(&diff, name);
+            rc = cli_render_save(&diff, name);
         if (!rc) {
             printf("%-24s -> %s\n", "difference", name);
             printf("largest pixel difference: %d of 255, %zu of %zu pixels differ", largest,
@@ -222,14 +222,15 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
     return rc;
 }
 
-int cmd_render(int argc, char **argv) {
-    const char *path = NULL, *spec = NULL, *out = NULL, *mesh_path = NULL, *compare_specs = NULL;
+int cli_render_parse(int argc, char **argv, cli_render_args *r) {
+    memset(r, 0, sizeof *r);
     prt_render_options o = {0};
     o.width = 1024, o.height = 768, o.shade = PRT_SHADE_DIFFUSE, o.seed = 1;
     float cam_v[7], up[3] = {0, 1, 0};
     int cam_n = 0, repeat = 1, frames = 200;
     size_t cache = 0;
     bool have_up = false;
+    const char *path = NULL, *spec = NULL, *out = NULL, *mesh_path = NULL, *compare_specs = NULL;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) return usage();
@@ -312,23 +313,24 @@ int cmd_render(int argc, char **argv) {
         threads = omp_get_max_threads();
     }
 
-    prt_camera cam, *camp = NULL;
     if (cam_n) {
-        memcpy(cam.eye, cam_v, sizeof cam.eye);
-        memcpy(cam.target, cam_v + 3, sizeof cam.target);
-        memcpy(cam.up, up, sizeof up);
-        cam.fov_y_deg = cam_n == 7 ? cam_v[6] : 40.0f;
-        camp = &cam;
+        memcpy(r->cam.eye, cam_v, sizeof r->cam.eye);
+        memcpy(r->cam.target, cam_v + 3, sizeof r->cam.target);
+        memcpy(r->cam.up, up, sizeof up);
+        r->cam.fov_y_deg = cam_n == 7 ? cam_v[6] : 40.0f;
+        r->have_camera = true;
     } else if (have_up)
         return cli_usage("render", "--up goes with --camera");
+    r->path = path, r->spec = spec, r->out = out, r->mesh_path = mesh_path, r->compare_specs = compare_specs;
+    r->o = o, r->repeat = repeat, r->frames = frames, r->cache = cache, r->threads = threads;
+    return -1;
+}
 
-    if (compare_specs)
-        return compare(path, mesh_path, compare_specs, camp, &o, repeat, out, threads);
-
+int cli_render_open(const cli_render_args *r, bool notes, prt_mesh **mesh, prt_accel **accel) {
+    const char *path = r->path, *spec = r->spec, *mesh_path = r->mesh_path;
     prt_mesh *m = NULL;
     prt_accel *a;
     int rc = 0;
-    const double t_open = omp_get_wtime(); /* "first image after opening the file" counts from here */
     if (spec && !strcmp(spec, "embree")) {
         prt_status s = PRT_OK;
         if (cli_is_prt_file(path))
@@ -338,8 +340,8 @@ int cmd_render(int argc, char **argv) {
             prt_mesh_free(m);
             return cli_fail("render", spec, s);
         }
-    } else if (cache && cli_is_prt_file(path)) {
-        prt_open_options oo = {.cache_bytes = cache};
+    } else if (r->cache && cli_is_prt_file(path)) {
+        prt_open_options oo = {.cache_bytes = r->cache};
         prt_status s = prt_accel_open(path, &oo, &a);
         if (s) return cli_fail("render", path, s);
     } else if ((rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a)))
@@ -350,14 +352,34 @@ int cmd_render(int argc, char **argv) {
             prt_accel_free(a);
             return cli_fail("render", mesh_path, s);
         }
-    } else if (mesh_path) {
+    } else if (mesh_path && notes) {
         fprintf(stderr, "packrt render: --mesh is for .prt input; %s is a mesh already\n", path);
-    } else if (!m && o.lod_pixels <= 0.0f) {
+    } else if (!m && r->o.lod_pixels <= 0.0f && notes) {
         fprintf(stderr,
                 "packrt render: note: %s has no mesh: normals are estimated from neighbouring "
                 "rays (give --mesh MESH for exact ones)\n",
                 path);
     }
+    *mesh = m, *accel = a;
+    return 0;
+}
+
+int cmd_render(int argc, char **argv) {
+    cli_render_args r;
+    int rc = cli_render_parse(argc, argv, &r);
+    if (rc >= 0) return rc;
+    prt_render_options o = r.o;
+    const char *out = r.out, *path = r.path;
+    const prt_camera *camp = r.have_camera ? &r.cam : NULL;
+    int repeat = r.repeat, frames = r.frames, threads = r.threads;
+
+    if (r.compare_specs)
+        return compare(path, r.mesh_path, r.compare_specs, camp, &o, repeat, out, threads);
+
+    const double t_open = omp_get_wtime(); /* "first image after opening the file" counts from here */
+    prt_mesh *m;
+    prt_accel *a;
+    if ((rc = cli_render_open(&r, true, &m, &a))) return rc;
     prt_image img = {0};
     double t = 0;
     if (o.lod_pixels > 0.0f) {
@@ -401,7 +423,7 @@ int cmd_render(int argc, char **argv) {
     } else {
         rc = render_timed(a, m, camp, &o, repeat, &img, &t);
     }
-    if (!rc) rc = save(&img, out);
+    if (!rc) rc = cli_render_save(&img, out);
     if (!rc) report(prt_accel_spec(a), &o, &img, t, out, threads);
     prt_image_free(&img);
     prt_accel_free(a);
