@@ -40,15 +40,16 @@ static int frame_planes(render_frame *f, bool floats, plane *p) {
     return n;
 }
 
-static void super_range(const render_frame *f, const dist_config *c, long s, long *first, long *count) {
+static void super_range(const render_frame *f, const dist_config *c, long s, long *first,
+                        long *count) {
     *first = s * c->super;
     *count = PRT_MIN(c->super, f->tiles - *first);
 }
 
 /* Copy super-tile s between the frame's planes and buf (to_buf: frame -> buf); returns the
  * bytes it covers in buf (buf NULL: only count them). */
-static size_t copy_super(const render_frame *f, const dist_config *c, const plane *p, int np, long s,
-                         uint8_t *buf, bool to_buf) {
+static size_t copy_super(const render_frame *f, const dist_config *c, const plane *p, int np,
+                         long s, uint8_t *buf, bool to_buf) {
     long first, count;
     super_range(f, c, s, &first, &count);
     size_t at = 0;
@@ -176,8 +177,9 @@ static bool deal_init(deal *d, const dist_config *c, long count, size_t frame_by
         d->stop_sent = calloc((size_t)c->ranks, sizeof *d->stop_sent);
         d->recv = malloc(frame_bytes ? frame_bytes : 1);
     }
-    bool ok = d->list && d->len && d->store && d->sec &&
-              (!root || (d->secs && d->outstanding && d->counts && d->displs && d->stop_sent && d->recv));
+    bool ok =
+        d->list && d->len && d->store && d->sec &&
+        (!root || (d->secs && d->outstanding && d->counts && d->displs && d->stop_sent && d->recv));
     for (size_t r = 0; ok && r < lists; r++) d->list[r] = d->store + r * n;
     return ok;
 }
@@ -215,8 +217,10 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     if (any_bad) {
         deal_free(&d);
         render_frame_free(f);
-        return frame_bytes > INT_MAX ? prt__fail(PRT_ERROR_ARGUMENT, "packrt-mpi: a %zu-byte frame is over MPI's int counts", frame_bytes)
-                                     : PRT_ERROR_NOMEM;
+        return frame_bytes > INT_MAX
+                   ? prt__fail(PRT_ERROR_ARGUMENT,
+                               "packrt-mpi: a %zu-byte frame is over MPI's int counts", frame_bytes)
+                   : PRT_ERROR_NOMEM;
     }
 
     double t0 = MPI_Wtime();
@@ -224,7 +228,8 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     if (c->balance == DIST_STATIC || c->ranks == 1) {
         for (int r = 0; root && r < c->ranks; r++)
             for (long s = r; s < count; s += c->ranks) d.list[r][d.len[r]++] = s;
-        for (long s = c->rank; s < count; s += c->ranks) mine[nmine] = s, d.sec[nmine++] = render_super(f, c, s);
+        for (long s = c->rank; s < count; s += c->ranks)
+            mine[nmine] = s, d.sec[nmine++] = render_super(f, c, s);
     } else if (root) {
         queue q = {0, count, d.outstanding, 0, d.stop_sent, d.list, d.len};
         dynamic_root(f, c, &q, d.sec);
@@ -239,7 +244,8 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     /* The other ranks' pixels go into rank 0's receive buffer; its own are in place. */
     double tg = MPI_Wtime();
     size_t send_bytes = 0;
-    for (long i = 0; i < nmine && !root; i++) send_bytes += copy_super(f, c, p, np, mine[i], NULL, true);
+    for (long i = 0; i < nmine && !root; i++)
+        send_bytes += copy_super(f, c, p, np, mine[i], NULL, true);
     uint8_t *send = root ? NULL : malloc(send_bytes ? send_bytes : 1);
     int failed = status != PRT_OK || (!root && !send), worst = 0;
     MPI_Allreduce(&failed, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
@@ -249,15 +255,18 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
         if (floats) render_frame_free(f);
         return status ? status : PRT_ERROR_NOMEM;
     }
-    for (size_t i = 0, at = 0; !root && i < (size_t)nmine; i++) at += copy_super(f, c, p, np, mine[i], send + at, true);
+    for (size_t i = 0, at = 0; !root && i < (size_t)nmine; i++)
+        at += copy_super(f, c, p, np, mine[i], send + at, true);
     size_t total = 0;
     for (int r = 1; root && r < c->ranks; r++) {
         size_t b = 0;
         for (long i = 0; i < d.len[r]; i++) b += copy_super(f, c, p, np, d.list[r][i], NULL, false);
         d.displs[r] = (int)total, d.counts[r] = (int)b, total += b;
     }
-    for (long i = 0; root && i < d.len[0]; i++) st->bytes_own += copy_super(f, c, p, np, d.list[0][i], NULL, false);
-    MPI_Gatherv(send, (int)send_bytes, MPI_BYTE, d.recv, d.counts, d.displs, MPI_BYTE, 0, MPI_COMM_WORLD);
+    for (long i = 0; root && i < d.len[0]; i++)
+        st->bytes_own += copy_super(f, c, p, np, d.list[0][i], NULL, false);
+    MPI_Gatherv(send, (int)send_bytes, MPI_BYTE, d.recv, d.counts, d.displs, MPI_BYTE, 0,
+                MPI_COMM_WORLD);
     free(send);
     for (int r = 1; root && r < c->ranks; r++)
         for (long i = 0, at = d.displs[r]; i < d.len[r]; i++)
@@ -266,10 +275,13 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     st->gather_s = MPI_Wtime() - tg;
 
     /* Each super-tile's seconds, gathered in each rank's order. */
-    for (int r = 0, at = 0; root && r < c->ranks; r++) d.counts[r] = (int)d.len[r], d.displs[r] = at, at += d.counts[r];
-    MPI_Gatherv(d.sec, (int)nmine, MPI_DOUBLE, d.secs, d.counts, d.displs, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    for (int r = 0, at = 0; root && r < c->ranks; r++)
+        d.counts[r] = (int)d.len[r], d.displs[r] = at, at += d.counts[r];
+    MPI_Gatherv(d.sec, (int)nmine, MPI_DOUBLE, d.secs, d.counts, d.displs, MPI_DOUBLE, 0,
+                MPI_COMM_WORLD);
     for (int r = 0; root && r < c->ranks; r++)
-        for (long i = 0; i < d.len[r]; i++) st->owner[d.list[r][i]] = r, st->seconds[d.list[r][i]] = d.secs[d.displs[r] + i];
+        for (long i = 0; i < d.len[r]; i++)
+            st->owner[d.list[r][i]] = r, st->seconds[d.list[r][i]] = d.secs[d.displs[r] + i];
     uint64_t rays = f->rays;
     MPI_Reduce(&rays, &st->rays, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
     deal_free(&d);

@@ -26,9 +26,9 @@ typedef struct dist_stats {
     long super_count;
     int *owner;
     double *seconds;
-    uint64_t bytes_gathered; /* rank 0: payload bytes received from the other ranks */
-    uint64_t bytes_own;      /* rank 0: its own tiles' payload (copied, not sent) */
-    uint64_t rays;           /* rays cast by all ranks */
+    uint64_t bytes_gathered;   /* rank 0: payload bytes received from the other ranks */
+    uint64_t bytes_own;        /* rank 0: its own tiles' payload (copied, not sent) */
+    uint64_t rays;             /* rays cast by all ranks */
     double render_s, gather_s; /* rank 0: its rendering (and queue) time, then waiting for pixels */
 } dist_stats;
 

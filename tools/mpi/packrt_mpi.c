@@ -21,18 +21,22 @@ typedef struct mpi_args {
 } mpi_args;
 
 static void usage(void) {
-    printf("usage: mpirun -np N packrt-mpi MESH|FILE.prt [packrt render's options] [options]\n"
-           "\n"
-           "Render as `packrt render` does, the tiles spread over the ranks of an MPI job: every rank\n"
-           "opens FILE itself (shared storage), rank 0 gathers the pixels and writes the image, the\n"
-           "same bytes as `packrt render` with the same options, for any number of ranks.\n"
-           "\n"
-           "  --balance static|dynamic  static (default): super-tile s to rank s mod N; dynamic: rank 0\n"
-           "                   hands super-tiles out as ranks finish them (uneven tiles)\n"
-           "  --super-tile N   tiles of 8x8 pixels in a super-tile (default: up to 64, fewer so that\n"
-           "                   each rank gets at least 4)\n"
-           "  --tile-times F   write each super-tile's rank and seconds of the last frame to F (rank 0)\n"
-           "\n");
+    printf(
+        "usage: mpirun -np N packrt-mpi MESH|FILE.prt [packrt render's options] [options]\n"
+        "\n"
+        "Render as `packrt render` does, the tiles spread over the ranks of an MPI job: every "
+        "rank\n"
+        "opens FILE itself (shared storage), rank 0 gathers the pixels and writes the image, the\n"
+        "same bytes as `packrt render` with the same options, for any number of ranks.\n"
+        "\n"
+        "  --balance static|dynamic  static (default): super-tile s to rank s mod N; dynamic: rank "
+        "0\n"
+        "                   hands super-tiles out as ranks finish them (uneven tiles)\n"
+        "  --super-tile N   tiles of 8x8 pixels in a super-tile (default: up to 64, fewer so that\n"
+        "                   each rank gets at least 4)\n"
+        "  --tile-times F   write each super-tile's rank and seconds of the last frame to F (rank "
+        "0)\n"
+        "\n");
 }
 
 /* Take packrt-mpi's own options out of argv (in place); the rest is packrt render's. Returns -1
@@ -42,7 +46,8 @@ static int parse_own(int *argc, char **argv, mpi_args *m, bool *help) {
     for (int i = 1; i < *argc; i++) {
         const char *arg = argv[i], *val = i + 1 < *argc ? argv[i + 1] : NULL;
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) *help = true;
-        if (!strcmp(arg, "--balance") || !strcmp(arg, "--super-tile") || !strcmp(arg, "--tile-times")) {
+        if (!strcmp(arg, "--balance") || !strcmp(arg, "--super-tile") ||
+            !strcmp(arg, "--tile-times")) {
             if (!val) return cli_usage("mpi", "%s needs a value", arg);
             i++;
             if (!strcmp(arg, "--balance")) {
@@ -89,7 +94,10 @@ static int agree(int rc, int rank, int ranks, const char *what) {
     int *all = rank == 0 ? calloc((size_t)ranks, sizeof *all) : NULL;
     MPI_Gather(&rc, 1, MPI_INT, all, 1, MPI_INT, 0, MPI_COMM_WORLD);
     for (int r = 0; all && r < ranks; r++)
-        if (all[r]) fprintf(stderr, "packrt-mpi: rank %d of %d failed to %s (exit code %d): ending the job\n", r, ranks, what, all[r]);
+        if (all[r])
+            fprintf(stderr,
+                    "packrt-mpi: rank %d of %d failed to %s (exit code %d): ending the job\n", r,
+                    ranks, what, all[r]);
     free(all);
     int worst = 0;
     MPI_Allreduce(&rc, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
@@ -106,11 +114,15 @@ static int cmp_double(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-static int write_tile_times(const char *path, const prt_image *img, const dist_config *c, const dist_stats *st) {
+static int write_tile_times(const char *path, const prt_image *img, const dist_config *c,
+                            const dist_stats *st) {
     FILE *fp = fopen(path, "w");
     if (!fp) return cli_fail("mpi", path, PRT_ERROR_IO);
-    const long tiles = (long)((img->width + RENDER_TILE - 1) / RENDER_TILE) * ((img->height + RENDER_TILE - 1) / RENDER_TILE);
-    fprintf(fp, "# super-tile first_tile tiles rank seconds (%ux%u, %ld tiles of %dx%d in render order, %d ranks)\n",
+    const long tiles = (long)((img->width + RENDER_TILE - 1) / RENDER_TILE) *
+                       ((img->height + RENDER_TILE - 1) / RENDER_TILE);
+    fprintf(fp,
+            "# super-tile first_tile tiles rank seconds (%ux%u, %ld tiles of %dx%d in render "
+            "order, %d ranks)\n",
             img->width, img->height, tiles, RENDER_TILE, RENDER_TILE, c->ranks);
     for (long s = 0; s < st->super_count; s++) {
         long first = s * c->super, n = PRT_MIN(c->super, tiles - first);
@@ -121,8 +133,9 @@ static int write_tile_times(const char *path, const prt_image *img, const dist_c
 
 /* One frame on every rank; rank 0 gets the image in *img. Frame time: rank 0's wall clock from
  * a barrier to the finished image. */
-static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_args *r, const mpi_args *ma,
-                        dist_config *c, prt_image *img, dist_stats *st, double *seconds) {
+static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_args *r,
+                        const mpi_args *ma, dist_config *c, prt_image *img, dist_stats *st,
+                        double *seconds) {
     MPI_Barrier(MPI_COMM_WORLD);
     double t0 = MPI_Wtime();
     render_frame f;
@@ -132,7 +145,9 @@ static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_
     MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
     if (any) {
         if (!s) render_frame_free(&f);
-        return s ? s : prt__fail(PRT_ERROR_ARGUMENT, "packrt-mpi: another rank could not start the frame");
+        return s ? s
+                 : prt__fail(PRT_ERROR_ARGUMENT,
+                             "packrt-mpi: another rank could not start the frame");
     }
     c->super = ma->super;
     if (!c->super) {
@@ -144,15 +159,18 @@ static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_
     return s;
 }
 
-static void report(const cli_render_args *r, const dist_config *c, const prt_image *img, const dist_stats *st,
-                   double t, const prt_accel *a) {
+static void report(const cli_render_args *r, const dist_config *c, const prt_image *img,
+                   const dist_stats *st, double t, const prt_accel *a) {
     const double own_mb = (double)st->bytes_own / 1e6;
-    printf("%-24s %ux%u %s spp %u, %d rank%s x %d thread%s, %s balance, super-tiles of %ld tiles: %.3f s, %.2f "
+    printf("%-24s %ux%u %s spp %u, %d rank%s x %d thread%s, %s balance, super-tiles of %ld tiles: "
+           "%.3f s, %.2f "
            "Mrays/s -> %s\n",
-           prt_accel_spec(a), img->width, img->height, prt_shade_name(r->o.shade), r->o.spp, c->ranks,
-           c->ranks == 1 ? "" : "s", r->threads, r->threads == 1 ? "" : "s",
-           c->balance == DIST_STATIC ? "static" : "dynamic", c->super, t, (double)st->rays / t * 1e-6, r->out);
-    printf("gathered %.3f MB a frame from the other ranks (rank 0's own %.3f MB in place), gather %.4f s\n",
+           prt_accel_spec(a), img->width, img->height, prt_shade_name(r->o.shade), r->o.spp,
+           c->ranks, c->ranks == 1 ? "" : "s", r->threads, r->threads == 1 ? "" : "s",
+           c->balance == DIST_STATIC ? "static" : "dynamic", c->super, t,
+           (double)st->rays / t * 1e-6, r->out);
+    printf("gathered %.3f MB a frame from the other ranks (rank 0's own %.3f MB in place), gather "
+           "%.4f s\n",
            (double)st->bytes_gathered / 1e6, own_mb, st->gather_s);
 }
 
@@ -212,11 +230,13 @@ int main(int argc, char **argv) {
             prt_accel_frame(a, &ci);
             unsigned long long local[2] = {ci.requested, ci.pending}, sum[2];
             MPI_Allreduce(local, sum, 2, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-            unsigned long long ws = ci.working_set_bytes, *wss = rank == 0 ? calloc((size_t)ranks, sizeof *wss) : NULL;
-            MPI_Gather(&ws, 1, MPI_UNSIGNED_LONG_LONG, wss, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+            unsigned long long ws = ci.working_set_bytes,
+                               *wss = rank == 0 ? calloc((size_t)ranks, sizeof *wss) : NULL;
+            MPI_Gather(&ws, 1, MPI_UNSIGNED_LONG_LONG, wss, 1, MPI_UNSIGNED_LONG_LONG, 0,
+                       MPI_COMM_WORLD);
             if (rank == 0) {
-                printf("frame %3d: %.3f s, requested %llu, loading %llu, working set MB by rank:", f + 1, sec, sum[0],
-                       sum[1]);
+                printf("frame %3d: %.3f s, requested %llu, loading %llu, working set MB by rank:",
+                       f + 1, sec, sum[0], sum[1]);
                 for (int k = 0; wss && k < ranks; k++) printf(" %.1f", (double)wss[k] / 1e6);
                 printf("\n");
             }
@@ -231,7 +251,8 @@ int main(int argc, char **argv) {
         qsort(times, (size_t)timed, sizeof times[0], cmp_double);
         t = timed % 2 ? times[timed / 2] : 0.5 * (times[timed / 2 - 1] + times[timed / 2]);
     }
-    if (!s && lod && !timed && rank == 0) fprintf(stderr, "packrt-mpi: did not converge in %d frames\n", r.frames);
+    if (!s && lod && !timed && rank == 0)
+        fprintf(stderr, "packrt-mpi: did not converge in %d frames\n", r.frames);
     rc = s ? cli_fail("mpi", "render", s) : 0;
     if (!rc && rank == 0) rc = cli_render_save(&img, r.out);
     if (!rc && rank == 0 && ma.tile_times) rc = write_tile_times(ma.tile_times, &img, &c, &st);
