@@ -35,10 +35,11 @@ def read_tiles(path):
     for line in open(path):
         if line.startswith("#") or not line.strip():
             continue
-        s, first, n, rank, sec = line.split()
-        if int(n) != 1:
-            sys.exit(f"mpi_model.py: {path}: written with super-tiles of {n} tiles; use --super-tile 1")
-        t[int(first)] = float(sec)
+        f = line.split()
+        if int(f[2]) != 1:
+            sys.exit(f"mpi_model.py: {path}: written with super-tiles of {f[2]} tiles; use --super-tile 1")
+        # The rendering thread's CPU seconds: the tile's cost on a loaded machine too.
+        t[int(f[1])] = float(f[5] if len(f) > 5 else f[4])
     return [t[i] for i in range(len(t))]
 
 

@@ -9,6 +9,7 @@
 #include <mpi.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define TAG_TILE 1 /* rank 0 -> worker: a super-tile index (int64), -1: no more */
 #define TAG_DONE 2 /* worker -> rank 0: the super-tile it finished (int64) */
@@ -67,13 +68,20 @@ static size_t copy_super(const render_frame *f, const dist_config *c, const plan
     return at;
 }
 
-/* Render super-tile s on this rank; its seconds. */
-static double render_super(render_frame *f, const dist_config *c, long s) {
+static double thread_cpu(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Render super-tile s on this rank; its wall seconds in sec[0] and the calling thread's CPU
+ * seconds in sec[1] (its cost with one thread, whatever else runs on the machine). */
+static void render_super(render_frame *f, const dist_config *c, long s, double sec[2]) {
     long first, count;
     super_range(f, c, s, &first, &count);
-    double t0 = MPI_Wtime();
+    const double t0 = MPI_Wtime(), c0 = thread_cpu();
     render_frame_tiles(f, first, count);
-    return MPI_Wtime() - t0;
+    sec[0] = MPI_Wtime() - t0, sec[1] = thread_cpu() - c0;
 }
 
 /* Rank 0's side of the dynamic queue: send worker w its next super-tile, or when none is left
@@ -121,7 +129,7 @@ static void dynamic_root(render_frame *f, const dist_config *c, queue *q, double
         if (q->next >= q->count) break;
         long s = q->next++;
         q->list[0][q->len[0]] = s;
-        own_s[q->len[0]++] = render_super(f, c, s);
+        render_super(f, c, s, own_s + 2 * q->len[0]++);
     }
     while (q->stopped < c->ranks - 1) {
         MPI_Status ms;
@@ -138,7 +146,7 @@ static long dynamic_worker(render_frame *f, const dist_config *c, long *mine, do
         MPI_Recv(&s, 1, MPI_INT64_T, 0, TAG_TILE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         if (s < 0) return n;
         mine[n] = (long)s;
-        sec[n++] = render_super(f, c, (long)s);
+        render_super(f, c, (long)s, sec + 2 * n++);
         MPI_Send(&s, 1, MPI_INT64_T, 0, TAG_DONE, MPI_COMM_WORLD);
     }
 }
@@ -146,14 +154,15 @@ static long dynamic_worker(render_frame *f, const dist_config *c, long *mine, do
 void dist_stats_free(dist_stats *st) {
     free(st->owner);
     free(st->seconds);
-    st->owner = NULL, st->seconds = NULL;
+    free(st->cpu_seconds);
+    st->owner = NULL, st->seconds = NULL, st->cpu_seconds = NULL;
 }
 
 /* Per rank, the super-tiles it renders in order; rank 0 keeps everyone's (it deals them or
  * computes the static deal), the others their own. */
 typedef struct deal {
     long *store, **list, *len;
-    double *sec;  /* this rank's seconds for each of its own */
+    double *sec;  /* this rank's wall and CPU seconds for each of its own */
     double *secs; /* rank 0: everyone's, gathered */
     int *outstanding, *counts, *displs;
     bool *stop_sent;
@@ -168,9 +177,9 @@ static bool deal_init(deal *d, const dist_config *c, long count, size_t frame_by
     d->len = calloc((size_t)c->ranks, sizeof *d->len);
     /* Dynamic can give any rank any share, so rank 0 has room for all of them per rank. */
     d->store = malloc(n * lists * sizeof *d->store);
-    d->sec = malloc(n * sizeof *d->sec);
+    d->sec = malloc(2 * n * sizeof *d->sec);
     if (root) {
-        d->secs = malloc(n * sizeof *d->secs);
+        d->secs = malloc(2 * n * sizeof *d->secs);
         d->outstanding = calloc((size_t)c->ranks, sizeof *d->outstanding);
         d->counts = calloc((size_t)c->ranks, sizeof *d->counts);
         d->displs = calloc((size_t)c->ranks, sizeof *d->displs);
@@ -208,7 +217,8 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     if (root && ok) {
         st->owner = malloc((size_t)(count ? count : 1) * sizeof *st->owner);
         st->seconds = malloc((size_t)(count ? count : 1) * sizeof *st->seconds);
-        ok = st->owner && st->seconds;
+        st->cpu_seconds = malloc((size_t)(count ? count : 1) * sizeof *st->cpu_seconds);
+        ok = st->owner && st->seconds && st->cpu_seconds;
     }
     /* Everything that can fail is allocated before the first message, and every rank learns
      * of any failure, so no rank waits for one that gave up. */
@@ -229,7 +239,7 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
         for (int r = 0; root && r < c->ranks; r++)
             for (long s = r; s < count; s += c->ranks) d.list[r][d.len[r]++] = s;
         for (long s = c->rank; s < count; s += c->ranks)
-            mine[nmine] = s, d.sec[nmine++] = render_super(f, c, s);
+            mine[nmine] = s, render_super(f, c, s, d.sec + 2 * nmine++);
     } else if (root) {
         queue q = {0, count, d.outstanding, 0, d.stop_sent, d.list, d.len};
         dynamic_root(f, c, &q, d.sec);
@@ -274,14 +284,18 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     st->bytes_gathered = total;
     st->gather_s = MPI_Wtime() - tg;
 
-    /* Each super-tile's seconds, gathered in each rank's order. */
+    /* Each super-tile's wall and CPU seconds, gathered in each rank's order. */
     for (int r = 0, at = 0; root && r < c->ranks; r++)
-        d.counts[r] = (int)d.len[r], d.displs[r] = at, at += d.counts[r];
-    MPI_Gatherv(d.sec, (int)nmine, MPI_DOUBLE, d.secs, d.counts, d.displs, MPI_DOUBLE, 0,
+        d.counts[r] = 2 * (int)d.len[r], d.displs[r] = at, at += d.counts[r];
+    MPI_Gatherv(d.sec, 2 * (int)nmine, MPI_DOUBLE, d.secs, d.counts, d.displs, MPI_DOUBLE, 0,
                 MPI_COMM_WORLD);
     for (int r = 0; root && r < c->ranks; r++)
-        for (long i = 0; i < d.len[r]; i++)
-            st->owner[d.list[r][i]] = r, st->seconds[d.list[r][i]] = d.secs[d.displs[r] + i];
+        for (long i = 0; i < d.len[r]; i++) {
+            const long s = d.list[r][i];
+            st->owner[s] = r;
+            st->seconds[s] = d.secs[d.displs[r] + 2 * i];
+            st->cpu_seconds[s] = d.secs[d.displs[r] + 2 * i + 1];
+        }
     uint64_t rays = f->rays;
     MPI_Reduce(&rays, &st->rays, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
     deal_free(&d);

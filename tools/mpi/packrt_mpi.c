@@ -24,18 +24,18 @@ static void usage(void) {
     printf(
         "usage: mpirun -np N packrt-mpi MESH|FILE.prt [packrt render's options] [options]\n"
         "\n"
-        "Render as `packrt render` does, the tiles spread over the ranks of an MPI job: every "
-        "rank\n"
-        "opens FILE itself (shared storage), rank 0 gathers the pixels and writes the image, the\n"
-        "same bytes as `packrt render` with the same options, for any number of ranks.\n"
+        "Render as `packrt render` does, the tiles spread over the ranks of an MPI job:\n"
+        "every rank opens FILE itself (shared storage), rank 0 gathers the pixels and\n"
+        "writes the image, the same bytes as `packrt render` gives with the same options,\n"
+        "for any number of ranks.\n"
         "\n"
-        "  --balance static|dynamic  static (default): super-tile s to rank s mod N; dynamic: rank "
-        "0\n"
-        "                   hands super-tiles out as ranks finish them (uneven tiles)\n"
+        "  --balance static|dynamic  static (default): super-tile s to rank s mod N;\n"
+        "                   dynamic: rank 0 hands them out as ranks finish (uneven tiles)\n"
         "  --super-tile N   tiles of 8x8 pixels in a super-tile (default: up to 64, fewer so that\n"
         "                   each rank gets at least 4)\n"
-        "  --tile-times F   write each super-tile's rank and seconds of the last frame to F (rank "
-        "0)\n"
+        "  --tile-times F   write each super-tile's rank, wall and CPU seconds of the last frame\n"
+        "                   to F (rank 0); the CPU time is the rendering thread's: a tile's cost\n"
+        "                   with --threads 1 even on a loaded machine\n"
         "\n");
 }
 
@@ -121,12 +121,13 @@ static int write_tile_times(const char *path, const prt_image *img, const dist_c
     const long tiles = (long)((img->width + RENDER_TILE - 1) / RENDER_TILE) *
                        ((img->height + RENDER_TILE - 1) / RENDER_TILE);
     fprintf(fp,
-            "# super-tile first_tile tiles rank seconds (%ux%u, %ld tiles of %dx%d in render "
+            "# super-tile first_tile tiles rank seconds cpu_seconds (%ux%u, %ld tiles of %dx%d in render "
             "order, %d ranks)\n",
             img->width, img->height, tiles, RENDER_TILE, RENDER_TILE, c->ranks);
     for (long s = 0; s < st->super_count; s++) {
         long first = s * c->super, n = PRT_MIN(c->super, tiles - first);
-        fprintf(fp, "%ld %ld %ld %d %.9f\n", s, first, n, st->owner[s], st->seconds[s]);
+        fprintf(fp, "%ld %ld %ld %d %.9f %.9f\n", s, first, n, st->owner[s], st->seconds[s],
+                st->cpu_seconds[s]);
     }
     return fclose(fp) ? cli_fail("mpi", path, PRT_ERROR_IO) : 0;
 }
