@@ -8,7 +8,8 @@ The per-tile times (`packrt-mpi --threads 1 --super-tile 1 --tile-times F`, one 
 8x8 tile's seconds in the renderer's tile order) fix each view's cost map; with --anchor the map
 is scaled so that one node's modelled frame equals a measured frame of a bigger model (the
 355M Mandelbulb's times in docs/results/ooc.md), i.e. the model assumes the bigger model's cost
-is spread over the tiles as the measured one's is.
+is spread over the tiles as the measured one's is. ANCHOR: one node's frame at the modelled
+size (after --scale).
 
 Inside a rank: a super-tile's tiles go to T threads greedily in order (OpenMP dynamic), each
 tile stretched by 1/E (E: the measured efficiency of T threads against one; they share caches
@@ -21,7 +22,8 @@ Not modelled: block loads (a converged view loads none; a moving camera loads on
 its tiles need), rank 0's PNG writing, network contention beyond rank 0's link.
 
 Usage: mpi_model.py VIEW=TILES[@ANCHOR_SECONDS] ... [--threads 2] [--eff E] [--gbps 10]
-                    [--latency-us 20] [--bytes-per-pixel 3] [--nodes 1,2,4,...] [--scale K]
+                    [--latency-us 20] [--bytes-per-pixel 3] [--nodes 1,2,4,...] [--scale K] [--super N]
+                    [--width 1024 --height 768: the measured tile maps' image]
        mpi_model.py --check TILES RANKS MEASURED_SECONDS [--threads 1]: predicted against measured
 --scale K: the image K x K times the pixels (each tile split into K*K tiles of 1/K^2 its time).
 """
@@ -55,13 +57,17 @@ def super_time(tiles, threads, eff):
 
 
 def super_size(ntiles, ranks, fixed=0):
-    """packrt-mpi's default: up to 64 tiles, fewer so that each rank gets at least 4."""
+    """packrt-mpi's default: up to 64 tiles, fewer so that each rank gets at least 16."""
     if fixed:
         return fixed
-    return max(1, min(64, ntiles // (4 * ranks)))
+    return max(1, min(64, ntiles // (16 * ranks)))
+
+
+SUPER = 0  # --super N: every frame in super-tiles of N tiles (0: packrt-mpi's default)
 
 
 def render_time(tiles, ranks, threads, eff, balance, fixed=0):
+    fixed = fixed or SUPER
     s = super_size(len(tiles), ranks, fixed)
     supers = [super_time(tiles[i:i + s], threads, eff) for i in range(0, len(tiles), s)]
     busy = [0.0] * ranks
@@ -107,6 +113,8 @@ def main(argv):
     threads, eff = int(opts["threads"]), float(opts["eff"])
     gbps, lat, bpp = float(opts["gbps"]), float(opts["latency-us"]) * 1e-6, float(opts["bytes-per-pixel"])
     k = int(opts["scale"])
+    global SUPER
+    SUPER = int(opts.get("super", 0))
     nodes = [int(n) for n in str(opts["nodes"]).split(",")]
     pixels = int(opts["width"]) * int(opts["height"]) * k * k
     print(f"# {threads} threads a node at efficiency {eff}, {gbps} Gb/s into rank 0, {lat * 1e6:.0f} us latency, "
@@ -116,7 +124,7 @@ def main(argv):
         if k > 1:
             tiles = [t / (k * k) for t in tiles for _ in range(k * k)]
         one, _, _, _ = frame_time(tiles, 1, threads, eff, "static", pixels, bpp, gbps, lat)
-        scale = anchor * k * k / one if anchor else 1.0
+        scale = anchor / one if anchor else 1.0
         tiles = [t * scale for t in tiles]
         print(f"# {name}: {len(tiles)} tiles, one node {one * scale:.3f} s"
               + (f" (anchored: measured tile map x {scale:.2f})" if anchor else ""))

@@ -32,7 +32,7 @@ static void usage(void) {
         "  --balance static|dynamic  static (default): super-tile s to rank s mod N;\n"
         "                   dynamic: rank 0 hands them out as ranks finish (uneven tiles)\n"
         "  --super-tile N   tiles of 8x8 pixels in a super-tile (default: up to 64, fewer so that\n"
-        "                   each rank gets at least 4)\n"
+        "                   each rank gets at least 16)\n"
         "  --tile-times F   write each super-tile's rank, wall and CPU seconds of the last frame\n"
         "                   to F (rank 0); the CPU time is the rendering thread's: a tile's cost\n"
         "                   with --threads 1 even on a loaded machine\n"
@@ -152,7 +152,7 @@ static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_
     }
     c->super = ma->super;
     if (!c->super) {
-        long want = f.tiles / (4L * c->ranks);
+        long want = f.tiles / (16L * c->ranks);
         c->super = want < 1 ? 1 : want > 64 ? 64 : want;
     }
     s = dist_frame(&f, c, st);
