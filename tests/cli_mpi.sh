@@ -12,10 +12,13 @@ mpi=$(dirname "$packrt")/packrt-mpi
 command -v mpirun >/dev/null || { echo "skip: no mpirun (Debian openmpi-bin)"; exit 77; }
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-# As root (CI containers) Open MPI wants both variables. Open MPI keeps some allocations to
-# exit, which LeakSanitizer would report in a sanitized build: tests/lsan_mpi.supp names them.
+# As root (CI containers) Open MPI wants both variables.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$2/tests/lsan_mpi.supp:print_suppressions=0"
+# Open MPI keeps allocations to exit, which LeakSanitizer reports in a sanitized build;
+# tests/lsan_mpi.supp names its libraries. For the stacks to reach them, its plugins stay
+# loaded (else their frames are "<unknown module>") and LSan unwinds without frame pointers.
+export OMPI_MCA_mca_base_component_disable_dlclose=1 PMIX_MCA_mca_base_component_disable_dlclose=1
+export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$2/tests/lsan_mpi.supp:print_suppressions=0:fast_unwind_on_malloc=0"
 # Ranks share 2 cores here (--oversubscribe), each with one thread; shared memory only, no
 # probing for network hardware (the job takes 1-2 s to start, most of this test's time, so
 # it starts few: each shading mode once, alternately with static and dynamic tiles).
