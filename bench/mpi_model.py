@@ -24,7 +24,8 @@ its tiles need), rank 0's PNG writing, network contention beyond rank 0's link.
 Usage: mpi_model.py VIEW=TILES[@ANCHOR_SECONDS] ... [--threads 2] [--eff E] [--gbps 10]
                     [--latency-us 20] [--bytes-per-pixel 3] [--nodes 1,2,4,...] [--scale K] [--super N]
                     [--width 1024 --height 768: the measured tile maps' image]
-       mpi_model.py --check TILES RANKS MEASURED_SECONDS [--threads 1]: predicted against measured
+       mpi_model.py --check MAP RUN: each rank's CPU seconds in RUN (a multi-rank --tile-times
+                    file, --threads 1) against the replay of MAP (one rank) over its tiles
 --scale K: the image K x K times the pixels (each tile split into K*K tiles of 1/K^2 its time).
 """
 import math
@@ -88,17 +89,33 @@ def frame_time(tiles, ranks, threads, eff, balance, pixels, bpp, gbps, lat):
     return r + gather + sync, r, mean, gather
 
 
+def check(map_path, run_path):
+    """The replay against a run: each rank's CPU seconds in RUN (a multi-rank --tile-times file)
+    against the sum of MAP's per-tile seconds (one rank, --super-tile 1) over the same tiles."""
+    tiles = read_tiles(map_path)
+    measured, predicted = {}, {}
+    for line in open(run_path):
+        if line.startswith("#") or not line.strip():
+            continue
+        f = line.split()
+        first, n, rank, cpu = int(f[1]), int(f[2]), int(f[3]), float(f[5])
+        measured[rank] = measured.get(rank, 0.0) + cpu
+        predicted[rank] = predicted.get(rank, 0.0) + sum(tiles[first:first + n])
+    ranks = sorted(measured)
+    for r in ranks:
+        print(f"{run_path}: rank {r}: measured {measured[r]:.3f} s CPU, replayed {predicted[r]:.3f} s "
+              f"({measured[r] / predicted[r]:.2f}x)")
+    imb = lambda d: max(d.values()) / (sum(d.values()) / len(d))
+    print(f"{run_path}: imbalance (slowest rank / mean): measured {imb(measured):.3f}, replayed {imb(predicted):.3f}; "
+          f"total CPU measured {sum(measured.values()):.3f} s, one-rank map {sum(tiles):.3f} s")
+
+
 def main(argv):
     opts = {"threads": 2, "eff": 0.9, "gbps": 10.0, "latency-us": 20.0, "bytes-per-pixel": 3.0,
             "nodes": "1,2,4,8,16,32,64", "scale": 1, "width": 1024, "height": 768}
     views, i = [], 0
     if argv and argv[0] == "--check":
-        tiles, ranks, measured = read_tiles(argv[1]), int(argv[2]), float(argv[3])
-        threads = int(argv[5]) if len(argv) > 5 and argv[4] == "--threads" else 1
-        for bal in ("static", "dynamic"):
-            r, mean = render_time(tiles, ranks, threads, 1.0, bal)
-            print(f"{argv[1]}: {ranks} rank(s) x {threads} thread(s), {bal}: predicted {r:.3f} s "
-                  f"(perfect balance {mean:.3f} s), measured {measured:.3f} s, ratio {measured / r:.2f}")
+        check(argv[1], argv[2])
         return
     while i < len(argv):
         a = argv[i]

@@ -170,8 +170,9 @@ static void report(const cli_render_args *r, const dist_config *c, const prt_ima
            c->ranks, c->ranks == 1 ? "" : "s", r->threads, r->threads == 1 ? "" : "s",
            c->balance == DIST_STATIC ? "static" : "dynamic", c->super, t,
            (double)st->rays / t * 1e-6, r->out);
-    printf("gathered %.3f MB a frame from the other ranks (rank 0's own %.3f MB in place), gather "
-           "%.4f s\n",
+    /* The wait includes the slowest rank's rendering after rank 0's own. */
+    printf("gathered %.3f MB a frame from the other ranks (rank 0's own %.3f MB in place); rank 0 "
+           "waited %.4f s for them\n",
            (double)st->bytes_gathered / 1e6, own_mb, st->gather_s);
 }
 
