@@ -24,17 +24,8 @@ export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$2/tests/lsan_m
 # it starts few: each shading mode once, alternately with static and dynamic tiles).
 export OMPI_MCA_pml=ob1 OMPI_MCA_btl=self,vader OMPI_MCA_mtl=^ofi
 run3() { timeout 120 mpirun --oversubscribe -np 3 "$@"; }
-fail=0 pass=0
-check() { # check NAME EXPECTED_EXIT COMMAND...
-  local name=$1 want=$2; shift 2
-  "$@" >"$dir/out" 2>"$dir/err"; local got=$?
-  if [ "$got" -eq "$want" ]; then pass=$((pass + 1)); echo "ok   $name"
-  else fail=$((fail + 1)); echo "FAIL $name: exit $got, wanted $want"; cat "$dir/out" "$dir/err"; fi
-}
-expect() { # expect NAME CONDITION...
-  local name=$1; shift
-  if "$@"; then pass=$((pass + 1)); echo "ok   $name"; else fail=$((fail + 1)); echo "FAIL $name"; fi
-}
+# shellcheck source=support/cli_check.sh
+. "$2/tests/support/cli_check.sh"
 
 check gen 0 "$packrt" gen sphere --tris 3k -o "$dir/s.ply"
 # 61x45: tiles cut at both edges; super-tiles of 3 tiles: every rank renders several.
@@ -82,5 +73,4 @@ run3 sh -c '[ "$OMPI_COMM_WORLD_RANK" = 1 ] && kill -9 $$; exec "$0" "$1" -o "$2
   || { fail=$((fail + 1)); echo "FAIL killed_rank_ends_job: exit $got"; cat "$dir/out"; }
 check bad_balance 2 timeout 60 mpirun -np 1 "$mpi" "$dir/s.ply" -o "$dir/x.ppm" --balance round
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish
