@@ -12,6 +12,8 @@ pkgs+=(python3-numpy python3-cffi)
 if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev libomp-14-dev xvfb xauth python3); fi
 # python3-pytest: the Python package's tests (ctest python_tests).
 if [ "${1:-}" = "--test" ]; then pkgs+=(python3-pytest); fi
+# libopenmpi-dev, openmpi-bin: packrt-mpi and its test (tests/cli_mpi.sh); optional to build.
+if [ "${1:-}" = "--test" ]; then pkgs+=(libopenmpi-dev openmpi-bin); fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -36,6 +36,25 @@ bool cli_is_prt_file(const char *path);
 int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec,
                    prt_mesh **mesh, prt_accel **accel);
 
+/* packrt render's command line (tools/cmd_render.c), parsed by the same code for packrt render
+ * and packrt-mpi (tools/mpi/). */
+typedef struct cli_render_args {
+    const char *path, *spec, *out, *mesh_path, *compare_specs; /* NULL when not given */
+    prt_render_options o;                                      /* spp resolved */
+    prt_camera cam;                                            /* when have_camera */
+    bool have_camera;
+    int repeat, frames, threads; /* threads: o.threads, or OpenMP's default when 0 */
+    size_t cache;                /* --cache (0: not given) */
+} cli_render_args;
+/* Parse argv (argv[0] the command name); returns -1 to go on, else the exit code to return
+ * (0 after --help, 2 after a usage error, printed). */
+int cli_render_parse(int argc, char **argv, cli_render_args *r);
+/* Open what r names (mesh built with -r, .prt, out-of-core file with --cache, --mesh); notes:
+ * print the notes about --mesh. Returns 0 (*mesh may be NULL) or an exit code after printing. */
+int cli_render_open(const cli_render_args *r, bool notes, prt_mesh **mesh, prt_accel **accel);
+/* Write img as .ppm or .png by path's extension; 0 or an exit code after printing. */
+int cli_render_save(const prt_image *img, const char *path);
+
 /* Progress bar on stderr, drawn only when stderr is a terminal. */
 typedef struct cli_progress {
     const char *label;

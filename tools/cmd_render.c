@@ -112,7 +112,7 @@ static bool ends_with(const char *s, const char *suffix) {
     return n >= m && !strcasecmp(s + n - m, suffix);
 }
 
-static int save(const prt_image *img, const char *path) {
+int cli_render_save(const prt_image *img, const char *path) {
     prt_status s =
         ends_with(path, ".ppm") ? prt_image_save_ppm(img, path) : prt_image_save_png(img, path);
     return s ? cli_fail("render", path, s) : 0;
@@ -189,7 +189,7 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
         char name[1024];
         derived_name(out, spec[k], name, sizeof name);
         rc = render_timed(a, m, cam, o, repeat, &img[k], &t);
-        if (!rc) rc = save(&img[k], name);
+        if (!rc) rc = cli_render_save(&img[k], name);
         if (!rc) report(spec[k], o, &img[k], t, name, threads);
         prt_accel_free(a);
     }
@@ -204,7 +204,7 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
         if (s)
             rc = cli_fail("render", "compare", s);
         else
-            rc = save(&diff, name);
+            rc = cli_render_save(&diff, name);
         if (!rc) {
             printf("%-24s -> %s\n", "difference", name);
             printf("largest pixel difference: %d of 255, %zu of %zu pixels differ", largest,
@@ -222,222 +222,209 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
     return rc;
 }
 
-/* The command line of `packrt render`. */
-typedef struct render_args {
-    const char *path, *spec, *out, *mesh_path, *compare_specs;
-    prt_render_options o;
-    float cam_v[7], up[3];
-    int cam_n, repeat, frames;
-    size_t cache;
-    bool have_up;
-} render_args;
-
-/* An option that takes a value val; 0 or the exit status (usage printed). */
-static int parse_valued(const char *arg, const char *val, render_args *g) {
-    prt_render_options *o = &g->o;
-    if (!strcmp(arg, "-r"))
-        g->spec = val;
-    else if (!strcmp(arg, "-o"))
-        g->out = val;
-    else if (!strcmp(arg, "--mesh"))
-        g->mesh_path = val;
-    else if (!strcmp(arg, "--compare"))
-        g->compare_specs = val;
-    else if (!strcmp(arg, "--shade")) {
-        if (prt_shade_parse(val, &o->shade)) return cli_usage("render", "%s", prt_last_error());
-    } else if (!strcmp(arg, "--size")) {
-        if (!parse_size(val, &o->width, &o->height))
-            return cli_usage("render", "--size wants WxH, e.g. 1024x768 (got '%s')", val);
-    } else if (!strcmp(arg, "--spp")) {
-        size_t n;
-        if (!cli_parse_count(val, &n) || !n || n > 65536)
-            return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
-        o->spp = (uint32_t)n;
-    } else if (!strcmp(arg, "--camera")) {
-        g->cam_n = parse_floats(val, g->cam_v, 7);
-        if (g->cam_n != 6 && g->cam_n != 7)
-            return cli_usage("render", "--camera wants ex,ey,ez,tx,ty,tz[,fov] (got '%s')",
-                             val);
-    } else if (!strcmp(arg, "--up")) {
-        if (parse_floats(val, g->up, 3) != 3)
-            return cli_usage("render", "--up wants x,y,z (got '%s')", val);
-        g->have_up = true;
-    } else if (!strcmp(arg, "--light")) {
-        if (parse_floats(val, o->light, 3) != 3)
-            return cli_usage("render", "--light wants x,y,z (got '%s')", val);
-        o->use_light = true;
-    } else if (!strcmp(arg, "--ao-radius")) {
-        if (parse_floats(val, &o->ao_radius, 1) != 1 || !(o->ao_radius > 0))
-            return cli_usage("render", "--ao-radius wants a positive length (got '%s')", val);
-    } else if (!strcmp(arg, "--seed")) {
-        char *e;
-        o->seed = strtoull(val, &e, 10);
-        if (e == val || *e)
-            return cli_usage("render", "--seed wants an unsigned integer (got '%s')", val);
-    } else if (!strcmp(arg, "--threads")) {
-        o->threads = atoi(val);
-        if (o->threads < 0)
-            return cli_usage("render", "--threads wants 0 (all) or more (got '%s')", val);
-    } else if (!strcmp(arg, "--lod")) {
-        if (parse_floats(val, &o->lod_pixels, 1) != 1 || !(o->lod_pixels >= 0))
-            return cli_usage("render", "--lod wants pixels of error >= 0 (got '%s')", val);
-    } else if (!strcmp(arg, "--frames")) {
-        g->frames = atoi(val);
-        if (g->frames < 1 || g->frames > 100000) return cli_usage("render", "--frames wants 1..100000 (got '%s')", val);
-    } else if (!strcmp(arg, "--cache")) {
-        if (!cli_parse_count(val, &g->cache) || !g->cache) return cli_usage("render", "--cache wants a size (got '%s')", val);
-    } else if (!strcmp(arg, "--repeat")) {
-        g->repeat = atoi(val);
-        if (g->repeat < 1 || g->repeat > 64)
-            return cli_usage("render", "--repeat wants 1..64 (got '%s')", val);
-    } else
-        return cli_usage("render", "unknown option '%s'", arg);
-    return 0;
-}
-
-/* 0 when the arguments parse; -1 after --help; else the exit status (usage printed). */
-static int parse_args(int argc, char **argv, render_args *g) {
-    *g = (render_args){.up = {0, 1, 0}, .repeat = 1, .frames = 200};
-    g->o.width = 1024;
-    g->o.height = 768;
-    g->o.shade = PRT_SHADE_DIFFUSE;
-    g->o.seed = 1;
+int cli_render_parse(int argc, char **argv, cli_render_args *r) {
+    memset(r, 0, sizeof *r);
+    prt_render_options o = {0};
+    o.width = 1024, o.height = 768, o.shade = PRT_SHADE_DIFFUSE, o.seed = 1;
+    float cam_v[7], up[3] = {0, 1, 0};
+    int cam_n = 0, repeat = 1, frames = 200;
+    size_t cache = 0;
+    bool have_up = false;
+    const char *path = NULL, *spec = NULL, *out = NULL, *mesh_path = NULL, *compare_specs = NULL;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
-            usage();
-            return -1;
-        }
+        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) return usage();
         if (!strcmp(arg, "--denoise")) {
-            g->o.denoise = true;
-        } else if (arg[0] != '-') {
-            if (g->path) return cli_usage("render", "more than one input given ('%s')", arg);
-            g->path = arg;
-        } else if (!val) {
-            return cli_usage("render", "%s needs a value", arg);
-        } else {
-            int rc = parse_valued(arg, val, g);
-            if (rc) return rc;
-            i++;
+            o.denoise = true;
+            continue;
         }
+        if (arg[0] == '-' && !val) return cli_usage("render", "%s needs a value", arg);
+        if (!strcmp(arg, "-r"))
+            spec = val;
+        else if (!strcmp(arg, "-o"))
+            out = val;
+        else if (!strcmp(arg, "--mesh"))
+            mesh_path = val;
+        else if (!strcmp(arg, "--compare"))
+            compare_specs = val;
+        else if (!strcmp(arg, "--shade")) {
+            if (prt_shade_parse(val, &o.shade)) return cli_usage("render", "%s", prt_last_error());
+        } else if (!strcmp(arg, "--size")) {
+            if (!parse_size(val, &o.width, &o.height))
+                return cli_usage("render", "--size wants WxH, e.g. 1024x768 (got '%s')", val);
+        } else if (!strcmp(arg, "--spp")) {
+            size_t n;
+            if (!cli_parse_count(val, &n) || !n || n > 65536)
+                return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
+            o.spp = (uint32_t)n;
+        } else if (!strcmp(arg, "--camera")) {
+            cam_n = parse_floats(val, cam_v, 7);
+            if (cam_n != 6 && cam_n != 7)
+                return cli_usage("render", "--camera wants ex,ey,ez,tx,ty,tz[,fov] (got '%s')",
+                                 val);
+        } else if (!strcmp(arg, "--up")) {
+            if (parse_floats(val, up, 3) != 3)
+                return cli_usage("render", "--up wants x,y,z (got '%s')", val);
+            have_up = true;
+        } else if (!strcmp(arg, "--light")) {
+            if (parse_floats(val, o.light, 3) != 3)
+                return cli_usage("render", "--light wants x,y,z (got '%s')", val);
+            o.use_light = true;
+        } else if (!strcmp(arg, "--ao-radius")) {
+            if (parse_floats(val, &o.ao_radius, 1) != 1 || !(o.ao_radius > 0))
+                return cli_usage("render", "--ao-radius wants a positive length (got '%s')", val);
+        } else if (!strcmp(arg, "--seed")) {
+            char *e;
+            o.seed = strtoull(val, &e, 10);
+            if (e == val || *e)
+                return cli_usage("render", "--seed wants an unsigned integer (got '%s')", val);
+        } else if (!strcmp(arg, "--threads")) {
+            o.threads = atoi(val);
+            if (o.threads < 0)
+                return cli_usage("render", "--threads wants 0 (all) or more (got '%s')", val);
+        } else if (!strcmp(arg, "--lod")) {
+            if (parse_floats(val, &o.lod_pixels, 1) != 1 || !(o.lod_pixels >= 0))
+                return cli_usage("render", "--lod wants pixels of error >= 0 (got '%s')", val);
+        } else if (!strcmp(arg, "--frames")) {
+            frames = atoi(val);
+            if (frames < 1 || frames > 100000) return cli_usage("render", "--frames wants 1..100000 (got '%s')", val);
+        } else if (!strcmp(arg, "--cache")) {
+            if (!cli_parse_count(val, &cache) || !cache) return cli_usage("render", "--cache wants a size (got '%s')", val);
+        } else if (!strcmp(arg, "--repeat")) {
+            repeat = atoi(val);
+            if (repeat < 1 || repeat > 64)
+                return cli_usage("render", "--repeat wants 1..64 (got '%s')", val);
+        } else if (arg[0] == '-')
+            return cli_usage("render", "unknown option '%s'", arg);
+        else if (!path) {
+            path = arg;
+            continue;
+        } else
+            return cli_usage("render", "more than one input given ('%s')", arg);
+        i++;
     }
-    if (!g->path || !g->out) return cli_usage("render", "needs FILE and -o img.png");
-    if (!ends_with(g->out, ".ppm") && !prt_image_png_supported())
+    if (!path || !out) return cli_usage("render", "needs FILE and -o img.png");
+    if (!ends_with(out, ".ppm") && !prt_image_png_supported())
         return cli_usage("render", "this build has no libpng: write a .ppm (-o img.ppm)");
-    if (!g->o.spp) g->o.spp = (g->o.shade == PRT_SHADE_AO || g->o.shade == PRT_SHADE_GI) ? 16 : 1;
-    if (!g->cam_n && g->have_up) return cli_usage("render", "--up goes with --camera");
-    return 0;
+    if (!o.spp) o.spp = (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI) ? 16 : 1;
+    int threads = o.threads;
+    if (!threads) {
+        /* What prt_render will use, for the report line. */
+        threads = omp_get_max_threads();
+    }
+
+    if (cam_n) {
+        memcpy(r->cam.eye, cam_v, sizeof r->cam.eye);
+        memcpy(r->cam.target, cam_v + 3, sizeof r->cam.target);
+        memcpy(r->cam.up, up, sizeof up);
+        r->cam.fov_y_deg = cam_n == 7 ? cam_v[6] : 40.0f;
+        r->have_camera = true;
+    } else if (have_up)
+        return cli_usage("render", "--up goes with --camera");
+    r->path = path, r->spec = spec, r->out = out, r->mesh_path = mesh_path, r->compare_specs = compare_specs;
+    r->o = o, r->repeat = repeat, r->frames = frames, r->cache = cache, r->threads = threads;
+    return -1;
 }
 
-/* The accel to render (and the mesh, when it was loaded): Embree over a mesh, a .prt file
- * opened with --cache, or whatever cli_open_accel makes of the input; then --mesh for the
- * normals of a .prt file. 0 or the exit status. */
-static int open_for_render(const render_args *g, prt_mesh **m, prt_accel **a) {
-    int rc;
-    *m = NULL;
-    if (g->spec && !strcmp(g->spec, "embree")) {
+int cli_render_open(const cli_render_args *r, bool notes, prt_mesh **mesh, prt_accel **accel) {
+    const char *path = r->path, *spec = r->spec, *mesh_path = r->mesh_path;
+    prt_mesh *m = NULL;
+    prt_accel *a;
+    int rc = 0;
+    if (spec && !strcmp(spec, "embree")) {
         prt_status s = PRT_OK;
-        if (cli_is_prt_file(g->path))
-            return cli_usage("render", "-r embree traces a mesh: give a mesh, not %s", g->path);
-        if ((s = prt_mesh_load(g->path, m))) return cli_fail("render", g->path, s);
-        if ((s = build_for_render(*m, g->spec, a))) {
-            prt_mesh_free(*m);
-            return cli_fail("render", g->spec, s);
+        if (cli_is_prt_file(path))
+            return cli_usage("render", "-r embree traces a mesh: give a mesh, not %s", path);
+        if ((s = prt_mesh_load(path, &m))) return cli_fail("render", path, s);
+        if ((s = build_for_render(m, spec, &a))) {
+            prt_mesh_free(m);
+            return cli_fail("render", spec, s);
         }
-    } else if (g->cache && cli_is_prt_file(g->path)) {
-        prt_open_options oo = {.cache_bytes = g->cache};
-        prt_status s = prt_accel_open(g->path, &oo, a);
-        if (s) return cli_fail("render", g->path, s);
-    } else if ((rc = cli_open_accel("render", g->path, g->spec, DEFAULT_SPEC, m, a)))
+    } else if (r->cache && cli_is_prt_file(path)) {
+        prt_open_options oo = {.cache_bytes = r->cache};
+        prt_status s = prt_accel_open(path, &oo, &a);
+        if (s) return cli_fail("render", path, s);
+    } else if ((rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a)))
         return rc;
-    if (g->mesh_path && !*m) {
-        prt_status s = prt_mesh_load(g->mesh_path, m);
+    if (mesh_path && !m) {
+        prt_status s = prt_mesh_load(mesh_path, &m);
         if (s) {
-            prt_accel_free(*a);
-            return cli_fail("render", g->mesh_path, s);
+            prt_accel_free(a);
+            return cli_fail("render", mesh_path, s);
         }
-    } else if (g->mesh_path) {
-        fprintf(stderr, "packrt render: --mesh is for .prt input; %s is a mesh already\n", g->path);
-    } else if (!*m && g->o.lod_pixels <= 0.0f) {
+    } else if (mesh_path && notes) {
+        fprintf(stderr, "packrt render: --mesh is for .prt input; %s is a mesh already\n", path);
+    } else if (!m && r->o.lod_pixels <= 0.0f && notes) {
         fprintf(stderr,
                 "packrt render: note: %s has no mesh: normals are estimated from neighbouring "
                 "rays (give --mesh MESH for exact ones)\n",
-                g->path);
+                path);
     }
+    *mesh = m, *accel = a;
     return 0;
 }
 
-/* Progressive: each frame uses the blocks loaded so far and asks for more; the cache update
- * between frames (Afra 5.3) hands the requests to the fetcher threads. *t: the median of
- * --repeat converged frames (or the last frame's time). 0 or the exit status. */
-static int render_progressive(prt_accel *a, const prt_mesh *m, const prt_camera *camp, const render_args *g,
-                              double t_open, prt_image *img, double *t) {
-    int rc = 0;
-    double first = 0;
-    int steady = 0; /* frames rendered after convergence, for the median (--repeat) */
-    double tsteady[64];
-    for (int f = 0; f < g->frames && !rc; f++) {
-        prt_status s = prt_render(a, m, camp, &g->o, img);
-        if (s) {
-            rc = cli_fail("render", "prt_render", s);
-            break;
-        }
-        prt_cache_info ci;
-        prt_accel_frame(a, &ci);
-        double since = omp_get_wtime() - t_open;
-        /* The first image with something on it: frame 1 has no block loaded at all. */
-        if (!first && ci.working_set_bytes) first = since;
-        printf("frame %3d: %.3f s, %.2f Mrays/s, working set %.1f MB, resident %.1f MB, requested %u, loading %u, "
-               "%.2f s since opening\n",
-               f + 1, img->seconds, (double)img->rays / img->seconds * 1e-6, (double)ci.working_set_bytes / 1e6,
-               (double)ci.resident_bytes / 1e6, ci.requested, ci.pending, since);
-        *t = img->seconds;
-        if (ci.requested == 0 && ci.pending == 0) {
-            /* Converged: time --repeat more frames of the same view and keep the median. */
-            if (steady < 64) tsteady[steady] = img->seconds;
-            if (++steady >= g->repeat) break;
-        } else if (ci.requested == 0)
-            usleep(2000); /* only loads in flight: let them land */
-    }
-    if (steady > 1) {
-        int n = steady < 64 ? steady : 64;
-        qsort(tsteady, (size_t)n, sizeof tsteady[0], cmp_double);
-        *t = n % 2 ? tsteady[n / 2] : 0.5 * (tsteady[n / 2 - 1] + tsteady[n / 2]);
-    }
-    printf("first image %.3f s after opening the file; converged after %.3f s; median of %d converged frames %.3f s\n",
-           first, omp_get_wtime() - t_open, steady, *t);
-    prt_status ck = rc ? PRT_OK : prt_accel_check(a);
-    if (ck) rc = cli_fail("render", g->path, ck);
-    return rc;
-}
-
 int cmd_render(int argc, char **argv) {
-    render_args g;
-    int rc = parse_args(argc, argv, &g);
-    if (rc) return rc < 0 ? 0 : rc;
-    /* What prt_render will use, for the report line. */
-    const int threads = g.o.threads ? g.o.threads : omp_get_max_threads();
-    prt_camera cam, *camp = NULL;
-    if (g.cam_n) {
-        memcpy(cam.eye, g.cam_v, sizeof cam.eye);
-        memcpy(cam.target, g.cam_v + 3, sizeof cam.target);
-        memcpy(cam.up, g.up, sizeof g.up);
-        cam.fov_y_deg = g.cam_n == 7 ? g.cam_v[6] : 40.0f;
-        camp = &cam;
-    }
-    if (g.compare_specs)
-        return compare(g.path, g.mesh_path, g.compare_specs, camp, &g.o, g.repeat, g.out, threads);
+    cli_render_args r;
+    int rc = cli_render_parse(argc, argv, &r);
+    if (rc >= 0) return rc;
+    prt_render_options o = r.o;
+    const char *out = r.out, *path = r.path;
+    const prt_camera *camp = r.have_camera ? &r.cam : NULL;
+    int repeat = r.repeat, frames = r.frames, threads = r.threads;
 
+    if (r.compare_specs)
+        return compare(path, r.mesh_path, r.compare_specs, camp, &o, repeat, out, threads);
+
+    const double t_open = omp_get_wtime(); /* "first image after opening the file" counts from here */
     prt_mesh *m;
     prt_accel *a;
-    const double t_open = omp_get_wtime(); /* "first image after opening the file" counts from here */
-    if ((rc = open_for_render(&g, &m, &a))) return rc;
+    if ((rc = cli_render_open(&r, true, &m, &a))) return rc;
     prt_image img = {0};
     double t = 0;
-    if (g.o.lod_pixels > 0.0f) rc = render_progressive(a, m, camp, &g, t_open, &img, &t);
-    else rc = render_timed(a, m, camp, &g.o, g.repeat, &img, &t);
-    if (!rc) rc = save(&img, g.out);
-    if (!rc) report(prt_accel_spec(a), &g.o, &img, t, g.out, threads);
+    if (o.lod_pixels > 0.0f) {
+        /* Progressive: each frame uses the blocks loaded so far and asks for more; the cache
+         * update between frames (Afra 5.3) hands the requests to the fetcher threads. */
+        double first = 0;
+        int steady = 0; /* frames rendered after convergence, for the median (--repeat) */
+        double tsteady[64];
+        for (int f = 0; f < frames && !rc; f++) {
+            prt_status s = prt_render(a, m, camp, &o, &img);
+            if (s) {
+                rc = cli_fail("render", "prt_render", s);
+                break;
+            }
+            prt_cache_info ci;
+            prt_accel_frame(a, &ci);
+            double since = omp_get_wtime() - t_open;
+            /* The first image with something on it: frame 1 has no block loaded at all. */
+            if (!first && ci.working_set_bytes) first = since;
+            printf("frame %3d: %.3f s, %.2f Mrays/s, working set %.1f MB, resident %.1f MB, requested %u, loading %u, "
+                   "%.2f s since opening\n",
+                   f + 1, img.seconds, (double)img.rays / img.seconds * 1e-6, (double)ci.working_set_bytes / 1e6,
+                   (double)ci.resident_bytes / 1e6, ci.requested, ci.pending, since);
+            t = img.seconds;
+            if (ci.requested == 0 && ci.pending == 0) {
+                /* Converged: time --repeat more frames of the same view and keep the median. */
+                if (steady < 64) tsteady[steady] = img.seconds;
+                if (++steady >= repeat) break;
+            } else if (ci.requested == 0)
+                usleep(2000); /* only loads in flight: let them land */
+        }
+        if (steady > 1) {
+            int n = steady < 64 ? steady : 64;
+            qsort(tsteady, (size_t)n, sizeof tsteady[0], cmp_double);
+            t = n % 2 ? tsteady[n / 2] : 0.5 * (tsteady[n / 2 - 1] + tsteady[n / 2]);
+        }
+        printf("first image %.3f s after opening the file; converged after %.3f s; median of %d converged frames %.3f s\n",
+               first, omp_get_wtime() - t_open, steady, t);
+        prt_status ck = rc ? PRT_OK : prt_accel_check(a);
+        if (ck) rc = cli_fail("render", path, ck);
+    } else {
+        rc = render_timed(a, m, camp, &o, repeat, &img, &t);
+    }
+    if (!rc) rc = cli_render_save(&img, out);
+    if (!rc) report(prt_accel_spec(a), &o, &img, t, out, threads);
     prt_image_free(&img);
     prt_accel_free(a);
     prt_mesh_free(m);

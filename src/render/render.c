@@ -6,19 +6,9 @@
 #include <math.h>
 #include <omp.h>
 
-#define TILE 8
+#define TILE RENDER_TILE
 /* Larger images are refused rather than risk size arithmetic near overflow. */
 #define MAX_SIDE 32768u
-
-typedef struct tile_job {
-    const render_scene *scene;
-    const render_camera *cam;
-    render_framebuffer *fb; /* gi: the float buffers that the filter and the composition read */
-    prt_image *img;         /* the other modes: tiles are encoded straight into the image */
-    bool srgb;              /* img's encoding */
-    uint32_t spp;
-    uint64_t seed;
-} tile_job;
 
 /* `shadows` mode for a tile's n camera hits: the shadow rays of every pixel that needs one
  * traced together (prt_occluded_packet: cgrid's frustums, Wald 2006 §4.6; with levels of
@@ -75,9 +65,9 @@ typedef struct guide_sums {
 } guide_sums;
 
 /* Render tile (tx, ty) into the framebuffer (gi) or the image; returns the rays it cast. */
-static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
-    const render_camera *cam = j->cam;
-    const render_scene *sc = j->scene;
+static uint64_t render_tile(const render_frame *j, uint32_t tx, uint32_t ty) {
+    const render_camera *cam = &j->cam;
+    const render_scene *sc = &j->scene;
     const uint32_t x0 = tx * TILE, y0 = ty * TILE;
     const uint32_t w = PRT_MIN(TILE, cam->width - x0), h = PRT_MIN(TILE, cam->height - y0), n = w * h;
     /* Every per-pixel array is in slot order: with LOD the tile by 4x4 pixel blocks, the
@@ -95,7 +85,7 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
     const bool random = j->spp > 1 || sc->shade == PRT_SHADE_AO || sc->shade == PRT_SHADE_GI;
     prt_rng rng[TILE * TILE];
     for (uint32_t q = 0; random && q < n; q++) rng[q] = render_pixel_rng(j->seed, x0 + sx[q], y0 + sy[q]);
-    const bool guides = j->fb->indirect != NULL;
+    const bool guides = j->fb.indirect != NULL;
     guide_sums gs[TILE * TILE];
     if (guides) memset(gs, 0, n * sizeof *gs);
     float direct[TILE * TILE][3]; /* the first sample starts each sum (below) */
@@ -159,13 +149,13 @@ static uint64_t render_tile(const tile_job *j, uint32_t tx, uint32_t ty) {
             }
         }
     }
-    if (j->img) {
+    if (j->tile_img) {
         /* The pixel values render_framebuffer_resolve would read, encoded row by row. */
         for (uint32_t y = 0; y < h; y++)
-            render_encode(mean + 3 * y * w, 3 * w, j->srgb, j->img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
+            render_encode(mean + 3 * y * w, 3 * w, j->srgb, j->tile_img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
         return cast;
     }
-    render_framebuffer *fb = j->fb;
+    const render_framebuffer *fb = &j->fb;
     for (uint32_t y = 0; y < h; y++)
         memcpy(fb->direct + 3 * ((size_t)(y0 + y) * cam->width + x0), mean + 3 * y * w, 3 * w * sizeof(float));
     for (uint32_t q = 0; guides && q < n; q++) {
@@ -215,9 +205,10 @@ static prt_status size_image(prt_image *img, uint32_t w, uint32_t h) {
     return PRT_OK;
 }
 
-prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c,
-                      const prt_render_options *options, prt_image *img) {
-    double t0 = prt__now();
+prt_status render_frame_begin(render_frame *f, const prt_accel *a, const prt_mesh *m, const prt_camera *c,
+                              const prt_render_options *options, prt_image *img) {
+    memset(f, 0, sizeof *f);
+    f->t0 = prt__now();
     prt_render_options o = {0};
     if (options) o = *options;
     uint32_t w = o.width, h = o.height;
@@ -237,96 +228,131 @@ prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c
     prt_accel_bounds(a, lo, hi);
     prt_camera cam_default;
     if (!c) prt_camera_default(lo, hi, &cam_default), c = &cam_default;
-    render_camera cam;
-    if ((st = render_camera_setup(c, w, h, &cam))) {
+    if ((st = render_camera_setup(c, w, h, &f->cam))) {
         prt_image_free(img);
         return st;
     }
 
-    render_scene scene = {.accel = a, .mesh = m, .shade = o.shade};
-    scene.colored = m && (m->vertex_colors || m->triangle_colors);
+    render_scene *scene = &f->scene;
+    *scene = (render_scene){.accel = a, .mesh = m, .shade = o.shade};
+    scene->colored = m && (m->vertex_colors || m->triangle_colors);
     /* Colours in files are sRGB-encoded bytes; shading wants linear reflectance. */
-    for (int i = 0; scene.colored && i < 256; i++) {
+    for (int i = 0; scene->colored && i < 256; i++) {
         float c = (float)i / 255.0f;
-        scene.linear[i] = c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
+        scene->linear[i] = c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
     }
     float diag = prt_v3_len(prt_v3_sub(prt_v3_load(hi), prt_v3_load(lo)));
     if (!(diag > 0.0f) || !isfinite(diag)) diag = 1.0f;
-    scene.diag = diag;
+    scene->diag = diag;
     /* 1e-4 of the diagonal: far above the rounding of a hit point (~1e-7 relative), far below
      * any feature worth shading; the same offset as the benchmark's secondary rays. */
-    scene.offset = 1e-4f * diag;
+    scene->offset = 1e-4f * diag;
     /* A lossy representation's surface lies up to its vertex error from the mesh's, where
      * hit points are placed: start secondary rays beyond it, or they would hit the lossy
      * copy of their own surface. */
     prt_stats stats;
     prt_accel_stats(a, &stats);
-    if (stats.vertex_error > 0) scene.offset += 2.0f * (float)stats.vertex_error;
-    scene.fd_step = 1e-4f * diag;
+    if (stats.vertex_error > 0) scene->offset += 2.0f * (float)stats.vertex_error;
+    scene->fd_step = 1e-4f * diag;
     if (o.use_light)
-        scene.light = prt_v3_load(o.light);
+        scene->light = prt_v3_load(o.light);
     else {
         /* As bench_light_default: above, in front, to the left, 2.5 bounding radii out. */
         prt_vec3 dir = prt_v3_norm(prt_v3(-0.5f, 1.0f, 0.6f));
         prt_vec3 mid = prt_v3_scale(prt_v3_add(prt_v3_load(lo), prt_v3_load(hi)), 0.5f);
-        scene.light = prt_v3_add(mid, prt_v3_scale(dir, 1.25f * diag));
+        scene->light = prt_v3_add(mid, prt_v3_scale(dir, 1.25f * diag));
     }
-    scene.ao_radius = o.ao_radius > 0.0f ? o.ao_radius : 0.15f * diag;
+    scene->ao_radius = o.ao_radius > 0.0f ? o.ao_radius : 0.15f * diag;
     uint32_t spp = o.spp ? o.spp : (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI ? 16 : 1);
     if (o.lod_pixels > 0.0f && isfinite(o.lod_pixels)) {
         /* Áfra eq. 1-3: a voxel of radius R at distance t projects to lambda R / t pixels,
          * lambda = (h / 2) / tan(fov / 2); accept it when that radius is at most the radius
          * of a disc of lod_pixels pixels. Hemisphere rays: 2 pi / spp steradians each. */
         float lambda = 0.5f * (float)h / tanf(0.5f * c->fov_y_deg * RENDER_PI / 180.0f);
-        scene.lod = true;
-        scene.lod_primary = sqrtf(o.lod_pixels / RENDER_PI) / lambda;
-        scene.lod_secondary = sqrtf(2.0f / (float)spp);
+        scene->lod = true;
+        scene->lod_primary = sqrtf(o.lod_pixels / RENDER_PI) / lambda;
+        scene->lod_secondary = sqrtf(2.0f / (float)spp);
     }
 
     /* Only gi needs float buffers (its filter and composition); the other modes encode
      * each tile into the image as it is rendered. */
     const bool gi = o.shade == PRT_SHADE_GI;
-    render_framebuffer fb = {0};
-    if ((gi && (st = render_framebuffer_init(&fb, w, h, true, scene.colored))) || (st = size_image(img, w, h))) {
-        render_framebuffer_free(&fb);
+    if ((gi && (st = render_framebuffer_init(&f->fb, w, h, true, scene->colored))) || (st = size_image(img, w, h))) {
+        render_framebuffer_free(&f->fb);
         prt_image_free(img);
         return st;
     }
-
-    int threads = prt__threads(o.threads);
+    f->o = o;
+    f->img = img;
+    f->tile_img = gi ? NULL : img;
+    f->srgb = render_shade_is_srgb(o.shade);
+    f->spp = spp;
+    f->seed = o.seed;
+    f->threads = prt__threads(o.threads);
+    f->tiles_x = (w + TILE - 1) / TILE, f->tiles_y = (h + TILE - 1) / TILE;
+    f->tiles = (long)f->tiles_x * f->tiles_y;
     render_encode_init();
-    tile_job job = {&scene, &cam, &fb, gi ? NULL : img, render_shade_is_srgb(o.shade), spp, o.seed};
-    uint32_t tiles_x = (w + TILE - 1) / TILE, tiles_y = (h + TILE - 1) / TILE;
-    long tiles = (long)tiles_x * tiles_y, done = 0;
+    return PRT_OK;
+}
+
+void render_frame_tile_rect(const render_frame *f, long t, uint32_t rect[4]) {
+    uint32_t tx, ty;
+    tile_at(t, f->tiles_x, f->tiles_y, &tx, &ty);
+    rect[0] = tx * TILE, rect[1] = ty * TILE;
+    rect[2] = PRT_MIN(TILE, f->cam.width - rect[0]), rect[3] = PRT_MIN(TILE, f->cam.height - rect[1]);
+}
+
+uint64_t render_frame_tiles(render_frame *f, long first, long count) {
+    const prt_render_options *o = &f->o;
     uint64_t rays = 0;
-#pragma omp parallel num_threads(threads)
+    long done = f->done;
+#pragma omp parallel num_threads(f->threads)
     {
         /* Dynamic scheduling balances empty sky against busy tiles; the pixels do not care
          * who renders them (per-pixel random streams), so the image does not change. */
 #pragma omp for schedule(dynamic, 1)
-        for (long t = 0; t < tiles; t++) {
+        for (long t = first; t < first + count; t++) {
             uint32_t tx, ty;
-            tile_at(t, tiles_x, tiles_y, &tx, &ty);
-            uint64_t n = render_tile(&job, tx, ty);
+            tile_at(t, f->tiles_x, f->tiles_y, &tx, &ty);
+            uint64_t n = render_tile(f, tx, ty);
             long d;
 #pragma omp atomic update
             rays += n;
 #pragma omp atomic capture
             d = ++done;
             /* Thread 0 is the caller: the callback never runs on a worker. */
-            if (o.progress && omp_get_thread_num() == 0)
-                o.progress(o.progress_user, (float)d / (float)tiles);
+            if (o->progress && omp_get_thread_num() == 0)
+                o->progress(o->progress_user, (float)d / (float)f->tiles);
         }
     }
-    if (gi && o.denoise && (st = render_denoise(&fb, &cam, threads))) {
-        render_framebuffer_free(&fb);
-        prt_image_free(img);
+    f->done = done;
+    f->rays += rays;
+    return rays;
+}
+
+prt_status render_frame_end(render_frame *f) {
+    prt_status st = PRT_OK;
+    const bool gi = f->o.shade == PRT_SHADE_GI;
+    if (gi && f->o.denoise) st = render_denoise(&f->fb, &f->cam, f->threads);
+    if (!st && gi) render_framebuffer_resolve(&f->fb, f->o.shade, f->threads, f->img);
+    render_framebuffer_free(&f->fb);
+    if (st) {
+        prt_image_free(f->img);
         return st;
     }
-    if (gi) render_framebuffer_resolve(&fb, o.shade, threads, img);
-    render_framebuffer_free(&fb);
-    if (o.progress) o.progress(o.progress_user, 1.0f);
-    img->rays = rays;
-    img->seconds = prt__now() - t0;
+    if (f->o.progress) f->o.progress(f->o.progress_user, 1.0f);
+    f->img->rays = f->rays;
+    f->img->seconds = prt__now() - f->t0;
     return PRT_OK;
+}
+
+void render_frame_free(render_frame *f) { render_framebuffer_free(&f->fb); }
+
+prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c,
+                      const prt_render_options *options, prt_image *img) {
+    render_frame f;
+    prt_status st = render_frame_begin(&f, a, m, c, options, img);
+    if (st) return st;
+    render_frame_tiles(&f, 0, f.tiles);
+    return render_frame_end(&f);
 }

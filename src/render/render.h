@@ -173,4 +173,40 @@ void render_encode(const float *v, size_t n, bool srgb, uint8_t *out);
  * weighted sum of the previous pass. PRT_ERROR_NOMEM when the scratch buffer fails. */
 prt_status render_denoise(render_framebuffer *fb, const render_camera *cam, int threads);
 
+/* ---- render.c: a frame in three steps --------------------------------------------------- */
+
+/* prt_render is begin, tiles (all of them), end; packrt-mpi (tools/mpi/) renders each rank's
+ * tiles with the same steps and gathers the pixels. Pixels depend only on the options and
+ * the pixel, so any split of the tiles gives the same image. */
+#define RENDER_TILE 8
+typedef struct render_frame {
+    render_scene scene;
+    render_camera cam;
+    render_framebuffer fb;  /* gi only: what the filter and the composition read */
+    prt_image *img;         /* the result (sized by begin) */
+    prt_image *tile_img;    /* the other modes: tiles encoded straight into img; NULL for gi */
+    prt_render_options o;
+    bool srgb;              /* img's encoding */
+    uint32_t spp, tiles_x, tiles_y;
+    uint64_t seed, rays;
+    long tiles, done;       /* tiles of the frame; rendered so far (progress) */
+    int threads;
+    double t0;
+} render_frame;
+
+/* Check the arguments and prepare f (camera, scene, buffers; img sized) as prt_render does.
+ * On failure img is freed and nothing needs freeing in f. */
+prt_status render_frame_begin(render_frame *f, const prt_accel *a, const prt_mesh *m, const prt_camera *c,
+                              const prt_render_options *options, prt_image *img);
+/* Render tiles [first, first + count) of the frame's tile order (0 <= first, first + count
+ * <= f->tiles) with the frame's OpenMP threads; returns the rays cast. */
+uint64_t render_frame_tiles(render_frame *f, long first, long count);
+/* Pixel rectangle {x, y, w, h} of tile t of the tile order. */
+void render_frame_tile_rect(const render_frame *f, long t, uint32_t rect[4]);
+/* gi: the filter (options.denoise) and the composition into img; frees f's buffers; sets
+ * img->rays and img->seconds. On failure img is freed. */
+prt_status render_frame_end(render_frame *f);
+/* Free f's buffers without composing (after begin succeeded, instead of end). */
+void render_frame_free(render_frame *f);
+
 #endif
