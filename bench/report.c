@@ -1,6 +1,7 @@
 /* The benchmark report: a text table with Embree ratios and agreement checks, and the flat
  * JSON object of DESIGN.md §7 whose field names tools outside the project read. */
 #include "bench.h"
+#include "core/isa.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -71,6 +72,9 @@ void bench_report_text(FILE *f, const bench_report *r) {
     fputc('\n', f);
     fprintf(f, "machine: %s; commit %s; mt = %d threads; %d repetitions (median)\n", r->machine,
             r->commit, r->threads_mt, r->options.reps < 5 ? 5 : r->options.reps);
+    /* The accels were built under the same PRT_ISA, so they picked what this names. */
+    fprintf(f, "kernels: %s for the layouts built per instruction set (wide8), %s for the others\n", prt__isa_active(),
+            prt__isa_name(PRT__ISA_BASE));
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     /* Other processes on the cores spoil timings, the all-threads figures most: a thread that
      * waits a scheduler slice at a barrier costs milliseconds. Say so next to the numbers. */
@@ -192,6 +196,8 @@ void bench_report_json(FILE *f, const bench_report *r) {
     json_string(f, r->machine);
     fprintf(f, ", \"commit\": ");
     json_string(f, r->commit);
+    fprintf(f, ", \"isa\": ");
+    json_string(f, prt__isa_active());
     json_number(f, "load_average", r->load_average, r->load_average >= 0);
     fprintf(f, ", \"mesh\": {\"path\": ");
     json_string(f, r->mesh_path);

@@ -36,6 +36,7 @@ typedef struct bvh_accel {
     bvh_occluded_fn occluded1;
     bvh_stream_fn stream; /* NULL: intersect1 per ray */
     bvh_refit *refit; /* update=refit and built (not loaded); else NULL */
+    prt__isa isa;     /* its kernels' instruction set, picked when built or loaded (core/isa.h) */
 } bvh_accel;
 
 /* On-disk META section (little endian, 64 bytes). */
@@ -184,17 +185,20 @@ static prt_status parse_collapse(prt_spec *spec, int layout, int *fill) {
     return PRT_OK;
 }
 
-static bvh_accel *bvh_new(int layout, int codec, int order, int fill) {
+static bvh_accel *bvh_new(int layout, int codec, int order, int fill, prt__isa isa) {
     bvh_accel *b = prt__calloc(1, sizeof *b);
     if (!b) return NULL;
+    b->isa = isa;
     b->layout = order ? bvh_aabb_orders[order] : fill ? &bvh_layout_wide8_filled : g_layouts[layout];
     b->codec = codec; /* its kernels: bvh_pick_kernels, once the blob is set */
     return b;
 }
 
-/* The kernels for b's blob, once it is set (built, loaded or refitted). */
+/* The kernels for b's blob, once it is set (built, loaded or refitted), built for b's
+ * instruction set (the base one where the layout has no such build). */
 static void bvh_pick_kernels(bvh_accel *b) {
-    bvh_kernels k = b->layout->kernels[b->codec];
+    const bvh_kernels *table = b->layout->kernels[b->isa] ? b->layout->kernels[b->isa] : b->layout->kernels[PRT__ISA_BASE];
+    bvh_kernels k = table[b->codec];
     if (k.for_blob) k = k.for_blob(b->blob.data);
     b->intersect1 = k.intersect1, b->occluded1 = k.occluded1, b->stream = k.stream;
 }
@@ -379,6 +383,8 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     if (fill) prt__spec_set(spec, "collapse", collapse_names[fill]);
     if (refit) prt__spec_set(spec, "update", update_modes[refit]);
 
+    prt__isa isa;
+    if ((s = prt__isa_pick(&isa))) return s;
     prt_mesh cleared;
     float strip_error = 0;
     if (codec == BVH_CODEC_strip) {
@@ -392,7 +398,7 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
         s = bvh_build(prims, n, &p, &tree);
         prt__free(prims);
     }
-    bvh_accel *b = s ? NULL : bvh_new(layout, codec, order, fill);
+    bvh_accel *b = s ? NULL : bvh_new(layout, codec, order, fill, isa);
     if (!s && !b) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
     if (s) {
         bvh_tree_free(&tree);
@@ -489,8 +495,10 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         shared.mesh_ids = ids;
     }
     int order, fill;
-    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill))) return s;
-    bvh_accel *b = bvh_new(layout, codec, order, fill);
+    prt__isa isa;
+    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill)) || (s = prt__isa_pick(&isa)))
+        return s;
+    bvh_accel *b = bvh_new(layout, codec, order, fill, isa);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
     b->shared = shared;
