@@ -372,7 +372,7 @@ int cmd_bench(int argc, char **argv) {
     bench_rays wl[BENCH_WORKLOAD_COUNT];
     memset(wl, 0, sizeof wl);
     bench_embree *em = NULL;
-    bench_row *rows = calloc(nspecs + 1, sizeof *rows);
+    bench_row *rows = calloc(nspecs + 2, sizeof *rows);
     bench_ref ref = {0};
     size_t nrows = 0;
     int exit_code = 0;
@@ -427,6 +427,14 @@ int cmd_bench(int argc, char **argv) {
         bench_embree_free(em); /* its results are kept in ref; free its memory for the others */
         em = NULL;
     }
+    /* Embree's watertight mode (RTC_SCENE_FLAG_ROBUST) beside its default, which stays the reference. */
+    bench_row robust_row = {.name = "embree-robust", .is_embree = true};
+    if (vs_embree && !(s = bench_embree_create(mesh, &(bench_embree_options){c.threads, true, false, 0}, &em))) {
+        bench_backend b = bench_backend_embree(em, "embree-robust");
+        robust_row.ok = true;
+        measure_row(&b, &c, wl, on, diagonal, &ref, mesh, triangles, &robust_row);
+        bench_embree_free(em), em = NULL;
+    } else if (vs_embree) snprintf(robust_row.error, sizeof robust_row.error, "%s: %s", prt_status_string(s), prt_last_error());
 
     for (size_t i = 0; i < nspecs; i++) {
         bench_row *row = &rows[nrows++];
@@ -453,6 +461,7 @@ int cmd_bench(int argc, char **argv) {
         }
     }
     if (embree_row.name[0]) rows[nrows++] = embree_row;
+    if (vs_embree) rows[nrows++] = robust_row;
 
     char machine[256], commit[64];
     bench_machine_string(machine, sizeof machine);
