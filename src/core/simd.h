@@ -29,17 +29,6 @@ static inline int vi4_mask(vi4 m) { int r = 0; for (int i = 0; i < 4; i++) r |= 
 static inline vf4 vf4_select(vi4 m, vf4 a, vf4 b) { vf4 r; for (int i = 0; i < 4; i++) r[i] = m[i] ? a[i] : b[i]; return r; }
 #endif
 
-/* a * b + c with one rounding, the same bits as C's fmaf on every path. */
-static inline vf4 vf4_fmadd(vf4 a, vf4 b, vf4 c) {
-#if defined(__FMA__)
-    return (vf4)_mm_fmadd_ps((__m128)a, (__m128)b, (__m128)c);
-#else
-    vf4 r;
-    for (int i = 0; i < 4; i++) r[i] = __builtin_fmaf(a[i], b[i], c[i]);
-    return r;
-#endif
-}
-
 /* Horizontal minimum, broadcast. */
 static inline float vf4_hmin(vf4 a) {
     vf4 b = vf4_min(a, __builtin_shufflevector(a, a, 2, 3, 0, 1));
@@ -110,15 +99,6 @@ static inline vf8 vf8_fmadd(vf8 a, vf8 b, vf8 c) {
     vf8 r;
     for (int i = 0; i < 8; i++) r[i] = __builtin_fmaf(a[i], b[i], c[i]);
     return r;
-#endif
-}
-
-/* Lane k of a in all eight lanes (one vpermps on AVX2). */
-static inline vf8 vf8_lane(vf4 a, int k) {
-#if defined(__AVX2__)
-    return (vf8)_mm256_permutevar8x32_ps(_mm256_castps128_ps256((__m128)a), _mm256_set1_epi32(k));
-#else
-    return vf8_set1(a[k]);
 #endif
 }
 

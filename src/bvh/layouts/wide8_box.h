@@ -133,11 +133,10 @@ static inline void wide8_ray_header(wide8_ray *w, const uint8_t *blob) {
     w->grain = hd.grain;
 }
 
-/* Per-ray constants of the folded box test (wide8_fold_hit): lanes x, y, z (lane 3: 0), so
- * a node's three axes are prepared in one 4-lane operation each. */
+/* Per-ray constants of the folded box test (wide8_fold_hit), broadcast. */
 typedef struct wide8_fold {
-    vf4 inv;
-    vf4 cnear, cfar; /* -org * inv, lowered / raised by the error bound E */
+    vf8 inv[3];
+    vf8 cnear[3], cfar[3]; /* -org * inv, lowered / raised by the error bound E */
     vf8 tnear;
     uint32_t near[3], far[3]; /* byte offset in a node of the q row holding each axis's near / far planes */
 } wide8_fold;
@@ -158,48 +157,41 @@ static inline bool wide8_fold_suits(const uint8_t *blob) {
  * + 2^-126 with M = |p| + 256 s of the root, bounds the folded test's error at every
  * node: wide8_fold_hit says why. */
 PRT_INLINE void wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
+    /* x, y, z in the lanes of 4-lane vectors (lane 3 cleared), then broadcast. */
     const vi4 xyz = {-1, -1, -1, 0}, abs = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
     const uint8_t *root = blob + WIDE8_HEADER_BYTES;
     vf4 p, org, inv;
-    memcpy(&p, root + offsetof(wide8_node, p), 16); /* lanes x, y, z; lane 3 (cleared): the exponents */
+    memcpy(&p, root + offsetof(wide8_node, p), 16); /* lane 3: the exponent bytes */
     memcpy(&org, r->org, 16), memcpy(&inv, r->inv, 16);
     p = (vf4)((vi4)p & xyz), org = (vf4)((vi4)org & xyz), inv = (vf4)((vi4)inv & xyz);
     uint32_t eb;
     memcpy(&eb, root + offsetof(wide8_node, e), 4);
     const vi4 s = (vi4){(int32_t)(eb & 0xFF), (int32_t)(eb >> 8 & 0xFF), (int32_t)(eb >> 16 & 0xFF), 0} << 23;
-    /* Lane by lane the scalar expressions the proof above bounds, in the same order. */
+    /* Lane by lane the scalar expressions wide8_fold_hit's proof bounds, in the same order. */
     const vf4 m = (vf4)((vi4)p & abs) + 256.0f * (vf4)s, ainv = (vf4)((vi4)inv & abs);
     vf4 e = (m + (vf4)((vi4)org & abs)) * ainv * 0x1p-19f + 0x1p-126f;
     /* An infinite inv makes every distance on that axis NaN or infinite on the right side
-     * (wide8_fold_hit), with no error to bound; lane 3: 0. */
-    e = (vf4)((vi4)e & (ainv != vf4_set1(INFINITY)) & xyz);
-    const vf4 c = -(org * inv);
-    w->inv = inv, w->cnear = c - e, w->cfar = c + e;
+     * (wide8_fold_hit), with no error to bound. */
+    e = (vf4)((vi4)e & (ainv != vf4_set1(INFINITY)));
+    const vf4 c = -(org * inv), cn = c - e, cf = c + e;
     for (int k = 0; k < 3; k++) {
+        w->inv[k] = vf8_set1(inv[k]);
+        w->cnear[k] = vf8_set1(cn[k]);
+        w->cfar[k] = vf8_set1(cf[k]);
         w->near[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + r->neg[k]);
         w->far[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + 1 - r->neg[k]);
     }
     w->tnear = vf8_set1(r->tnear);
 }
 
-/* Lanes x, y, z: the node's three scales 2^(e - 127) times inv, and its grid origin p
- * times inv plus the near and far constants: one 4-lane operation each for the node's
- * three axes, each lane rounded as one axis's scalar operation would be; lane 3: 0. */
-PRT_INLINE void wide8_fold_node(const wide8_node *n, const wide8_fold *w, vf4 *si, vf4 *on, vf4 *of) {
-    const vi4 xyz = {-1, -1, -1, 0};
-    vf4 p;
-    memcpy(&p, n->p, 16); /* p[0..2] and the exponent bytes, whose lane xyz clears */
-    p = (vf4)((vi4)p & xyz);
-    uint32_t e;
-    memcpy(&e, n->e, 4); /* e[0..2] and imask */
-#if defined(__AVX2__)
-    const vi4 bits = (vi4)_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128((int)e)), 23) & xyz;
-#else
-    const vi4 bits = {(int32_t)(e & 0xFF) << 23, (int32_t)(e >> 8 & 0xFF) << 23, (int32_t)(e >> 16 & 0xFF) << 23, 0};
-#endif
-    *si = (vf4)bits * w->inv;
-    *on = vf4_fmadd(p, w->inv, w->cnear);
-    *of = vf4_fmadd(p, w->inv, w->cfar);
+/* Lanes: the float 2^(e - 127) of the byte e that is the top byte of the 4 bytes at p
+ * (a node's exponent byte k with p = n->e + k - 3, inside the node). */
+PRT_INLINE vf8 wide8_scale8(const uint8_t *p) {
+    int32_t x;
+    memcpy(&x, p, 4);
+    typedef uint32_t vu8 __attribute__((vector_size(32)));
+    const vu8 v = (vu8)(vi8){x, x, x, x, x, x, x, x};
+    return (vf8)((v >> 1) & 0x7F800000u);
 }
 
 /* The slab test on the node's eight child boxes for one ray, with the quantization folded
@@ -221,15 +213,15 @@ PRT_INLINE void wide8_fold_node(const wide8_node *n, const wide8_fold *w, vf4 *s
  * the origin lies outside the slab; the min/max operand order ignores NaN. */
 PRT_INLINE unsigned wide8_fold_hit(const wide8_node *n, const wide8_fold *w, float tfar, vf8 *tentry) {
     const uint8_t *b = (const uint8_t *)n;
-    vf4 si, on, of;
-    wide8_fold_node(n, w, &si, &on, &of);
     vf8 tmin = w->tnear, tmax = vf8_set1(tfar);
-    /* NaN in the first operand: the second, so an undefined distance culls nothing. */
-#define W8_FOLD_AXIS(k)                                                                                                \
-    tmin = vf8_max(vf8_fmadd(vf8_from_u8(b + w->near[k]), vf8_lane(si, k), vf8_lane(on, k)), tmin);                    \
-    tmax = vf8_min(vf8_fmadd(vf8_from_u8(b + w->far[k]), vf8_lane(si, k), vf8_lane(of, k)), tmax);
-    W8_FOLD_AXIS(0) W8_FOLD_AXIS(1) W8_FOLD_AXIS(2)
-#undef W8_FOLD_AXIS
+    for (int k = 0; k < 3; k++) {
+        const vf8 si = wide8_scale8(b + offsetof(wide8_node, e) + k - 3) * w->inv[k];
+        const vf8 p = vf8_set1(n->p[k]);
+        const vf8 on = vf8_fmadd(p, w->inv[k], w->cnear[k]), of = vf8_fmadd(p, w->inv[k], w->cfar[k]);
+        /* NaN in the first operand: the second, so an undefined distance culls nothing. */
+        tmin = vf8_max(vf8_fmadd(vf8_from_u8(b + w->near[k]), si, on), tmin);
+        tmax = vf8_min(vf8_fmadd(vf8_from_u8(b + w->far[k]), si, of), tmax);
+    }
     *tentry = tmin;
     return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
 }
