@@ -364,7 +364,6 @@ typedef struct bench_report {
     const char *reference; /* name the checks compare against, NULL: none */
     bench_options options;
     int rounds;     /* rounds each row's timings are medians of */
-    const char *isa; /* instruction set of packrt's kernels, NULL: not said */
     int threads_mt; /* resolved thread count of the mt figures */
     uint64_t seed;
     bool workload_on[BENCH_WORKLOAD_COUNT];

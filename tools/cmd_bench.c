@@ -437,19 +437,21 @@ static void progress_step(bench_progress *p, const char *name) {
             spent, left);
 }
 
-/* One round of the Embree row: a fresh build (em, when given, is the one built for the
- * workloads and is consumed), measured, freed. */
-static void measure_embree(const bench_cli *c, const bench_input *in, bench_work *w, bench_embree *em, bench_ref *ref,
-                           bench_row *row) {
-    snprintf(row->name, sizeof row->name, "embree");
+/* One round of an Embree row: a fresh build (em, when given, is the one built for the
+ * workloads and is consumed), measured, freed. robust: the "embree-robust" row
+ * (RTC_SCENE_FLAG_ROBUST, watertight as packrt's test is); the default row stays the
+ * reference and the ratios' base. */
+static void measure_embree(const bench_cli *c, const bench_input *in, bench_work *w, bench_embree *em, bool robust,
+                           bench_ref *ref, bench_row *row) {
+    snprintf(row->name, sizeof row->name, robust ? "embree-robust" : "embree");
     row->is_embree = true;
-    bench_embree_options eo = {c->threads, false, false, 0};
+    bench_embree_options eo = {c->threads, robust, false, 0};
     prt_status s = em ? PRT_OK : bench_embree_create(in->mesh, &eo, &em);
     if (s) {
         snprintf(row->error, sizeof row->error, "%s: %s", prt_status_string(s), prt_last_error());
         return;
     }
-    bench_backend b = bench_backend_embree(em, "embree");
+    bench_backend b = bench_backend_embree(em, row->name);
     row->ok = true;
     measure_row(&b, c, w->wl, w->on, in->diagonal, ref, in->mesh, in->triangles, row);
     bench_embree_free(em);
@@ -482,17 +484,19 @@ static void measure_spec(const bench_cli *c, const bench_input *in, bench_work *
 
 /* Every row in alternating rounds, Embree first in each (round 0's answers are the
  * reference the others are checked against); out[i] is the median of row i's rounds, the
- * Embree row last when there is one. */
+ * two Embree rows last when there are. */
 static int run_rounds(const bench_cli *c, const bench_input *in, bench_work *w, bench_embree *em, bool vs_embree,
                       const char *const *specs, size_t nspecs, bench_ref *ref, bench_row *out) {
-    size_t nrows = nspecs + (vs_embree ? 1 : 0), R = (size_t)c->rounds;
+    size_t nrows = nspecs + (vs_embree ? 2 : 0), R = (size_t)c->rounds;
     bench_row *all = calloc(nrows * R, sizeof *all); /* all[i * R + r]: row i, round r */
     if (!all) return cli_fail("bench", "rows", PRT_ERROR_NOMEM);
     bench_progress p = {0, nrows * R, prt__now(), chatty() || nrows * R > 16};
     for (size_t r = 0; r < R; r++) {
         if (vs_embree) {
-            measure_embree(c, in, w, r == 0 ? em : NULL, ref, &all[nspecs * R + r]);
+            measure_embree(c, in, w, r == 0 ? em : NULL, false, ref, &all[nspecs * R + r]);
             progress_step(&p, "embree");
+            measure_embree(c, in, w, NULL, true, ref, &all[(nspecs + 1) * R + r]);
+            progress_step(&p, "embree-robust");
         }
         for (size_t i = 0; i < nspecs; i++) {
             measure_spec(c, in, w, specs[i], ref, &all[i * R + r]);
@@ -612,12 +616,12 @@ static int run_table(bench_cli *c, const bench_input *in, double load) {
     }
     bench_work w = {0};
     bench_ref ref = {0};
-    bench_row *rows = calloc(nspecs + 1, sizeof *rows);
+    bench_row *rows = calloc(nspecs + 2, sizeof *rows);
     int rc = rows ? make_workloads(c, in, em, specs, nspecs, &w) : cli_fail("bench", "rows", PRT_ERROR_NOMEM);
     if (!rc) rc = run_rounds(c, in, &w, em, vs_embree, specs, nspecs, &ref, rows);
     else bench_embree_free(em);
     if (!rc) {
-        size_t nrows = nspecs + (vs_embree ? 1 : 0);
+        size_t nrows = nspecs + (vs_embree ? 2 : 0);
         if (c->vs_embree && !vs_embree) rows[nrows++] = why_not;
         rc = report(c, in, &w, &ref, rows, nrows, load);
         /* A candidate that cannot encode this mesh (16-bit indices) is left out of the table. */

@@ -6,6 +6,7 @@
 
 #include "bvh/codecs/codec.h"
 #include "bvh/tree.h"
+#include "core/isa.h"
 
 /* An encoded tree: one allocation (or a slice of a mapped file) plus its accounting. */
 typedef struct bvh_blob {
@@ -67,7 +68,9 @@ typedef struct bvh_layout {
     /* Check a loaded blob so traversal can never leave it or loop, and every leaf with the
      * codec's leaf_valid: PRT_ERROR_CORRUPT. */
     prt_status (*validate)(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh);
-    bvh_kernels kernels[BVH_CODEC_COUNT];
+    /* The kernels of every codec, per instruction set (core/isa.h): [PRT__ISA_BASE] always;
+     * NULL for a set the layout is not built for, which the base ones then serve. */
+    const bvh_kernels *kernels[PRT__ISA_COUNT];
     /* The tree for the generic walks, which decode nodes rather than trace them: the root
      * (a leaf when the tree is one leaf), whose box may be taken from bounds (the accel's
      * lo xyz, hi xyz) where the blob keeps none; and the up to 8 children of an inner node,

@@ -38,6 +38,7 @@ typedef struct bvh_accel {
     bvh_occluded_fn occluded1;
     bvh_stream_fn stream; /* NULL: intersect1 per ray */
     bvh_refit *refit; /* update=refit and built (not loaded); else NULL */
+    prt__isa isa;     /* its kernels' instruction set, picked when built or loaded (core/isa.h) */
 } bvh_accel;
 
 /* On-disk META section (little endian, 64 bytes). */
@@ -188,18 +189,21 @@ static const bvh_layout *chosen_layout(int layout, int order, int fill) {
     return g_layouts[layout];
 }
 
-static bvh_accel *bvh_new(int layout, int codec, int order, int fill) {
+static bvh_accel *bvh_new(int layout, int codec, int order, int fill, prt__isa isa) {
     bvh_accel *b = prt__calloc(1, sizeof *b);
     if (!b) return NULL;
+    b->isa = isa;
     b->layout = chosen_layout(layout, order, fill);
     b->codec = codec; /* its kernels: bvh_pick_kernels, once the blob is set */
     b->base.ops = &prt__bvh_ops;
     return b;
 }
 
-/* The kernels for b's blob, once it is set (built, loaded or refitted). */
+/* The kernels for b's blob, once it is set (built, loaded or refitted), built for b's
+ * instruction set (the base one where the layout has no such build). */
 static void bvh_pick_kernels(bvh_accel *b) {
-    bvh_kernels k = b->layout->kernels[b->codec];
+    const bvh_kernels *table = b->layout->kernels[b->isa] ? b->layout->kernels[b->isa] : b->layout->kernels[PRT__ISA_BASE];
+    bvh_kernels k = table[b->codec];
     if (k.for_blob) k = k.for_blob(b->blob.data);
     b->intersect1 = k.intersect1;
     b->occluded1 = k.occluded1;
@@ -440,8 +444,10 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
     bvh_tree tree = {0};
     size_t n = 0;
     bvh_accel *b = NULL;
-    s = build_tree(&prepared, &p, o, &tree, &n);
-    if (!s && !(b = bvh_new(p.layout, p.codec, p.order, p.fill))) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
+    prt__isa isa = PRT__ISA_BASE;
+    s = prt__isa_pick(&isa);
+    if (!s) s = build_tree(&prepared, &p, o, &tree, &n);
+    if (!s && !(b = bvh_new(p.layout, p.codec, p.order, p.fill, isa))) s = prt__fail(PRT_ERROR_NOMEM, "out of memory");
     if (b) b->owns_blob = true;
     if (!s) s = encode_built(b, &prepared, &tree, &p, o ? o->triangle_order : NULL, prepare_error, truth);
     if (truth != m->vertices) prt__free((float *)(uintptr_t)truth);
@@ -510,8 +516,10 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         shared.mesh_ids = ids;
     }
     int order, fill;
-    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill))) return s;
-    bvh_accel *b = bvh_new(layout, codec, order, fill);
+    prt__isa isa;
+    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill)) || (s = prt__isa_pick(&isa)))
+        return s;
+    bvh_accel *b = bvh_new(layout, codec, order, fill, isa);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
     b->shared = shared;

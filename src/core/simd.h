@@ -42,6 +42,7 @@ typedef int32_t vi8 __attribute__((vector_size(32)));
 
 static inline vf8 vf8_set1(float x) { return (vf8){x, x, x, x, x, x, x, x}; }
 static inline vf8 vf8_load(const float *p) { vf8 v; memcpy(&v, p, sizeof v); return v; }
+
 static inline void vf8_store(float *p, vf8 v) { memcpy(p, &v, sizeof v); }
 static inline vi8 vi8_load(const int32_t *p) { vi8 v; memcpy(&v, p, sizeof v); return v; }
 static inline void vi8_store(int32_t *p, vi8 v) { memcpy(p, &v, sizeof v); }

@@ -203,11 +203,11 @@ const bvh_layout bvh_layout_aabb = {
     {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8, [BVH_CODEC_idx32_soa4] = 8},
     aabb_encode,
     aabb_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_intersect1_##id, .occluded1 = aabb_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_root,
     aabb_children,
 };

@@ -241,11 +241,11 @@ const bvh_layout bvh_layout_aabb_compressed = {
      [BVH_CODEC_idx32_soa4] = 8},
     aabb_compressed_encode,
     aabb_compressed_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_compressed_intersect1_##id, .occluded1 = aabb_compressed_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_compressed_root,
     aabb_compressed_children,
 };

@@ -177,11 +177,11 @@ ORDER_FNS(aabb_bf_tl, true, true)
 static const bvh_layout aabb_df_tl = {
     "aabb", "AABBTree (Rouwe 5.1) depth first, triangle blocks behind all nodes (4.3)", DEFAULT_LEAVES,
     aabb_df_tl_encode, aabb_df_tl_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_df_tl_intersect1_##id, .occluded1 = aabb_df_tl_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_df_tl_root,
     aabb_df_tl_children,
 };
@@ -189,11 +189,11 @@ static const bvh_layout aabb_df_tl = {
 static const bvh_layout aabb_bf = {
     "aabb", "AABBTree (Rouwe 5.1) breadth first, each leaf's triangles behind it (4.3)", DEFAULT_LEAVES,
     aabb_bf_encode, aabb_bf_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_bf_intersect1_##id, .occluded1 = aabb_bf_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_bf_root,
     aabb_bf_children,
 };
@@ -201,11 +201,11 @@ static const bvh_layout aabb_bf = {
 static const bvh_layout aabb_bf_tl = {
     "aabb", "AABBTree (Rouwe 5.1) breadth first, triangle blocks behind all nodes (4.3)", DEFAULT_LEAVES,
     aabb_bf_tl_encode, aabb_bf_tl_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_bf_tl_intersect1_##id, .occluded1 = aabb_bf_tl_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_bf_tl_root,
     aabb_bf_tl_children,
 };

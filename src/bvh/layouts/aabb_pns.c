@@ -33,11 +33,11 @@ const bvh_layout bvh_layout_aabb_pns = {
      [BVH_CODEC_idx32_soa4] = 8},
     aabb_pns_encode,
     aabb_pns_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_pns_intersect1_##id, .occluded1 = aabb_pns_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_pns_root,
     aabb_pns_children,
 };

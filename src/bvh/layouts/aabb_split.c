@@ -31,11 +31,11 @@ const bvh_layout bvh_layout_aabb_split = {
      [BVH_CODEC_idx32_soa4] = 8},
     aabb_split_encode,
     aabb_split_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_split_intersect1_##id, .occluded1 = aabb_split_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     aabb_split_root,
     aabb_split_children,
 };

@@ -210,11 +210,11 @@ const bvh_layout bvh_layout_quad = {
     {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 4, [BVH_CODEC_idx32_soa4] = 8},
     quad_encode,
     quad_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = quad_intersect1_##id, .occluded1 = quad_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     quad_root,
     quad_children,
 };

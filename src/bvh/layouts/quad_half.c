@@ -297,11 +297,11 @@ const bvh_layout bvh_layout_quad_half = {
      [BVH_CODEC_idx32_soa4] = 8},
     quad_half_encode,
     quad_half_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = quad_half_intersect1_##id, .occluded1 = quad_half_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     quad_half_root,
     quad_half_children,
 };

@@ -288,11 +288,11 @@ const bvh_layout bvh_layout_skd = {
      [BVH_CODEC_idx32_soa4] = 8},
     skd_encode,
     skd_validate,
-    {
+    {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = skd_intersect1_##id, .occluded1 = skd_occluded1_##id},
         BVH_CODECS(X)
 #undef X
-    },
+    }},
     skd_root,
     skd_children,
 };

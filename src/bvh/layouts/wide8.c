@@ -4,13 +4,8 @@
  * outward, so one node costs what Rouwé's QuadTreeHalfFloat costs for four children.
  * Node format and blob layout: wide8.h; packing: wide8_pack.c. */
 #include "bvh/layouts/wide8_box.h"
-#include "bvh/traverse.h"
 
 #include <math.h>
-
-#define LAYOUT_KERNELS "bvh/layouts/wide8_kernels.inc"
-#include "bvh/layouts/instantiate.inc"
-#undef LAYOUT_KERNELS
 
 /* --- the codec's leaves, for wide8_pack and wide8_check ---------------------------- */
 
@@ -100,10 +95,9 @@ static bvh_child wide8_root(const uint8_t *blob, const bvh_codec *c, const float
         "power-of-two grid, one 8-lane box test",                                                                  \
         {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4, \
          [BVH_CODEC_idx32_soa4] = 8},                                                                              \
-        encode, wide8_validate, {BVH_CODECS(WIDE8_KERNELS)}, wide8_root, wide8_children,                                          \
+        encode, wide8_validate, {bvh_wide8_kernels, PRT_ISA_AVX512_OF(bvh_wide8_kernels)}, wide8_root,          \
+        wide8_children,                                                                                            \
     }
-#define WIDE8_KERNELS(id, nm, desc)                                                                                \
-    [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id, wide8_for_blob_##id},
 
 const bvh_layout bvh_layout_wide8 = WIDE8_LAYOUT(wide8_encode);
 const bvh_layout bvh_layout_wide8_filled = WIDE8_LAYOUT(wide8_encode_filled);

@@ -67,6 +67,12 @@ typedef struct wide8_leaves {
     const void *ctx;
 } wide8_leaves;
 
+/* The traversal kernels of every codec (wide8_kernels.c), once per instruction set. */
+extern const bvh_kernels bvh_wide8_kernels[BVH_CODEC_COUNT];
+#ifdef PRT_HAVE_ISA_AVX512
+extern const bvh_kernels bvh_wide8_kernels_avx512[BVH_CODEC_COUNT];
+#endif
+
 /* Collapse binary tree t into wide8 nodes by the SAH (Ylitie et al. 2017, §3.2), leaves
  * merged up to the largest leaf of t, and write nodes and leaves into out. */
 prt_status wide8_pack(const bvh_tree *t, const wide8_leaves *leaves, bvh_blob *out);

@@ -157,17 +157,27 @@ static inline bool wide8_fold_suits(const uint8_t *blob) {
  * + 2^-126 with M = |p| + 256 s of the root, bounds the folded test's error at every
  * node: wide8_fold_hit says why. */
 PRT_INLINE void wide8_fold_init(wide8_fold *w, const prt__rayx *r, const uint8_t *blob) {
-    wide8_node root;
-    memcpy(&root, blob + WIDE8_HEADER_BYTES, sizeof root);
+    /* x, y, z in the lanes of 4-lane vectors (lane 3 cleared), then broadcast. */
+    const vi4 xyz = {-1, -1, -1, 0}, abs = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
+    const uint8_t *root = blob + WIDE8_HEADER_BYTES;
+    vf4 p, org, inv;
+    memcpy(&p, root + offsetof(wide8_node, p), 16); /* lane 3: the exponent bytes */
+    memcpy(&org, r->org, 16), memcpy(&inv, r->inv, 16);
+    p = (vf4)((vi4)p & xyz), org = (vf4)((vi4)org & xyz), inv = (vf4)((vi4)inv & xyz);
+    uint32_t eb;
+    memcpy(&eb, root + offsetof(wide8_node, e), 4);
+    const vi4 s = (vi4){(int32_t)(eb & 0xFF), (int32_t)(eb >> 8 & 0xFF), (int32_t)(eb >> 16 & 0xFF), 0} << 23;
+    /* Lane by lane the scalar expressions wide8_fold_hit's proof bounds, in the same order. */
+    const vf4 m = (vf4)((vi4)p & abs) + 256.0f * (vf4)s, ainv = (vf4)((vi4)inv & abs);
+    vf4 e = (m + (vf4)((vi4)org & abs)) * ainv * 0x1p-19f + 0x1p-126f;
+    /* An infinite inv makes every distance on that axis NaN or infinite on the right side
+     * (wide8_fold_hit), with no error to bound. */
+    e = (vf4)((vi4)e & (ainv != vf4_set1(INFINITY)));
+    const vf4 c = -(org * inv), cn = c - e, cf = c + e;
     for (int k = 0; k < 3; k++) {
-        const float m = fabsf(root.p[k]) + 256.0f * wide8_scale(root.e[k]);
-        /* An infinite inv makes every distance on that axis NaN or infinite on the
-         * right side (wide8_fold_hit), with no error to bound. */
-        const float e = isinf(r->inv[k]) ? 0.0f : (m + fabsf(r->org[k])) * fabsf(r->inv[k]) * 0x1p-19f + 0x1p-126f;
-        const float c = -(r->org[k] * r->inv[k]);
-        w->inv[k] = vf8_set1(r->inv[k]);
-        w->cnear[k] = vf8_set1(c - e);
-        w->cfar[k] = vf8_set1(c + e);
+        w->inv[k] = vf8_set1(inv[k]);
+        w->cnear[k] = vf8_set1(cn[k]);
+        w->cfar[k] = vf8_set1(cf[k]);
         w->near[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + r->neg[k]);
         w->far[k] = (uint32_t)offsetof(wide8_node, q) + 8 * (uint32_t)(2 * k + 1 - r->neg[k]);
     }
