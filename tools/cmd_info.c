@@ -124,37 +124,45 @@ static int estimates(const prt_mesh *m, const char *auto_spec, double limit, boo
     return 0;
 }
 
-int cmd_info(int argc, char **argv) {
-    const char *path = NULL, *spec = "all", *budget = NULL, *memory = NULL;
-    bool estimate = false, lossy = false, verify = false, with_order = false;
+typedef struct info_args {
+    const char *path, *spec, *budget, *memory;
+    bool estimate, lossy, verify, with_order;
+} info_args;
+
+/* 1 for --help, 0 when parsed, else the usage error's exit code. */
+static int parse_args(int argc, char **argv, info_args *a) {
+    *a = (info_args){.spec = "all"};
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
-        if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
-        else if (!strcmp(argv[i], "--budget") && i + 1 < argc) budget = argv[++i], estimate = true;
-        else if (!strcmp(argv[i], "--memory") && i + 1 < argc) memory = argv[++i], estimate = true;
-        else if (!strcmp(argv[i], "--estimate")) estimate = true;
-        else if (!strcmp(argv[i], "--lossy")) lossy = true;
-        else if (!strcmp(argv[i], "--verify")) verify = estimate = true;
-        else if (!strcmp(argv[i], "--order")) with_order = true;
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage(), -1;
+        if (!strcmp(argv[i], "-r") && i + 1 < argc) a->spec = argv[++i];
+        else if (!strcmp(argv[i], "--budget") && i + 1 < argc) a->budget = argv[++i], a->estimate = true;
+        else if (!strcmp(argv[i], "--memory") && i + 1 < argc) a->memory = argv[++i], a->estimate = true;
+        else if (!strcmp(argv[i], "--estimate")) a->estimate = true;
+        else if (!strcmp(argv[i], "--lossy")) a->lossy = true;
+        else if (!strcmp(argv[i], "--verify")) a->verify = a->estimate = true;
+        else if (!strcmp(argv[i], "--order")) a->with_order = true;
         else if (argv[i][0] == '-') return cli_usage("info", "unknown option '%s'", argv[i]);
-        else if (!path) path = argv[i];
+        else if (!a->path) a->path = argv[i];
         else return cli_usage("info", "more than one input given ('%s')", argv[i]);
     }
-    if (!path) return cli_usage("info", "needs MESH or FILE.prt");
-    prt_status s;
-    if (cli_is_prt_file(path)) {
-        prt_accel *a;
-        if ((s = prt_accel_load(path, &a))) return cli_fail("info", path, s);
-        prt_stats st;
-        prt_accel_stats(a, &st);
-        printf("file         %s\nrepresentation %s\ntriangles    %zu (%zu hittable)\n", path, prt_accel_spec(a), st.triangles,
-               st.triangles_built);
-        print_stats(a);
-        prt_accel_free(a);
-        return 0;
-    }
-    prt_mesh *m;
-    if ((s = prt_mesh_load(path, &m))) return cli_fail("info", path, s);
+    return a->path ? 0 : cli_usage("info", "needs MESH or FILE.prt");
+}
+
+static int describe_file(const char *path) {
+    prt_accel *a;
+    prt_status s = prt_accel_load(path, &a);
+    if (s) return cli_fail("info", path, s);
+    prt_stats st;
+    prt_accel_stats(a, &st);
+    printf("file         %s\nrepresentation %s\ntriangles    %zu (%zu hittable)\n", path, prt_accel_spec(a), st.triangles,
+           st.triangles_built);
+    print_stats(a);
+    prt_accel_free(a);
+    return 0;
+}
+
+/* Counts, format, bounds, colours and connectivity of a mesh. */
+static void describe_mesh(const prt_mesh *m, const char *path) {
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
     printf("mesh         %s\ntriangles    %zu (degenerate, never hit: %zu)\nvertices     %zu\n", path, m->triangle_count,
@@ -173,25 +181,28 @@ int cmd_info(int argc, char **argv) {
                                 : m->triangle_colors                  ? "per triangle"
                                                                       : "none");
     connectivity(m);
-    if (estimate) {
-        char auto_spec[160];
-        size_t bytes = 0;
-        double per_tri = budget ? strtod(budget, NULL) : 0, limit = per_tri * (double)m->triangle_count;
-        if (memory && cli_parse_count(memory, &bytes)) limit = (double)bytes;
-        if ((budget && !(per_tri > 0)) || (memory && !bytes)) {
-            prt_mesh_free(m);
-            return cli_usage("info", "--budget takes bytes per triangle, --memory bytes (K, M, G: powers of 1000)");
-        }
-        snprintf(auto_spec, sizeof auto_spec, "auto");
-        if (budget) snprintf(auto_spec, sizeof auto_spec, "auto,budget=%s", budget);
-        if (memory) snprintf(auto_spec, sizeof auto_spec, "auto,memory=%zu", bytes);
-        if (lossy) strcat(auto_spec, ",lossy=yes");
-        int rc = estimates(m, auto_spec, limit, verify, with_order);
-        prt_mesh_free(m);
-        return rc;
-    }
+}
+
+/* --estimate, --budget, --memory: the auto spec they make, and its estimates. */
+static int estimate_for(const prt_mesh *m, const info_args *a) {
+    char auto_spec[160];
+    size_t bytes = 0;
+    double per_tri = a->budget ? strtod(a->budget, NULL) : 0, limit = per_tri * (double)m->triangle_count;
+    if (a->memory && cli_parse_count(a->memory, &bytes)) limit = (double)bytes;
+    if ((a->budget && !(per_tri > 0)) || (a->memory && !bytes))
+        return cli_usage("info", "--budget takes bytes per triangle, --memory bytes (K, M, G: powers of 1000)");
+    snprintf(auto_spec, sizeof auto_spec, "auto");
+    if (a->budget) snprintf(auto_spec, sizeof auto_spec, "auto,budget=%s", a->budget);
+    if (a->memory) snprintf(auto_spec, sizeof auto_spec, "auto,memory=%zu", bytes);
+    if (a->lossy) strcat(auto_spec, ",lossy=yes");
+    return estimates(m, auto_spec, limit, a->verify, a->with_order);
+}
+
+/* The bytes of every representation (or -r's) built over m. */
+static int build_each(const prt_mesh *m, const char *spec) {
     printf("memory per representation:\n");
     int rc = 0;
+    prt_status s;
     for (size_t i = 0; i < prt_repr_count(); i++) {
         const char *name = prt_repr_name(i);
         if (strcmp(spec, "all") && strcmp(spec, name)) continue;
@@ -208,6 +219,19 @@ int cmd_info(int argc, char **argv) {
         if ((s = prt_build(m, spec, NULL, &a))) rc = cli_fail("info", spec, s);
         else print_stats(a), prt_accel_free(a);
     }
+    return rc;
+}
+
+int cmd_info(int argc, char **argv) {
+    info_args a;
+    int rc = parse_args(argc, argv, &a);
+    if (rc) return rc < 0 ? 0 : rc;
+    if (cli_is_prt_file(a.path)) return describe_file(a.path);
+    prt_mesh *m;
+    prt_status s = prt_mesh_load(a.path, &m);
+    if (s) return cli_fail("info", a.path, s);
+    describe_mesh(m, a.path);
+    rc = a.estimate ? estimate_for(m, &a) : build_each(m, a.spec);
     prt_mesh_free(m);
     return rc;
 }
