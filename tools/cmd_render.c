@@ -222,107 +222,116 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
     return rc;
 }
 
+/* What the options say before they become cli_render_args. */
+typedef struct render_parse {
+    prt_render_options o;
+    float cam_v[7], up[3];
+    int cam_n, repeat, frames;
+    size_t cache;
+    bool have_up;
+    const char *path, *spec, *out, *mesh_path, *compare_specs;
+} render_parse;
+
+/* The numeric options; 0, or the usage error's exit code. */
+static int parse_counts(const char *arg, const char *val, render_parse *p) {
+    prt_render_options *o = &p->o;
+    if (!strcmp(arg, "--seed")) {
+        char *e;
+        o->seed = strtoull(val, &e, 10);
+        if (e == val || *e) return cli_usage("render", "--seed wants an unsigned integer (got '%s')", val);
+    } else if (!strcmp(arg, "--threads")) {
+        o->threads = atoi(val);
+        if (o->threads < 0) return cli_usage("render", "--threads wants 0 (all) or more (got '%s')", val);
+    } else if (!strcmp(arg, "--lod")) {
+        if (parse_floats(val, &o->lod_pixels, 1) != 1 || !(o->lod_pixels >= 0))
+            return cli_usage("render", "--lod wants pixels of error >= 0 (got '%s')", val);
+    } else if (!strcmp(arg, "--frames")) {
+        p->frames = atoi(val);
+        if (p->frames < 1 || p->frames > 100000) return cli_usage("render", "--frames wants 1..100000 (got '%s')", val);
+    } else if (!strcmp(arg, "--cache")) {
+        if (!cli_parse_count(val, &p->cache) || !p->cache) return cli_usage("render", "--cache wants a size (got '%s')", val);
+    } else if (!strcmp(arg, "--repeat")) {
+        p->repeat = atoi(val);
+        if (p->repeat < 1 || p->repeat > 64) return cli_usage("render", "--repeat wants 1..64 (got '%s')", val);
+    } else {
+        return cli_usage("render", "unknown option '%s'", arg);
+    }
+    return 0;
+}
+
+/* An option with a value; 0, or the usage error's exit code. */
+static int parse_valued(const char *arg, const char *val, render_parse *p) {
+    prt_render_options *o = &p->o;
+    if (!strcmp(arg, "-r")) p->spec = val;
+    else if (!strcmp(arg, "-o")) p->out = val;
+    else if (!strcmp(arg, "--mesh")) p->mesh_path = val;
+    else if (!strcmp(arg, "--compare")) p->compare_specs = val;
+    else if (!strcmp(arg, "--shade")) {
+        if (prt_shade_parse(val, &o->shade)) return cli_usage("render", "%s", prt_last_error());
+    } else if (!strcmp(arg, "--size")) {
+        if (!parse_size(val, &o->width, &o->height))
+            return cli_usage("render", "--size wants WxH, e.g. 1024x768 (got '%s')", val);
+    } else if (!strcmp(arg, "--spp")) {
+        size_t n;
+        if (!cli_parse_count(val, &n) || !n || n > 65536) return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
+        o->spp = (uint32_t)n;
+    } else if (!strcmp(arg, "--camera")) {
+        p->cam_n = parse_floats(val, p->cam_v, 7);
+        if (p->cam_n != 6 && p->cam_n != 7)
+            return cli_usage("render", "--camera wants ex,ey,ez,tx,ty,tz[,fov] (got '%s')", val);
+    } else if (!strcmp(arg, "--up")) {
+        if (parse_floats(val, p->up, 3) != 3) return cli_usage("render", "--up wants x,y,z (got '%s')", val);
+        p->have_up = true;
+    } else if (!strcmp(arg, "--light")) {
+        if (parse_floats(val, o->light, 3) != 3) return cli_usage("render", "--light wants x,y,z (got '%s')", val);
+        o->use_light = true;
+    } else if (!strcmp(arg, "--ao-radius")) {
+        if (parse_floats(val, &o->ao_radius, 1) != 1 || !(o->ao_radius > 0))
+            return cli_usage("render", "--ao-radius wants a positive length (got '%s')", val);
+    } else {
+        return parse_counts(arg, val, p);
+    }
+    return 0;
+}
 int cli_render_parse(int argc, char **argv, cli_render_args *r) {
     memset(r, 0, sizeof *r);
-    prt_render_options o = {0};
-    o.width = 1024, o.height = 768, o.shade = PRT_SHADE_DIFFUSE, o.seed = 1;
-    float cam_v[7], up[3] = {0, 1, 0};
-    int cam_n = 0, repeat = 1, frames = 200;
-    size_t cache = 0;
-    bool have_up = false;
-    const char *path = NULL, *spec = NULL, *out = NULL, *mesh_path = NULL, *compare_specs = NULL;
+    render_parse p = {.o = {.width = 1024, .height = 768, .shade = PRT_SHADE_DIFFUSE, .seed = 1},
+                      .up = {0, 1, 0},
+                      .repeat = 1,
+                      .frames = 200};
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) return usage();
         if (!strcmp(arg, "--denoise")) {
-            o.denoise = true;
-            continue;
-        }
-        if (arg[0] == '-' && !val) return cli_usage("render", "%s needs a value", arg);
-        if (!strcmp(arg, "-r"))
-            spec = val;
-        else if (!strcmp(arg, "-o"))
-            out = val;
-        else if (!strcmp(arg, "--mesh"))
-            mesh_path = val;
-        else if (!strcmp(arg, "--compare"))
-            compare_specs = val;
-        else if (!strcmp(arg, "--shade")) {
-            if (prt_shade_parse(val, &o.shade)) return cli_usage("render", "%s", prt_last_error());
-        } else if (!strcmp(arg, "--size")) {
-            if (!parse_size(val, &o.width, &o.height))
-                return cli_usage("render", "--size wants WxH, e.g. 1024x768 (got '%s')", val);
-        } else if (!strcmp(arg, "--spp")) {
-            size_t n;
-            if (!cli_parse_count(val, &n) || !n || n > 65536)
-                return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
-            o.spp = (uint32_t)n;
-        } else if (!strcmp(arg, "--camera")) {
-            cam_n = parse_floats(val, cam_v, 7);
-            if (cam_n != 6 && cam_n != 7)
-                return cli_usage("render", "--camera wants ex,ey,ez,tx,ty,tz[,fov] (got '%s')",
-                                 val);
-        } else if (!strcmp(arg, "--up")) {
-            if (parse_floats(val, up, 3) != 3)
-                return cli_usage("render", "--up wants x,y,z (got '%s')", val);
-            have_up = true;
-        } else if (!strcmp(arg, "--light")) {
-            if (parse_floats(val, o.light, 3) != 3)
-                return cli_usage("render", "--light wants x,y,z (got '%s')", val);
-            o.use_light = true;
-        } else if (!strcmp(arg, "--ao-radius")) {
-            if (parse_floats(val, &o.ao_radius, 1) != 1 || !(o.ao_radius > 0))
-                return cli_usage("render", "--ao-radius wants a positive length (got '%s')", val);
-        } else if (!strcmp(arg, "--seed")) {
-            char *e;
-            o.seed = strtoull(val, &e, 10);
-            if (e == val || *e)
-                return cli_usage("render", "--seed wants an unsigned integer (got '%s')", val);
-        } else if (!strcmp(arg, "--threads")) {
-            o.threads = atoi(val);
-            if (o.threads < 0)
-                return cli_usage("render", "--threads wants 0 (all) or more (got '%s')", val);
-        } else if (!strcmp(arg, "--lod")) {
-            if (parse_floats(val, &o.lod_pixels, 1) != 1 || !(o.lod_pixels >= 0))
-                return cli_usage("render", "--lod wants pixels of error >= 0 (got '%s')", val);
-        } else if (!strcmp(arg, "--frames")) {
-            frames = atoi(val);
-            if (frames < 1 || frames > 100000) return cli_usage("render", "--frames wants 1..100000 (got '%s')", val);
-        } else if (!strcmp(arg, "--cache")) {
-            if (!cli_parse_count(val, &cache) || !cache) return cli_usage("render", "--cache wants a size (got '%s')", val);
-        } else if (!strcmp(arg, "--repeat")) {
-            repeat = atoi(val);
-            if (repeat < 1 || repeat > 64)
-                return cli_usage("render", "--repeat wants 1..64 (got '%s')", val);
-        } else if (arg[0] == '-')
-            return cli_usage("render", "unknown option '%s'", arg);
-        else if (!path) {
-            path = arg;
-            continue;
-        } else
+            p.o.denoise = true;
+        } else if (arg[0] == '-') {
+            if (!val) return cli_usage("render", "%s needs a value", arg);
+            int rc = parse_valued(arg, val, &p);
+            if (rc) return rc;
+            i++;
+        } else if (!p.path) {
+            p.path = arg;
+        } else {
             return cli_usage("render", "more than one input given ('%s')", arg);
-        i++;
+        }
     }
-    if (!path || !out) return cli_usage("render", "needs FILE and -o img.png");
-    if (!ends_with(out, ".ppm") && !prt_image_png_supported())
+    if (!p.path || !p.out) return cli_usage("render", "needs FILE and -o img.png");
+    if (!ends_with(p.out, ".ppm") && !prt_image_png_supported())
         return cli_usage("render", "this build has no libpng: write a .ppm (-o img.ppm)");
-    if (!o.spp) o.spp = (o.shade == PRT_SHADE_AO || o.shade == PRT_SHADE_GI) ? 16 : 1;
-    int threads = o.threads;
-    if (!threads) {
-        /* What prt_render will use, for the report line. */
-        threads = omp_get_max_threads();
-    }
-
-    if (cam_n) {
-        memcpy(r->cam.eye, cam_v, sizeof r->cam.eye);
-        memcpy(r->cam.target, cam_v + 3, sizeof r->cam.target);
-        memcpy(r->cam.up, up, sizeof up);
-        r->cam.fov_y_deg = cam_n == 7 ? cam_v[6] : 40.0f;
+    if (!p.o.spp) p.o.spp = (p.o.shade == PRT_SHADE_AO || p.o.shade == PRT_SHADE_GI) ? 16 : 1;
+    if (p.cam_n) {
+        memcpy(r->cam.eye, p.cam_v, sizeof r->cam.eye);
+        memcpy(r->cam.target, p.cam_v + 3, sizeof r->cam.target);
+        memcpy(r->cam.up, p.up, sizeof p.up);
+        r->cam.fov_y_deg = p.cam_n == 7 ? p.cam_v[6] : 40.0f;
         r->have_camera = true;
-    } else if (have_up)
+    } else if (p.have_up) {
         return cli_usage("render", "--up goes with --camera");
-    r->path = path, r->spec = spec, r->out = out, r->mesh_path = mesh_path, r->compare_specs = compare_specs;
-    r->o = o, r->repeat = repeat, r->frames = frames, r->cache = cache, r->threads = threads;
+    }
+    r->path = p.path, r->spec = p.spec, r->out = p.out, r->mesh_path = p.mesh_path, r->compare_specs = p.compare_specs;
+    r->o = p.o, r->repeat = p.repeat, r->frames = p.frames, r->cache = p.cache;
+    /* What prt_render will use, for the report line. */
+    r->threads = p.o.threads ? p.o.threads : omp_get_max_threads();
     return -1;
 }
 
