@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: install what is missing, build with AddressSanitizer and
 # UndefinedBehaviorSanitizer, run every ctest test, then run each libFuzzer target
-# briefly (FUZZ_SECONDS each, default 20; 0 skips them).
+# briefly (FUZZ_SECONDS each, default 15; 0 skips them).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/deps.sh --test
@@ -27,7 +27,7 @@ if [ "${TSAN:-1}" != 0 ] && command -v clang >/dev/null; then
   done
 fi
 
-seconds=${FUZZ_SECONDS:-20}
+seconds=${FUZZ_SECONDS:-15}
 if [ "$seconds" -gt 0 ] && command -v clang >/dev/null; then
   CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON -DPRT_FUZZ=ON \
     -DPRT_WITH_EMBREE=OFF >/dev/null
