@@ -112,14 +112,17 @@ bool bench_plot_svg(FILE *f, const bench_report *r) {
     for (size_t i = 0; i < n; i++)
         if (p[i].front) fprintf(f, "%.1f,%.1f ", px(&a, p[i].bytes), py(&a, p[i].us));
     fprintf(f, "'/>\n");
-    int labels = 0; /* alternate labels above and below, so neighbours on the front do not overlap */
+    /* Every point named: the front and Embree in colour, the rest small and grey; labels
+     * alternate above and below, and run leftwards in the right third. */
+    int labels = 0;
     for (size_t i = 0; i < n; i++) {
         double x = px(&a, p[i].bytes), y = py(&a, p[i].us);
-        bool em = p[i].row->is_embree, label = em || p[i].front;
+        bool em = p[i].row->is_embree, left = x > LEFT + 0.66 * (W - LEFT - RIGHT);
         if (em) fprintf(f, "<rect x='%.1f' y='%.1f' width='10' height='10' fill='#d62728'/>\n", x - 5, y - 5);
         else fprintf(f, "<circle cx='%.1f' cy='%.1f' r='4' fill='%s'/>\n", x, y, p[i].front ? "#1f77b4" : "#999");
-        if (!label) continue;
-        fprintf(f, "<text x='%.1f' y='%.1f'%s>", x + 7, labels++ % 2 ? y + 16 : y - 6, em ? " fill='#d62728'" : "");
+        fprintf(f, "<text x='%.1f' y='%.1f' text-anchor='%s'%s>", left ? x - 7 : x + 7, labels++ % 2 ? y + 15 : y - 6,
+                left ? "end" : "start",
+                em ? " fill='#d62728'" : p[i].front ? "" : " fill='#777' font-size='10'");
         xml_text(f, p[i].row->name);
         fprintf(f, "</text>\n");
     }
