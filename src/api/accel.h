@@ -1,4 +1,4 @@
-/* The representation interface (DESIGN.md §3): every representation fills one
+/* The representation interface (docs/extending.md): every representation fills one
  * prt_accel_ops table and embeds struct prt_accel as its first member. The API layer
  * (api/accel.c) validates and dispatches; nothing above it knows which representation
  * it holds. */

@@ -1,4 +1,4 @@
-/* The .prt container (DESIGN.md §5, docs/formats.md): a checked header, a section table
+/* The .prt container (docs/formats.md): a checked header, a section table
  * and 64-byte aligned sections holding only relative offsets, usable in place after mmap. */
 #ifndef PRT_IO_PRT_FILE_H
 #define PRT_IO_PRT_FILE_H

@@ -1,4 +1,4 @@
-/* .rays and .hits files (DESIGN.md §5): an 8-byte magic, a uint64 count, then fixed-size
+/* .rays and .hits files (docs/formats.md): an 8-byte magic, a uint64 count, then fixed-size
  * little-endian records. */
 #include "core/common.h"
 #include "io/atomic_file.h"
