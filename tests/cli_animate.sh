@@ -8,17 +8,7 @@ set -u
 packrt=$1
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-fail=0 pass=0
-check() { # check NAME EXPECTED_EXIT COMMAND...
-  local name=$1 want=$2; shift 2
-  "$@" >"$dir/out" 2>"$dir/err"; local got=$?
-  if [ "$got" -eq "$want" ]; then pass=$((pass + 1)); echo "ok   $name"
-  else fail=$((fail + 1)); echo "FAIL $name: exit $got, wanted $want"; cat "$dir/err"; fi
-}
-expect() { # expect NAME CONDITION...
-  local name=$1; shift
-  if "$@"; then pass=$((pass + 1)); echo "ok   $name"; else fail=$((fail + 1)); echo "FAIL $name"; fi
-}
+. "$2/tests/support/cli_check.sh" # check, expect, finish
 
 "$packrt" animate --help | grep -q "prt_accel_update" || { echo "FAIL help"; exit 1; }
 check twist_frames 0 "$packrt" animate twist --tris 3k --frames 3 --size 32x24 -o "$dir/tw"
@@ -57,5 +47,4 @@ check bad_scene 2 "$packrt" animate teapot --bench
 check bad_packet 2 "$packrt" animate twist --bench --packet 3
 check bad_spec 1 "$packrt" animate twist --bench --tris 1k --frames 2 --size 8x8 -r nosuch
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -6,13 +6,7 @@ set -u
 packrt=$1
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-fail=0 pass=0
-check() { # check NAME EXPECTED_EXIT COMMAND...
-  local name=$1 want=$2; shift 2
-  "$@" >"$dir/out" 2>"$dir/err"; local got=$?
-  if [ "$got" -eq "$want" ]; then pass=$((pass + 1)); echo "ok   $name"
-  else fail=$((fail + 1)); echo "FAIL $name: exit $got, wanted $want"; cat "$dir/err"; fi
-}
+. "$2/tests/support/cli_check.sh" # check, expect, finish
 py() { python3 - "$@" || fail=$((fail + 1)); }
 
 check gen_sphere 0 "$packrt" gen sphere --tris 20k -o "$dir/s.ply"
@@ -111,5 +105,4 @@ grep -q "wide8:idx8-soa4" "$dir/err" || { fail=$((fail + 1)); echo "FAIL query_r
 check cast_all_and_occluded 2 "$packrt" cast "$dir/s.prt" --rays "$dir/r.rays" -o "$dir/z" --all --occluded
 check sdf_bad_res 2 "$packrt" sdf "$dir/s.prt" --res 1 -o "$dir/z"
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

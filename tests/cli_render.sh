@@ -6,17 +6,7 @@ set -u
 packrt=$1
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-fail=0 pass=0
-check() { # check NAME EXPECTED_EXIT COMMAND...
-  local name=$1 want=$2; shift 2
-  "$@" >"$dir/out" 2>"$dir/err"; local got=$?
-  if [ "$got" -eq "$want" ]; then pass=$((pass + 1)); echo "ok   $name"
-  else fail=$((fail + 1)); echo "FAIL $name: exit $got, wanted $want"; cat "$dir/err"; fi
-}
-expect() { # expect NAME CONDITION...: a check on files the previous commands made
-  local name=$1; shift
-  if "$@"; then pass=$((pass + 1)); echo "ok   $name"; else fail=$((fail + 1)); echo "FAIL $name"; fi
-}
+. "$2/tests/support/cli_check.sh" # check, expect, finish
 # PNG signature and IHDR size: png_size FILE W H
 png_size() { python3 - "$@" <<'PY'
 import struct, sys
@@ -100,5 +90,4 @@ check compare_prt 2 "$packrt" render "$dir/s.prt" -o "$dir/x.$ext" --compare aab
 check missing_file 1 "$packrt" render "$dir/nonexistent.ply" -o "$dir/x.$ext"
 check unwritable 1 "$packrt" render "$dir/s.ply" -o "$dir/no/such/dir/x.$ext" --size 8x8
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish
