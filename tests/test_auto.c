@@ -37,6 +37,28 @@ TEST(test_estimate_is_exact_on_a_small_mesh) { check_estimates(20000, 0, false);
 
 TEST(test_estimate_is_within_ten_percent_on_a_sampled_mesh) { check_estimates(200000, 0.10, true); }
 
+/* Families whose size depends on the whole mesh estimate from it: cgrid counts its grid's
+ * cells and references over every triangle (exact), lossygrid corrects its patches by the
+ * whole mesh's sub-grids, which a patch's border cuts (50% high on a terrain without). */
+TEST(test_family_estimates_see_the_whole_mesh) {
+    prt_mesh *m = NULL;
+    CHECK_OK(prt_mesh_generate("terrain", 200000, 1, &m));
+    static const char *const specs[] = {"cgrid", "cgrid,lambda=2,macro=0,tri=wald", "lossygrid"};
+    static const double tol[] = {0, 0, 0.05};
+    for (size_t i = 0; m && i < COUNT_OF(specs); i++) {
+        prt_size_estimate e;
+        prt_accel *a = NULL;
+        CHECK_OK(prt_estimate(m, specs[i], &e));
+        CHECK_OK(prt_build(m, specs[i], NULL, &a));
+        if (!a) continue;
+        double built = (double)total_bytes(a), est = (double)(e.bytes_tree + e.bytes_geometry + e.bytes_other);
+        CHECK_MSG(fabs(est - built) <= tol[i] * built, "%s: estimated %.0f, built %.0f", specs[i], est, built);
+        CHECK(fabs(e.bytes_per_triangle * (double)m->triangle_count - est) < 1);
+        prt_accel_free(a);
+    }
+    prt_mesh_free(m);
+}
+
 /* A cost table in which the faster representations are the larger ones. */
 static void write_costs(const char *path) {
     FILE *f = fopen(path, "w");
@@ -111,6 +133,7 @@ TEST(test_bad_auto_specs_are_rejected) {
 int main(void) {
     RUN(test_estimate_is_exact_on_a_small_mesh);
     RUN(test_estimate_is_within_ten_percent_on_a_sampled_mesh);
+    RUN(test_family_estimates_see_the_whole_mesh);
     RUN(test_auto_builds_the_fastest_that_fits);
     RUN(test_bad_auto_specs_are_rejected);
     TEST_END();

@@ -44,6 +44,8 @@ typedef struct prt_accel_ops {
 /* Optional capabilities of a family, each found through the registry or the accel's ops
  * rather than by naming the family; a NULL member is a capability the family lacks, and
  * the API layer then answers as the comment says. */
+struct prt__sample; /* api/estimate.h */
+
 typedef struct prt_accel_caps {
     /* Own file format (instead of a .prt container, whose save/load the family then leaves
      * NULL). probe: true when these first bytes start such a file (prt_accel_load, _open and
@@ -74,6 +76,10 @@ typedef struct prt_accel_caps {
      * 3 floats per vertex of the mesh the accel was built from. NULL: it cannot update;
      * prt_accel_update says so. */
     prt_status (*update)(prt_accel *a, const float *vertices);
+    /* Size before building (prt_estimate) where builds on the sample's patches miss (its
+     * grid or its sub-grids depend on the whole mesh): smp->mesh is the whole mesh, and
+     * prt__sample_build_estimate the patches' figure (api/estimate.h). NULL: that figure. */
+    prt_status (*estimate)(const struct prt__sample *smp, const char *spec, int threads, prt_size_estimate *out);
 } prt_accel_caps;
 
 struct prt_accel {

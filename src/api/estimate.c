@@ -9,6 +9,8 @@
  * the patches are simply large. A mesh small enough is built whole: exact. */
 #include "api/estimate.h"
 
+#include "api/accel.h"
+
 #include "core/common.h"
 
 #include <math.h>
@@ -156,7 +158,21 @@ static prt_status probe_limits(const prt__sample *smp, const char *spec, const p
     return PRT_OK;
 }
 
+void prt__estimate_finish(prt_size_estimate *out, size_t mesh_triangles) {
+    size_t total = out->bytes_tree + out->bytes_geometry + out->bytes_other;
+    out->bytes_per_triangle = mesh_triangles ? (double)total / (double)mesh_triangles : 0;
+}
+
 prt_status prt__sample_estimate(const prt__sample *smp, const char *spec, int threads, prt_size_estimate *out) {
+    const prt_accel_caps *c = prt__registry_caps(spec);
+    if (c && c->estimate) {
+        memset(out, 0, sizeof *out);
+        return c->estimate(smp, spec, threads, out);
+    }
+    return prt__sample_build_estimate(smp, spec, threads, out);
+}
+
+prt_status prt__sample_build_estimate(const prt__sample *smp, const char *spec, int threads, prt_size_estimate *out) {
     memset(out, 0, sizeof *out);
     prt_build_options o = {0};
     o.threads = threads;
@@ -176,8 +192,7 @@ prt_status prt__sample_estimate(const prt__sample *smp, const char *spec, int th
         out->bytes_geometry = (size_t)((double)sum.bytes_geometry * scale + 0.5);
         out->bytes_other = sum.bytes_other / (size_t)smp->count;
     }
-    size_t total = out->bytes_tree + out->bytes_geometry + out->bytes_other;
-    out->bytes_per_triangle = smp->mesh_triangles ? (double)total / (double)smp->mesh_triangles : 0;
+    prt__estimate_finish(out, smp->mesh_triangles);
     out->sample_triangles = smp->whole ? smp->mesh_triangles : smp->triangles;
     return PRT_OK;
 }

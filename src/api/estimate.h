@@ -21,7 +21,12 @@ typedef struct prt__sample {
 
 prt_status prt__sample_make(const prt_mesh *m, prt__sample *out);
 void prt__sample_free(prt__sample *s);
-/* Build spec on every part (threads: build threads, 0 all) and scale to the mesh. */
+/* The size of spec over s->mesh: the family's own estimate (prt_accel_caps.estimate) if it
+ * has one, else prt__sample_build_estimate. threads: build threads, 0 all. */
 prt_status prt__sample_estimate(const prt__sample *s, const char *spec, int threads, prt_size_estimate *out);
+/* Build spec on every part and scale to the mesh. */
+prt_status prt__sample_build_estimate(const prt__sample *s, const char *spec, int threads, prt_size_estimate *out);
+/* out's bytes_per_triangle from its three sizes, over mesh_triangles. */
+void prt__estimate_finish(prt_size_estimate *out, size_t mesh_triangles);
 
 #endif

@@ -167,6 +167,36 @@ static inline void store3(float *p, vf4 v) {
 #endif
 }
 
+/* Pass A for one triangle (indices i): its vertices, false when it is never hit (repeated
+ * index or zero area). */
+static inline bool gather(const float *vertices, const uint32_t *i, vf4 *a, vf4 *b, vf4 *e) {
+    *a = load3(vertices + 3 * (size_t)i[0]), *b = load3(vertices + 3 * (size_t)i[1]), *e = load3(vertices + 3 * (size_t)i[2]);
+    return !(i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || degenerate(*a, *b, *e));
+}
+
+/* Pass B's constants for grid lg. Lane 3 clamps to [0, 0]: it may hold the next vertex's
+ * x, possibly NaN. */
+typedef struct cell_ranger {
+    vf4 glo, ginv, top, zero, margin;
+} cell_ranger;
+
+static inline cell_ranger ranger_make(const cg_grid *lg) {
+    return (cell_ranger){{lg->lo[0], lg->lo[1], lg->lo[2], 0}, vf4_set1(lg->inv_cell),
+                         {(float)(lg->res[0] - 1), (float)(lg->res[1] - 1), (float)(lg->res[2] - 1), 0}, vf4_set1(0.0f),
+                         vf4_set1(CG_INSERT_MARGIN)};
+}
+
+/* The cells [ia, ib] (inclusive, lanes 0-2) triangle a, b, e is inserted into, in the
+ * scalar order of operations: min of the three, then (lo - corner) * inv_cell -/+ margin,
+ * clamped to the grid, truncated. */
+static inline void ranger_cells(const cell_ranger *r, vf4 a, vf4 b, vf4 e, vi4 *ia, vi4 *ib) {
+    vf4 lo = vf4_min(a, vf4_min(b, e)), hi = vf4_max(a, vf4_max(b, e));
+    vf4 ca = (lo - r->glo) * r->ginv - r->margin, cb = (hi - r->glo) * r->ginv + r->margin;
+    ca = vf4_min(vf4_max(ca, r->zero), r->top);
+    cb = vf4_min(vf4_max(cb, r->zero), r->top);
+    *ia = __builtin_convertvector(ca, vi4), *ib = __builtin_convertvector(cb, vi4);
+}
+
 /* Per-thread scratch of the parallel build, one block of CG_TBLOCK bytes each (a multiple
  * of the cache line, so no two threads write the same line): the thread's bounds and
  * count of buildable triangles (pass A); the references its triangles add to each z
@@ -251,9 +281,8 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
         for (size_t t = t_lo; t < t_hi; t++) {
             float *d = tris + 9 * t;
             const uint32_t *i = idx + 3 * t;
-            const vf4 a = load3(vertices + 3 * (size_t)i[0]), b = load3(vertices + 3 * (size_t)i[1]),
-                      e = load3(vertices + 3 * (size_t)i[2]);
-            if (i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || degenerate(a, b, e)) {
+            vf4 a, b, e;
+            if (!gather(vertices, i, &a, &b, &e)) {
                 for (int k = 0; k < 9; k++) d[k] = NAN; /* never hits, never inserted */
                 continue;
             }
@@ -297,31 +326,20 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
         const uint32_t rz = lg.res[2];
         int64_t *zd = tzdiff(scratch, me);
         memset(zd, 0, (rz + 1) * sizeof *zd);
-        {
-            const vf4 glo = {lg.lo[0], lg.lo[1], lg.lo[2], 0}, ginv = vf4_set1(lg.inv_cell);
-            /* Lane 3 clamps to [0, 0]: it holds the next vertex's x, possibly NaN. */
-            const vf4 top = {(float)(lg.res[0] - 1), (float)(lg.res[1] - 1), (float)(lg.res[2] - 1), 0};
-            const vf4 zero = vf4_set1(0.0f), margin = vf4_set1(CG_INSERT_MARGIN);
-            for (size_t t = t_lo; t < t_hi; t++) {
-                const float *d = tris + 9 * t;
-                uint16_t *rg = ranges + 6 * t;
-                if (isnan(d[0])) {
-                    rg[0] = rg[1] = rg[2] = 1, rg[3] = rg[4] = rg[5] = 0; /* empty range: never inserted */
-                    continue;
-                }
-                /* The scalar order of operations: min of the three, then (lo - corner) *
-                 * inv_cell -/+ margin, clamped to the grid, truncated. */
-                vf4 a = vf4_load(d), b = vf4_load(d + 3), e = vf4_load(d + 6);
-                vf4 lo = vf4_min(a, vf4_min(b, e)), hi = vf4_max(a, vf4_max(b, e));
-                vf4 ca = (lo - glo) * ginv - margin, cb = (hi - glo) * ginv + margin;
-                ca = vf4_min(vf4_max(ca, zero), top);
-                cb = vf4_min(vf4_max(cb, zero), top);
-                vi4 ia = __builtin_convertvector(ca, vi4), ib = __builtin_convertvector(cb, vi4);
-                for (int k = 0; k < 3; k++) rg[k] = (uint16_t)ia[k], rg[3 + k] = (uint16_t)ib[k];
-                int64_t area = (int64_t)(ib[0] - ia[0] + 1) * (ib[1] - ia[1] + 1);
-                zd[ia[2]] += area;
-                zd[ib[2] + 1] -= area;
+        const cell_ranger cr = ranger_make(&lg);
+        for (size_t t = t_lo; t < t_hi; t++) {
+            const float *d = tris + 9 * t;
+            uint16_t *rg = ranges + 6 * t;
+            if (isnan(d[0])) {
+                rg[0] = rg[1] = rg[2] = 1, rg[3] = rg[4] = rg[5] = 0; /* empty range: never inserted */
+                continue;
             }
+            vi4 ia, ib;
+            ranger_cells(&cr, vf4_load(d), vf4_load(d + 3), vf4_load(d + 6), &ia, &ib);
+            for (int k = 0; k < 3; k++) rg[k] = (uint16_t)ia[k], rg[3 + k] = (uint16_t)ib[k];
+            int64_t area = (int64_t)(ib[0] - ia[0] + 1) * (ib[1] - ia[1] + 1);
+            zd[ia[2]] += area;
+            zd[ib[2] + 1] -= area;
         }
 #pragma omp barrier
 
@@ -411,5 +429,36 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
     c->base.triangles_built = (size_t)built;
     memcpy(c->base.bounds, blo, sizeof blo);
     memcpy(c->base.bounds + 3, bhi, sizeof bhi);
+    return PRT_OK;
+}
+
+prt_status cg_count(const prt_mesh *m, int lambda, uint32_t macro, cg_grid *g, size_t *built) {
+    memset(g, 0, sizeof *g);
+    vf4 lo4 = vf4_set1(INFINITY), hi4 = vf4_set1(-INFINITY);
+    size_t n = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        vf4 a, b, e;
+        if (!gather(m->vertices, &m->triangles[3 * t], &a, &b, &e)) continue;
+        n++;
+        lo4 = vf4_min(lo4, vf4_min(a, vf4_min(b, e)));
+        hi4 = vf4_max(hi4, vf4_max(a, vf4_max(b, e)));
+    }
+    float lo[3] = {n ? lo4[0] : 0, n ? lo4[1] : 0, n ? lo4[2] : 0}, hi[3] = {n ? hi4[0] : 0, n ? hi4[1] : 0, n ? hi4[2] : 0};
+    choose_resolution(g, lo, hi, n, lambda);
+    macro_dims(g, macro);
+    const cell_ranger cr = ranger_make(g);
+    uint64_t refs = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        vf4 a, b, e;
+        vi4 ia, ib;
+        if (!gather(m->vertices, &m->triangles[3 * t], &a, &b, &e)) continue;
+        ranger_cells(&cr, a, b, e, &ia, &ib);
+        refs += (uint64_t)(ib[0] - ia[0] + 1) * (uint64_t)(ib[1] - ia[1] + 1) * (uint64_t)(ib[2] - ia[2] + 1);
+    }
+    if (refs > UINT32_MAX - 1)
+        return prt__fail(PRT_ERROR_LIMIT, "cgrid: %llu cell references exceed the 32-bit limit (lower lambda)",
+                         (unsigned long long)refs);
+    g->nrefs = (size_t)refs;
+    *built = n;
     return PRT_OK;
 }

@@ -103,6 +103,18 @@ prt_status cg_wald_rebuild(cg_accel *c, int threads);
 /* Rebuild c->g from vertex positions (c->indices, c->ntris, c->nverts set) into the pool. */
 prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads);
 
+/* The grid cg_rebuild would make of m (resolution, macrocells, reference count) and the
+ * triangles it would insert, without storing one reference: its passes A and B, on one
+ * thread (prt_estimate). */
+prt_status cg_count(const prt_mesh *m, int lambda, uint32_t macro, cg_grid *g, size_t *built);
+
+/* Bytes of a grid over ntris triangles (wald: with Wald's test data), as prt_stats counts them. */
+static inline void cg_bytes(const cg_grid *g, size_t ntris, bool wald, prt_stats *s) {
+    s->bytes_tree = 4 * (g->ncells + 1) + g->nmacro;
+    s->bytes_geometry = 4 * g->nrefs + 36 * ntris + (wald ? 48 * ntris : 0);
+    s->bytes_other = 12 * ntris + sizeof(cg_accel);
+}
+
 /* Single-ray DDA (Amanatides-Woo). */
 void cg_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 bool cg_occluded1(const prt_accel *a, const prt_ray *r);

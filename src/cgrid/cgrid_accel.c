@@ -12,6 +12,8 @@
  * load); the macrocell flags are recomputed on load. */
 #include "cgrid/cgrid.h"
 
+#include "api/estimate.h"
+
 #include <math.h>
 #include <stdio.h>
 
@@ -112,9 +114,7 @@ static prt_status cg_update(prt_accel *a, const float *vertices) {
 static void cg_stats(const prt_accel *a, prt_stats *s) {
     const cg_accel *c = (const cg_accel *)a;
     const cg_grid *g = &c->g;
-    s->bytes_tree = 4 * (g->ncells + 1) + g->nmacro;
-    s->bytes_geometry = 4 * g->nrefs + 36 * c->ntris + (g->wald ? 48 * c->ntris : 0);
-    s->bytes_other = 12 * c->ntris + sizeof(cg_accel);
+    cg_bytes(g, c->ntris, g->wald != NULL, s);
     s->nodes = g->ncells + g->nmacro;
     size_t occupied = 0;
     for (size_t i = 0; i < g->ncells; i++) occupied += g->cell_start[i + 1] != g->cell_start[i];
@@ -221,7 +221,31 @@ static bool cg_name_at(size_t i, const char **name, const char **desc) {
 }
 
 /* Refit: prt_accel_update moves the vertices of the built mesh. */
-static const prt_accel_caps cgrid_caps = {.update = cg_update};
+/* The grid's resolution comes from the whole mesh's bounds and count, which a sample's
+ * patches change (10-15% low), so count the whole mesh's cells and references instead:
+ * the build's own passes without storing (cg_count), hence exact. */
+static prt_status cg_estimate(const prt__sample *smp, const char *spec_text, int threads, prt_size_estimate *out) {
+    (void)threads;
+    prt_spec spec;
+    cg_options opt;
+    cg_grid g;
+    size_t built;
+    const prt_mesh *m = smp->mesh;
+    prt_status s = prt__spec_parse(spec_text, &spec);
+    if (!s) s = parse_options(&spec, &opt);
+    if (!s && m->triangle_count > UINT32_MAX - 1)
+        s = prt__fail(PRT_ERROR_LIMIT, "cgrid: %zu triangles exceed its 32-bit ids", m->triangle_count);
+    if (!s) s = cg_count(m, opt.lambda, (uint32_t)opt.macro, &g, &built);
+    if (s) return s;
+    prt_stats st;
+    cg_bytes(&g, m->triangle_count, opt.tri != 0, &st);
+    out->bytes_tree = st.bytes_tree, out->bytes_geometry = st.bytes_geometry, out->bytes_other = st.bytes_other;
+    out->sample_triangles = m->triangle_count;
+    prt__estimate_finish(out, m->triangle_count);
+    return PRT_OK;
+}
+
+static const prt_accel_caps cgrid_caps = {.update = cg_update, .estimate = cg_estimate};
 
 const prt_accel_ops prt__cgrid_ops = {
     .name = "cgrid",

@@ -66,6 +66,30 @@ static size_t distinct_corners(const lg_source *s, size_t n) {
     return d;
 }
 
+/* The records of m: sub-grids (ex) and clusters of the other triangles (tris, tri_ids). */
+static prt_status find_records(const prt_mesh *m, int threads, uint32_t **canon, lg_extraction *ex, lg_tri_rec **tris,
+                               uint32_t **tri_ids, size_t *ntri_rec) {
+    prt_status s = prt__mesh_weld(m, canon);
+    if (!s) s = lg_extract(m, *canon, ex);
+    if (!s && ex->subgrid_count + ex->loose_count == 0)
+        s = prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: the mesh has no triangle that can be hit (all %zu are degenerate)",
+                      m->triangle_count);
+    if (!s) s = lg_cluster(m, *canon, ex->loose, ex->loose_count, threads, tris, tri_ids, ntri_rec);
+    return s;
+}
+
+prt_status lg_count_records(const prt_mesh *m, int threads, size_t *records) {
+    uint32_t *canon = NULL, *tri_ids = NULL;
+    lg_extraction ex = {0};
+    lg_tri_rec *tris = NULL;
+    size_t ntri_rec = 0;
+    prt_status s = find_records(m, threads, &canon, &ex, &tris, &tri_ids, &ntri_rec);
+    *records = s ? 0 : ex.subgrid_count + ntri_rec;
+    prt__free(canon), prt__free(tri_ids), prt__free(tris);
+    lg_extraction_free(&ex);
+    return s;
+}
+
 prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob *blob, uint32_t **order,
                          lg_build_report *rep) {
     memset(rep, 0, sizeof *rep);
@@ -79,12 +103,7 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
     bvh_prim *prims = NULL;
     bvh_tree tree = {0};
     size_t ntri_rec = 0;
-    prt_status s = prt__mesh_weld(m, &canon);
-    if (!s) s = lg_extract(m, canon, &ex);
-    if (!s && ex.subgrid_count + ex.loose_count == 0)
-        s = prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: the mesh has no triangle that can be hit (all %zu are degenerate)",
-                      m->triangle_count);
-    if (!s) s = lg_cluster(m, canon, ex.loose, ex.loose_count, bp->threads, &tris, &tri_ids, &ntri_rec);
+    prt_status s = find_records(m, bp->threads, &canon, &ex, &tris, &tri_ids, &ntri_rec);
     const size_t ng = ex.subgrid_count, nrec = ng + ntri_rec;
     if (!s && ex.grid_triangles + ex.loose_count > UINT32_MAX)
         s = prt__fail(PRT_ERROR_LIMIT, "lossygrid: %zu triangles exceed 32-bit positions", ex.grid_triangles + ex.loose_count);

@@ -31,6 +31,10 @@ typedef struct lg_build_report {
 prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *p, bvh_blob *blob, uint32_t **order,
                          lg_build_report *report);
 
+/* How many records lg_build_blob would make of m (sub-grids and clusters of the other
+ * triangles), without encoding them (prt_estimate). */
+prt_status lg_count_records(const prt_mesh *m, int threads, size_t *records);
+
 /* Check a loaded blob: nodes as wide8_check does, every record well formed and naming
  * positions below sh->triangles. */
 prt_status lg_blob_check(const bvh_blob *b, const bvh_shared *sh);
