@@ -8,7 +8,11 @@ within the budget, and their ratio. Auto decides from the built-in cost table (P
 pointed at nothing), so a mesh other than the ones the table was measured on tests how well
 the table carries over.
 
-Usage: bench/auto_check.py PACKRT MESH [--budgets 8,12,16,24,48,0] [--rounds 3] [bench options...]
+With --all, every representation (`packrt bench -r all`, plus the cost table's specs with
+options, such as ids=none, that `packrt list` does not name) is measured instead of auto's
+candidates, so "best in budget" is the best packrt has, not the best auto could choose.
+
+Usage: bench/auto_check.py PACKRT MESH [--all] [--budgets 8,12,16,24,48,0] [--rounds 3] [bench options...]
 """
 import json
 import os
@@ -18,6 +22,14 @@ import sys
 import tempfile
 
 
+def table_specs_with_options():
+    """The built-in cost table's specs that carry options (`packrt list` names none of them)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "src", "api", "auto_costs.tsv")
+    with open(path) as f:
+        specs = [line.split("\t")[0] for line in f if line.strip() and not line.startswith("#")]
+    return sorted({s for s in specs if "," in s})
+
+
 def main():
     args = sys.argv[1:]
     if len(args) < 2:
@@ -25,9 +37,13 @@ def main():
     packrt, mesh, rest = args[0], args[1], args[2:]
     budgets, rounds = [8, 12, 16, 24, 48, 0], "3"
     extra = []
+    which = None
     i = 0
     while i < len(rest):
-        if rest[i] == "--budgets":
+        if rest[i] == "--all":
+            which = ["-r", "all"] + [a for spec in table_specs_with_options() for a in ("-r", spec)]
+            i += 1
+        elif rest[i] == "--budgets":
             budgets = [float(b) for b in rest[i + 1].split(",")]
             i += 2
         elif rest[i] == "--rounds":
@@ -38,7 +54,8 @@ def main():
             i += 1
     env = dict(os.environ, PRT_COSTS="/nonexistent/packrt-costs.tsv")
     with tempfile.TemporaryDirectory() as tmp:
-        out = subprocess.run([packrt, "bench", mesh, "--calibrate", "--costs", os.path.join(tmp, "c.tsv"), "--json",
+        which = which or ["--calibrate", "--costs", os.path.join(tmp, "c.tsv")]
+        out = subprocess.run([packrt, "bench", mesh] + which + ["--json",
                               "--workload", "random", "--no-cold", "--threads", "1", "--rounds", rounds] + extra,
                              env=env, capture_output=True, text=True)
     if out.returncode:
