@@ -111,6 +111,11 @@ prt_status prt__sample_make(const prt_mesh *m, prt__sample *out) {
         size_t got = grow(m, &f, seed, each, queue, taken);
         for (size_t i = 0; i < got; i++) taken[queue[i]] = 0;
         if ((s = extract(m, queue, got, remap, &out->part[p]))) break;
+        if (!(out->ids[p] = malloc(got * sizeof *out->ids[p]))) {
+            s = prt__fail(PRT_ERROR_NOMEM, "prt_estimate: no memory");
+            break;
+        }
+        memcpy(out->ids[p], queue, got * sizeof *queue); /* sorted by extract, as the patch's triangles */
         out->count++;
         out->triangles += got;
     }
@@ -120,7 +125,7 @@ prt_status prt__sample_make(const prt_mesh *m, prt__sample *out) {
 }
 
 void prt__sample_free(prt__sample *s) {
-    for (int p = 0; p < PRT__SAMPLE_PARTS; p++) prt_mesh_free(s->part[p]);
+    for (int p = 0; p < PRT__SAMPLE_PARTS; p++) prt_mesh_free(s->part[p]), free(s->ids[p]);
     memset(s, 0, sizeof *s);
 }
 
