@@ -294,11 +294,47 @@ TEST(test_wide8_filled_collapse_same_hits_no_more_nodes) {
     prt_mesh_free(m);
 }
 
+/* The kernels take a leaf's grain from the codec (a constant per codec, as wide8_pack
+ * chooses it), not from the blob. A blob whose header halves the grain and doubles every
+ * leaf end describes the very same leaf bytes, so every other check passes, yet the
+ * kernels would read each leaf at twice its offset: validation refuses it. */
+TEST(test_wide8_blob_with_another_grain_is_refused) {
+    prt_mesh *m = mesh_random_soup(500, 3);
+    bvh_prim *p = mesh_prims(m);
+    bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 8, .block = 1, .threads = 1};
+    bvh_tree tree;
+    CHECK_OK(bvh_build(p, m->triangle_count, &bp, &tree));
+    const bvh_codec *c = &bvh_codecs[BVH_CODEC_float3_soa4];
+    bvh_blob blob;
+    CHECK_OK(bvh_layout_wide8.encode(&tree, c, m, &blob));
+    CHECK_OK(bvh_layout_wide8.validate(&blob, c, &(bvh_shared){0}));
+    wide8_header hd;
+    memcpy(&hd, blob.data, sizeof hd);
+    CHECK_MSG(hd.grain == 160, "float3-soa4 leaves: 160 bytes a block, grain %u", hd.grain);
+    hd.grain /= 2;
+    memcpy(blob.data, &hd, sizeof hd);
+    bool fits = true;
+    for (uint32_t q = 0; q < hd.nodes; q++) {
+        wide8_node n;
+        uint8_t *at = blob.data + WIDE8_HEADER_BYTES + (size_t)q * WIDE8_NODE_BYTES;
+        memcpy(&n, at, sizeof n);
+        for (int i = 0; i < 8; i++) fits &= n.meta[i] < 128, n.meta[i] = (uint8_t)(2 * n.meta[i]);
+        memcpy(at, &n, sizeof n);
+    }
+    CHECK(fits);
+    CHECK(bvh_layout_wide8.validate(&blob, c, &(bvh_shared){0}) == PRT_ERROR_CORRUPT);
+    prt__free(blob.data);
+    bvh_tree_free(&tree);
+    free(p);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_wide8_child_boxes_contain_their_triangles);
     RUN(test_wide8_far_and_tiny_meshes_hit_as_brute_force);
     RUN(test_wide8_largest_leaves_fit_the_meta_bits);
     RUN(test_wide8_folded_box_test_is_conservative);
     RUN(test_wide8_filled_collapse_same_hits_no_more_nodes);
+    RUN(test_wide8_blob_with_another_grain_is_refused);
     TEST_END();
 }

@@ -163,9 +163,9 @@ static inline void lg_shear(const lg_grid_vertices *g, int rows, const prt__rayx
                             lg_sheared *o) {
     const int kx = r->kx, ky = r->ky, kz = r->kz;
     for (int j = 0; j < rows; j++) {
-        const vf8 az = g->w[kz][j] - rw->org[kz];
-        o->x[j] = (g->w[kx][j] - rw->org[kx]) - rw->sx * az;
-        o->y[j] = (g->w[ky][j] - rw->org[ky]) - rw->sy * az;
+        const vf8 az = g->w[kz][j] - rw->o[2]; /* rw->o: the origin's axes kx, ky, kz */
+        o->x[j] = (g->w[kx][j] - rw->o[0]) - rw->sx * az;
+        o->y[j] = (g->w[ky][j] - rw->o[1]) - rw->sy * az;
         o->z[j] = rw->sz * az;
     }
 }

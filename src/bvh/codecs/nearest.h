@@ -52,18 +52,16 @@ static inline void bvh_take_nearest_seq(prt__hitx *h, const float *t, const floa
 static inline void bvh_take_block4_seq(prt__hitx *h, vf4 t, vf4 u, vf4 v, int mask, uint32_t first,
                                        const bvh_shared *sh) {
     const uint32_t ids[4] = {first, first + 1, first + 2, first + 3};
-    float tt[4], uu[4], vv[4];
-    memcpy(tt, &t, sizeof tt), memcpy(uu, &u, sizeof uu), memcpy(vv, &v, sizeof vv);
-    bvh_take_nearest_seq(h, tt, uu, vv, ids, (unsigned)mask, vf4_hmin(t), sh);
+    /* The lanes read in place (a vector's elements may be read as floats): copies into
+     * arrays cost the compiler dozens of moves per hit block. */
+    bvh_take_nearest_seq(h, (const float *)&t, (const float *)&u, (const float *)&v, ids, (unsigned)mask, vf4_hmin(t), sh);
 }
 
 /* The same for an 8-lane block: two consecutive 4-lane blocks, ids first .. first + 7. */
 static inline void bvh_take_block8_seq(prt__hitx *h, vf8 t, vf8 u, vf8 v, int mask, uint32_t first,
                                        const bvh_shared *sh) {
     const uint32_t ids[8] = {first, first + 1, first + 2, first + 3, first + 4, first + 5, first + 6, first + 7};
-    float tt[8], uu[8], vv[8];
-    memcpy(tt, &t, sizeof tt), memcpy(uu, &u, sizeof uu), memcpy(vv, &v, sizeof vv);
-    bvh_take_nearest_seq(h, tt, uu, vv, ids, (unsigned)mask, vf8_hmin(t), sh);
+    bvh_take_nearest_seq(h, (const float *)&t, (const float *)&u, (const float *)&v, ids, (unsigned)mask, vf8_hmin(t), sh);
 }
 
 #endif

@@ -43,6 +43,17 @@ _Static_assert(sizeof(wide8_header) == 16, "wide8 header is 16 bytes");
 #define WIDE8_OFFSET_MASK ((1ull << 56) - 1)
 #define WIDE8_STACK (7 * BVH_MAX_DEPTH + 8)
 
+/* The grain of leaf sizes head + k * per (wide8_header): gcd(head, per), or per when head
+ * is 0. Constant per codec, so the kernels fold it. */
+static inline size_t wide8_grain(size_t head, size_t per) {
+    size_t a = head, b = per;
+    while (b) {
+        const size_t r = a % b;
+        a = b, b = r;
+    }
+    return head ? a : per;
+}
+
 /* The scale 2^(e - 127) of an exponent byte in [1, 254]. */
 static inline float wide8_scale(uint8_t e) {
     uint32_t bits = (uint32_t)e << 23;

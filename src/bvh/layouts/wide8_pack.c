@@ -155,14 +155,6 @@ static void plan_node(encoder *e, uint32_t q, uint32_t bin, uint32_t depth) {
     for (int i = 0; i < inner; i++) plan_node(e, p->child + (uint32_t)i, p->bin[i], depth + 1);
 }
 
-static size_t gcd_size(size_t a, size_t b) {
-    while (b) {
-        size_t r = a % b;
-        a = b, b = r;
-    }
-    return a;
-}
-
 static size_t align_up(size_t x, size_t a) { return (x + a - 1) / a * a; }
 
 /* Quantize the child boxes of one axis on the grid p + q * s: the smallest power-of-two
@@ -261,7 +253,7 @@ static prt_status pack(const bvh_tree *t, const wide8_leaves *c, float node_fixe
     /* Leaves merge up to the largest leaf the builder made. */
     const uint32_t max_leaf = bvh_tree_max_leaf(t);
     const size_t head = c->bytes(c->ctx, 0), per = c->bytes(c->ctx, (uint32_t)c->block) - head;
-    const size_t grain = head ? gcd_size(head, per) : per;
+    const size_t grain = wide8_grain(head, per);
     if (c->align % 4 || grain % 4 || grain > UINT32_MAX)
         return prt__fail(PRT_ERROR_LIMIT, "wide8: %s has leaf sizes that are not multiples of 4 bytes", c->name);
     collapse cl = {.t = t, .lv = c, .grain = grain, .max_leaf = (int)max_leaf, .node_fixed = node_fixed};
@@ -304,7 +296,8 @@ prt_status wide8_check(const bvh_blob *b, const wide8_leaves *c) {
     memcpy(&hd, b->data, sizeof hd);
     const size_t head = c->bytes(c->ctx, 0), per = c->bytes(c->ctx, (uint32_t)c->block) - head;
     const size_t tree = WIDE8_HEADER_BYTES + (size_t)hd.nodes * WIDE8_NODE_BYTES;
-    if (hd.nodes == 0 || hd.nodes != b->nodes || hd.grain == 0 || hd.grain % 4 || hd.geometry < tree ||
+    /* The grain wide8_pack chooses, which the kernels assume (a constant per codec). */
+    if (hd.nodes == 0 || hd.nodes != b->nodes || hd.grain != wide8_grain(head, per) || hd.grain % 4 || hd.geometry < tree ||
         hd.geometry != b->bytes_tree || hd.geometry > b->size || hd.geometry % 16 || hd.geometry % c->align)
         return prt__fail(PRT_ERROR_CORRUPT, "wide8 tree: header inconsistent with its size");
     uint8_t *depth = prt__calloc(hd.nodes, 1);
