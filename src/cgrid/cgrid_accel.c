@@ -220,8 +220,21 @@ static bool cg_name_at(size_t i, const char **name, const char **desc) {
     return true;
 }
 
-/* Refit: prt_accel_update moves the vertices of the built mesh. */
-static const prt_accel_caps cgrid_caps = {.update = cg_update};
+/* The counters of the paper's Tables 1, 3 and 4 (cg_counters), read and reset. */
+static size_t cg_counters_take(prt_counter *out) {
+    const cg_counters c = prt__cgrid_counters_get();
+    const prt_counter all[] = {{"cells", c.cells},         {"tests", c.tests},   {"packets", c.packets},
+                               {"slices", c.slices},       {"macro_skips", c.macro_skips},
+                               {"culled", c.culled},       {"mailboxed", c.mailboxed},
+                               {"dda_rays", c.dda_rays}};
+    _Static_assert(sizeof all / sizeof all[0] <= PRT_COUNTERS_MAX, "prt_accel_caps.counters writes at most PRT_COUNTERS_MAX");
+    prt__cgrid_counters_reset();
+    memcpy(out, all, sizeof all);
+    return sizeof all / sizeof all[0];
+}
+
+/* Refit: prt_accel_update moves the vertices of the built mesh; counters for the tools. */
+static const prt_accel_caps cgrid_caps = {.update = cg_update, .counters = cg_counters_take};
 
 const prt_accel_ops prt__cgrid_ops = {
     .name = "cgrid",
