@@ -36,8 +36,7 @@
     X(idx16_bitpack_soa4, "idx16-bitpack-soa4", "Indexed16BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 16-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
     X(idx32_bitpack_soa4, "idx32-bitpack-soa4", "Indexed32BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 32-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
     X(bitpack_soa4, "bitpack-soa4", "BitPackSOA4 (Rouwe 3.5): 16-bit components of 4 triangles in SOA form over a float grid per block, one id per leaf; lossy") \
-    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy") \
-    X(dummy, "dummy", "A copy of float3 that checks docs/extending.md's codec recipe")
+    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy")
 
 /* Codecs whose leaves hold entries of a kind of their own (bvh/leaf_kind.h), which each
  * names as <id>_leaf_kind in its header. */
