@@ -1,5 +1,5 @@
 /* packrt animate DIR|SCENE: an animated mesh, frame after frame. Each frame's vertex
- * positions go to prt_accel_update where the representation has it (cgrid) and to a
+ * positions go to prt_accel_update where the representation has it and to a
  * rebuild from scratch otherwise (BVHs); then either the frame is rendered to PNG, or
  * (--bench) primary rays are traced in N x N packets and rebuild and trace times printed,
  * optionally beside Embree rebuilt every frame (DYNAMIC scene, LOW quality, rtcIntersect16);
@@ -9,7 +9,7 @@
  * faces; SCENE is an animated generator kind (twist, marbles, toys). */
 #include "bench.h"
 #include "cli.h"
-#include "cgrid/cgrid.h"
+#include "api/accel.h"
 #include "embree_animate.h"
 #include "mesh/gen.h"
 #include "render/render.h"
@@ -24,16 +24,19 @@
 #include <sys/stat.h>
 
 #define MAX_SPECS 8
+/* The representation animated when no -r is given: the coherent grid (Wald et al. 2006),
+ * whose animated scenes this command replays. */
+#define DEFAULT_SPEC "cgrid"
 
 static int usage(void) {
     printf("usage: packrt animate DIR|SCENE [-r SPEC]... [-o frames/] [--bench] [--vs embree] [--json] [options]\n"
            "\n"
            "DIR: one mesh file per frame (.ply, .obj, .stl, .off, .glb, .gltf, in name order), all with the same faces\n"
            "(the BART scenes in ../shared/data). SCENE: an animated generator: twist | marbles | toys.\n"
-           "Every frame, representations with prt_accel_update (cgrid, BVH specs with update=refit)\n"
+           "Every frame, representations with prt_accel_update (the default, BVH specs with update=refit)\n"
            "are updated in place, the others built again from scratch.\n"
            "\n"
-           "  -r SPEC         representation (default cgrid); repeat for several in the same run\n"
+           "  -r SPEC         representation (default " DEFAULT_SPEC "); repeat for several in the same run\n"
            "  -o DIR          write frame_NNN.png per frame (diffuse shading) into DIR\n"
            "  --bench         trace primary rays in N x N packets; print rebuild and trace ms per frame\n"
            "                  and their medians over frames 1.. (frame 0 is the first build)\n"
@@ -42,8 +45,8 @@ static int usage(void) {
            "  --shadows       --bench: also trace a shadow ray from every primary hit to a point light,\n"
            "                  in the same packets (prt_occluded_packet; Embree: rtcOccluded16), timed apart\n"
            "  --light x,y,z   the point light (implies --shadows; default: above the scene's bounds)\n"
-           "  --counters      --bench: also count cells and ray-triangle tests (cgrid; an extra\n"
-           "                  untimed single-thread pass per frame)\n"
+           "  --counters      --bench: also the work counters of representations that keep them (cells,\n"
+           "                  ray-triangle tests; an extra untimed single-thread pass per frame)\n"
            "  --size WxH      image size (default 1024x1024)\n"
            "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov (default 40); default: the\n"
            "                  framing of the union of all frames' bounds that packrt bench uses\n"
@@ -255,7 +258,8 @@ typedef struct series {
     bench_embree_anim *embree;
     bool updates; /* prt_accel_update works */
     double *rebuild, *trace, *rebuild_cpu, *trace_cpu, *shadow, *shadow_cpu;
-    uint64_t cells, tests;
+    prt_counter counts[PRT_COUNTERS_MAX]; /* --counters: totals over the frames */
+    size_t ncounts;
     size_t agree, compared, shadow_agree, shadowed, lit;
     uint32_t *prims;
     float *t;
@@ -368,7 +372,7 @@ static int parse_args(int argc, char **argv, anim_args *g) {
     }
     if (!g->src) return cli_usage("animate", "give a frame directory or a scene (twist, marbles, toys)");
     if (!g->bench && !g->outdir) return cli_usage("animate", "nothing to do: give -o DIR and/or --bench");
-    if (!g->nspecs) g->specs[g->nspecs++] = "cgrid";
+    if (!g->nspecs) g->specs[g->nspecs++] = DEFAULT_SPEC;
     if (!g->threads) g->threads = omp_get_max_threads();
     return 0;
 }
@@ -477,19 +481,20 @@ static prt_status advance_series(series *r, const anim_args *g, int i, size_t f,
     return s;
 }
 
-/* --counters: one untimed single-thread pass counting cells and triangle tests (cgrid). */
-static void count_cells(series *r, const tracer *t, const render_camera *rcam, const anim_args *g) {
-    prt__cgrid_counters_reset();
+/* --counters: one untimed single-thread pass counting the work the family counts
+ * (prt_accel_caps.counters: cells, triangle tests, ...), added to the series' totals. */
+static void count_work(series *r, const tracer *t, const render_camera *rcam, const anim_args *g) {
+    size_t (*take)(prt_counter *) = PRT_CAP(r->accel, counters);
+    if (!take) return;
+    prt_counter c[PRT_COUNTERS_MAX];
+    take(c); /* drop what the timed passes counted */
     trace_image(t, rcam, g->packet, 1);
     if (g->shadows) shadow_image(t, rcam, g->packet, 1, g->light);
-    cg_counters c = prt__cgrid_counters_get();
-    r->cells += c.cells;
-    r->tests += c.tests;
-    if (getenv("PRT_CGRID_COUNTERS"))
-        fprintf(stderr, "packets %llu slices %llu macro skips %llu cells %llu tests %llu culled %llu mailboxed %llu dda rays %llu\n",
-                (unsigned long long)c.packets, (unsigned long long)c.slices, (unsigned long long)c.macro_skips,
-                (unsigned long long)c.cells, (unsigned long long)c.tests, (unsigned long long)c.culled,
-                (unsigned long long)c.mailboxed, (unsigned long long)c.dda_rays);
+    r->ncounts = take(c);
+    for (size_t k = 0; k < r->ncounts; k++) {
+        r->counts[k].name = c[k].name;
+        r->counts[k].value += c[k].value;
+    }
 }
 
 /* --bench at frame f: primary (and shadow) rays traced --repeat times, the medians kept,
@@ -520,7 +525,7 @@ static void bench_series(series *r, const series *first, int i, size_t f, const 
             if (i > 0) r->shadow_agree += r->occluded[p] == first->occluded[p];
         }
     }
-    if (g->counters && r->accel && !strncmp(prt_accel_spec(r->accel), "cgrid", 5)) count_cells(r, &t, rcam, g);
+    if (g->counters && r->accel) count_work(r, &t, rcam, g);
     if (i > 0) {
         for (size_t p = 0; p < pixels; p++) r->agree += r->prims[p] == first->prims[p];
         r->compared += pixels;
@@ -561,7 +566,7 @@ static void print_medians(const series *ser, int nser, const anim *an, const ani
                an->name, an->nframes, an->base->triangle_count, g->W, g->H, g->packet, g->threads);
     } else {
         printf("\nmedians over frames %zu..%zu%s:\n%-52s %10s %10s %10s %8s %12s %12s", first, an->nframes - 1,
-               g->counters ? " (cells, tests: totals over the frames, one thread)" : "", "representation", "rebuild ms",
+               g->counters ? " (counters: totals over the frames, one thread)" : "", "representation", "rebuild ms",
                "trace ms", "total ms", "fps", "build Mtri/s", "same prim %");
         if (g->shadows) printf(" %10s %10s %8s %10s %10s", "shadow ms", "total+shd", "fps+shd", "shadowed %", "same shd %");
         printf("\n");
@@ -577,12 +582,14 @@ static void print_medians(const series *ser, int nser, const anim *an, const ani
         double agree = r->compared ? 100.0 * (double)r->agree / (double)r->compared : 100.0;
         if (g->json) {
             printf("%s{\"representation\": \"%s\", \"updates\": %s, \"rebuild_ms\": %.3f, \"trace_ms\": %.3f, "
-                   "\"fps\": %.2f, \"build_mtris_per_s\": %.2f, \"same_prim_percent\": %.3f, \"cells\": %llu, "
-                   "\"tests\": %llu, \"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f, \"shadow_ms\": %.3f, "
-                   "\"shadow_cpu_ms\": %.3f, \"shadowed_percent\": %.3f, \"same_shadow_percent\": %.3f}",
+                   "\"fps\": %.2f, \"build_mtris_per_s\": %.2f, \"same_prim_percent\": %.3f, "
+                   "\"rebuild_cpu_ms\": %.3f, \"trace_cpu_ms\": %.3f, \"shadow_ms\": %.3f, "
+                   "\"shadow_cpu_ms\": %.3f, \"shadowed_percent\": %.3f, \"same_shadow_percent\": %.3f",
                    i ? ", " : "", r->label, r->updates ? "true" : "false", 1e3 * rb, 1e3 * tr, 1.0 / (rb + tr),
-                   ntri / rb * 1e-6, agree, (unsigned long long)r->cells, (unsigned long long)r->tests, 1e3 * rbc,
-                   1e3 * trc, 1e3 * sh, 1e3 * shc, shaded, same_shd);
+                   ntri / rb * 1e-6, agree, 1e3 * rbc, 1e3 * trc, 1e3 * sh, 1e3 * shc, shaded, same_shd);
+            for (size_t k = 0; k < r->ncounts; k++)
+                printf(", \"%s\": %llu", r->counts[k].name, (unsigned long long)r->counts[k].value);
+            printf("}");
             continue;
         }
         printf("%-52s %10.2f %10.2f %10.2f %8.2f %12.2f %12.3f", r->label, 1e3 * rb, 1e3 * tr, 1e3 * (rb + tr),
@@ -592,7 +599,7 @@ static void print_medians(const series *ser, int nser, const anim *an, const ani
                    same_shd);
         if (g->threads == 1) printf("  cpu: rebuild %.2f trace %.2f ms", 1e3 * rbc, 1e3 * trc);
         if (g->threads == 1 && g->shadows) printf(" shadow %.2f ms", 1e3 * shc);
-        if (g->counters && r->cells) printf("  cells %.3fM tests %.3fM", (double)r->cells * 1e-6, (double)r->tests * 1e-6);
+        for (size_t k = 0; k < r->ncounts; k++) printf("  %s %.3fM", r->counts[k].name, (double)r->counts[k].value * 1e-6);
         printf("\n");
     }
     if (g->json) printf("]}\n");

@@ -41,6 +41,13 @@ typedef struct prt_accel_ops {
 /* Bytes of a file's start that a family's probe sees (fewer when the file is shorter). */
 #define PRT_PROBE_BYTES 256
 
+/* A named count of work (cells visited, triangle tests), for prt_accel_caps.counters. */
+typedef struct prt_counter {
+    const char *name;
+    uint64_t value;
+} prt_counter;
+#define PRT_COUNTERS_MAX 16
+
 /* Optional capabilities of a family, each found through the registry or the accel's ops
  * rather than by naming the family; a NULL member is a capability the family lacks, and
  * the API layer then answers as the comment says. */
@@ -80,6 +87,10 @@ typedef struct prt_accel_caps {
      * grid or its sub-grids depend on the whole mesh): smp->mesh is the whole mesh, and
      * prt__sample_build_estimate the patches' figure (api/estimate.h). NULL: that figure. */
     prt_status (*estimate)(const struct prt__sample *smp, const char *spec, int threads, prt_size_estimate *out);
+    /* Work counters of the calling thread's queries since the last call (packrt animate
+     * --counters): writes up to PRT_COUNTERS_MAX named totals to out, returns how many and
+     * resets them. NULL: the family counts nothing. */
+    size_t (*counters)(prt_counter *out);
 } prt_accel_caps;
 
 struct prt_accel {

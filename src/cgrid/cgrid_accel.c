@@ -220,7 +220,6 @@ static bool cg_name_at(size_t i, const char **name, const char **desc) {
     return true;
 }
 
-/* Refit: prt_accel_update moves the vertices of the built mesh. */
 /* The grid's resolution comes from the whole mesh's bounds and count, which a sample's
  * patches change (10-15% low), so count the whole mesh's cells and references instead:
  * the build's own passes without storing (cg_count), hence exact. */
@@ -245,7 +244,22 @@ static prt_status cg_estimate(const prt__sample *smp, const char *spec_text, int
     return PRT_OK;
 }
 
-static const prt_accel_caps cgrid_caps = {.update = cg_update, .estimate = cg_estimate};
+/* The counters of the paper's Tables 1, 3 and 4 (cg_counters), read and reset. */
+static size_t cg_counters_take(prt_counter *out) {
+    const cg_counters c = prt__cgrid_counters_get();
+    const prt_counter all[] = {{"cells", c.cells},         {"tests", c.tests},   {"packets", c.packets},
+                               {"slices", c.slices},       {"macro_skips", c.macro_skips},
+                               {"culled", c.culled},       {"mailboxed", c.mailboxed},
+                               {"dda_rays", c.dda_rays}};
+    _Static_assert(sizeof all / sizeof all[0] <= PRT_COUNTERS_MAX, "prt_accel_caps.counters writes at most PRT_COUNTERS_MAX");
+    prt__cgrid_counters_reset();
+    memcpy(out, all, sizeof all);
+    return sizeof all / sizeof all[0];
+}
+
+/* Refit: prt_accel_update moves the vertices of the built mesh; counters for the tools;
+ * sizes from the whole mesh. */
+static const prt_accel_caps cgrid_caps = {.update = cg_update, .counters = cg_counters_take, .estimate = cg_estimate};
 
 const prt_accel_ops prt__cgrid_ops = {
     .name = "cgrid",

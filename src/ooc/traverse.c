@@ -5,7 +5,11 @@
  *
  * Everything read from a block is checked against the block's size, and kinds against
  * the block table, so a corrupt file that passed its checksums cannot make us read
- * outside a block; depth is bounded by the stack. */
+ * outside a block; depth is bounded by the stack.
+ *
+ * One walk answers every query: 16 rays in SIMD lanes (LOD packets), or one ray in lane 0
+ * (walk1: exact queries, single LOD queries, the rays a packet leaves alone), exact or LOD
+ * (packet16.lod), closest or any hit (packet16.any). */
 #include "ooc/ooc_accel.h"
 
 #include "core/simd16.h"
@@ -19,15 +23,6 @@
 #define MINF(a, b) ((a) < (b) ? (a) : (b))
 #define MAXF(a, b) ((a) > (b) ? (a) : (b))
 
-typedef struct entry {
-    uint32_t block, off;
-    float tmin, tmax;
-    int axis; /* entry axis */
-    int depth;
-    int nvox;
-    const uint8_t *vox; /* the last LOD voxel, where it lies in its block (lod_node) */
-} entry;
-
 typedef struct walker {
     ooc_accel *a;
     bool lod;       /* LOD query: never wait for a block */
@@ -35,10 +30,6 @@ typedef struct walker {
     uint32_t held;  /* node block held (exact queries pin it), UINT32_MAX none */
     const uint8_t *blk;
     uint32_t size;
-    /* The closest triangle hit's geometric normal (not normalised) and colour, for LOD
-     * queries, which answer with shading data (the renderer has no mesh to look it up). */
-    float tn[3];
-    uint16_t tcolor;
 } walker;
 
 static inline const uint8_t *acquire(walker *w, uint32_t b, uint32_t kind, uint32_t *size) {
@@ -68,12 +59,6 @@ static inline bool enter_block(walker *w, uint32_t b) {
 static void finish(walker *w) {
     if (w->held != UINT32_MAX) release(w, w->held);
     w->held = UINT32_MAX;
-}
-
-/* The end of a walk: its block let go, its answer returned. */
-static inline bool done(walker *w, bool hit) {
-    finish(w);
-    return hit;
 }
 
 /* An inner node's split axis and plane (w0, w1 its two words): false, counted as a
@@ -136,51 +121,6 @@ static bool leaf_list(const uint8_t *p, uint32_t size, uint32_t w0, uint32_t *li
     return *list + 2 * *n <= sec[0];
 }
 
-/* Intersect a leaf's triangles; false when its block is missing (LOD) or corrupt. */
-static bool leaf(walker *w, const prt__rayx *rx, uint32_t w0, uint32_t tb, prt__hitx *hit, bool any, bool *found) {
-    uint32_t size;
-    const uint8_t *p = acquire(w, tb, OOC_BLOCK_TRIS, &size);
-    if (!p) return false;
-    uint16_t sec[2];
-    memcpy(sec, p, 4);
-    uint32_t list, n, ntri, nvert;
-    bool ok = leaf_list(p, size, w0, &list, &n, &ntri, &nvert);
-    for (uint32_t i = 0; ok && i < n; i++) {
-        uint16_t ti;
-        memcpy(&ti, p + list + 2 * i, 2);
-        if (ti >= ntri) {
-            ok = false;
-            break;
-        }
-        ooc_tri t;
-        memcpy(&t, p + sec[0] + (size_t)ti * sizeof(ooc_tri), sizeof t);
-        if (t.v[0] >= nvert || t.v[1] >= nvert || t.v[2] >= nvert) {
-            ok = false;
-            break;
-        }
-        float v[3][3];
-        for (int k = 0; k < 3; k++) memcpy(v[k], p + sec[1] + 12u * t.v[k], 12);
-        float tt, u, vv;
-        if (!prt__tri_hit(rx, v[0], v[1], v[2], hit->t, &tt, &u, &vv)) continue;
-        if (tt < hit->t || t.prim < hit->prim) {
-            hit->t = tt, hit->u = u, hit->v = vv, hit->prim = t.prim;
-            *found = true;
-            if (w->lod) {
-                float e1[3], e2[3];
-                for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
-                w->tn[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                w->tn[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                w->tn[2] = e1[0] * e2[1] - e1[1] * e2[0];
-                w->tcolor = t.color;
-            }
-            if (any) break;
-        }
-    }
-    release(w, tb);
-    if (!ok) atomic_fetch_add(&w->a->cache.failures, 1);
-    return ok;
-}
-
 /* The ray's segment inside the root cell, and the axis of the slab it enters last (the
  * entry axis). False when it misses the cell. */
 static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, float tfar, float *tmin_out, float *tmax_out,
@@ -219,187 +159,6 @@ static inline bool voxel_stop(const prt__rayx *rx, float tmin, int a, int nvox, 
     return true;
 }
 
-/* The walk shared by all queries. Returns true on a hit: a triangle (hit->prim) or, for
- * LOD queries, a voxel (hit->prim = PRT_VOXEL_HIT, *sample its shading sample). */
-static bool walk(walker *w, const prt_ray *r, prt__hitx *hit, bool any, uint32_t *sample, float *voxel_radius) {
-    const ooc_accel *a = w->a;
-    prt__rayx rx;
-    prt__rayx_init(&rx, r);
-    hit->t = r->tfar, hit->prim = PRT_INVALID, hit->u = hit->v = 0.0f;
-    float tmin, tmax;
-    int axis_in;
-    if (!clip_root(a, &rx, r->tnear, r->tfar, &tmin, &tmax, &axis_in)) return false;
-
-    entry stack[OOC_MAX_DEPTH + 2];
-    int sp = 0;
-    uint32_t block = a->h.root_block, off = a->h.root_offset;
-    /* The last LOD voxel above the ray (lod_node). */
-    int nvox = 0;
-    const uint8_t *vox = NULL;
-    float vox_radius = 0.0f;
-    bool found = false;
-    int depth = 0;
-
-
-    for (;;) {
-        bool pop = false;
-        if (!enter_block(w, block) || off + 8 > w->size || depth > OOC_MAX_DEPTH) {
-            if (w->lod && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
-            pop = true;
-        }
-        while (!pop) {
-            uint32_t w0, w1;
-            memcpy(&w0, w->blk + off, 4);
-            memcpy(&w1, w->blk + off + 4, 4);
-            if (!(w0 & OOC_INNER)) {
-                bool ok = leaf(w, &rx, w0, w1, hit, any, &found);
-                if (!ok && w->lod && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
-                if (found && (any || hit->t < tmax)) { /* at tmax exactly, a tie may lie beyond */
-                    finish(w);
-                    return true;
-                }
-                pop = true;
-                break;
-            }
-            int axis;
-            float split;
-            uint32_t base = off, child_block = block;
-            if (!inner_plane(w, w0, w1, depth, &axis, &split)) {
-                pop = true;
-                break;
-            }
-            if (w0 & OOC_LOD) {
-                float radius;
-                if (!lod_node(w, off, &radius, &child_block, &vox, &nvox, &vox_radius)) {
-                    pop = true;
-                    break;
-                }
-                if (w->lod && radius <= tmin * w->C && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
-                base = 0;
-            }
-            uint32_t kid[2];
-            bool has[2];
-            inner_children(w0, base, kid, has);
-            /* Front: the side the ray is on before it crosses the plane. A ray parallel to
-             * the plane stays on its origin's side, or visits both when it lies in the
-             * plane (an empty-space cut gives what touches the plane to the full side). */
-            float t = (split - rx.org[axis]) * rx.inv[axis];
-            float t_back = t, t_front = t;
-            int front = rx.dir[axis] > 0.0f ? 0 : 1;
-            bool front_only = t > tmax;
-            if (rx.dir[axis] == 0.0f || isinf(rx.inv[axis])) { /* (as good as) parallel */
-                front = rx.org[axis] < split ? 0 : 1;
-                front_only = true;
-                if (rx.org[axis] == split) front_only = false, t = tmin, t_back = tmin, t_front = tmax, front = 0;
-            }
-            /* The front and back child by selects, not arrays indexed by the ray's side
-             * (which go through the stack on every step). */
-            const uint32_t kid_front = front ? kid[1] : kid[0], kid_back = front ? kid[0] : kid[1];
-            const bool has_front = front ? has[1] : has[0], has_back = front ? has[0] : has[1];
-            depth++;
-            /* Strict comparisons: a plane crossed exactly at the segment's end visits both
-             * sides, so a cell of zero thickness (an empty-space cut on each side of a flat
-             * group of triangles) is not stepped over. */
-            if (front_only) {
-                if (!has_front) {
-                    pop = true;
-                    break;
-                }
-                off = kid_front;
-            } else if (t < tmin) {
-                if (!has_back) {
-                    pop = true;
-                    break;
-                }
-                off = kid_back; /* entered before the plane: the entry face is the cell's */
-            } else {
-                if (has_back) {
-                    /* The back part is entered through the plane (§6.1's entry axis), unless
-                     * the plane is crossed exactly where the segment starts. */
-                    entry *e = &stack[sp++];
-                    e->block = child_block, e->off = kid_back, e->tmin = t_back, e->tmax = tmax;
-                    e->axis = t_back > tmin ? axis : axis_in;
-                    e->nvox = nvox, e->depth = depth, e->vox = vox;
-                }
-                if (!has_front) {
-                    pop = true;
-                    break;
-                }
-                off = kid_front;
-                tmax = t_front;
-            }
-            if (child_block != block) {
-                block = child_block;
-                if (!enter_block(w, block) || off + 8 > w->size) {
-                    if (w->lod && voxel_stop(&rx, tmin, axis_in, nvox, vox, vox_radius, hit, sample, voxel_radius)) return done(w, true);
-                    pop = true;
-                    break;
-                }
-            } else if (off + 8 > w->size) {
-                pop = true;
-                break;
-            }
-        }
-        /* Pop the next segment behind, unless the hit is already in front of it. */
-        for (;;) {
-            if (sp == 0) {
-                finish(w);
-                return found;
-            }
-            entry *e = &stack[--sp];
-            if (found && hit->t < e->tmin) continue;
-            block = e->block, off = e->off, tmin = e->tmin, tmax = e->tmax, axis_in = e->axis;
-            nvox = e->nvox, vox = e->vox;
-            depth = e->depth;
-            break;
-        }
-    }
-}
-
-void ooc_intersect1(const prt_accel *acc, prt_ray *r, prt_hit *h) {
-    walker w = {.a = (ooc_accel *)acc, .held = UINT32_MAX};
-    prt__hitx hit;
-    uint32_t sample;
-    float radius;
-    if (walk(&w, r, &hit, false, &sample, &radius) && hit.prim != PRT_INVALID) {
-        h->t = hit.t, h->u = hit.u, h->v = hit.v, h->prim = hit.prim, h->geom = 0;
-        r->tfar = hit.t;
-    } else {
-        *h = prt__miss();
-    }
-}
-
-bool ooc_occluded1(const prt_accel *acc, const prt_ray *r) {
-    walker w = {.a = (ooc_accel *)acc, .held = UINT32_MAX};
-    prt__hitx hit;
-    uint32_t sample;
-    float radius;
-    return walk(&w, r, &hit, true, &sample, &radius);
-}
-
-bool ooc_intersect_lod(const prt_accel *acc, prt_ray *r, float C, bool any, prt_lod_hit *out) {
-    walker w = {.a = (ooc_accel *)acc, .held = UINT32_MAX, .lod = true, .C = C};
-    prt__hitx hit;
-    uint32_t sample = 0;
-    float radius = 0.0f;
-    memset(out, 0, sizeof *out);
-    out->hit.t = INFINITY, out->hit.prim = PRT_INVALID;
-    if (!walk(&w, r, &hit, any, &sample, &radius)) return false;
-    out->hit.t = hit.t, out->hit.u = hit.u, out->hit.v = hit.v, out->hit.prim = hit.prim;
-    r->tfar = hit.t;
-    if (hit.prim == PRT_VOXEL_HIT) {
-        ooc_sample_unpack(sample, out->normal, out->color);
-        out->voxel_radius = radius;
-    } else {
-        float l = sqrtf(w.tn[0] * w.tn[0] + w.tn[1] * w.tn[1] + w.tn[2] * w.tn[2]);
-        for (int k = 0; k < 3; k++) {
-            out->normal[k] = l > 0.0f ? w.tn[k] / l : 0.0f;
-            out->color[k] = (float)((w.tcolor >> (5 * k)) & 31) / 31.0f;
-        }
-    }
-    return true;
-}
-
 /* --- 4x4 packets (§6.1: primary rays in packets of 4x4, Wald 2004) -----------------------
  * The rays of a packet share their direction signs, so they visit a node's children in the
  * same order: one walk fetches each node and block once for all of them, with a segment
@@ -426,14 +185,13 @@ static inline bool voxel_hit(packet_state *ps, int i, float tmin, int a, int nvo
 }
 
 /* --- The packet walk, 16 lanes in SIMD registers ---------------------------------------
- * packet_walks16 takes walk()'s steps on whole vectors: a node's plane distance, the
+ * walk16_run takes Wald's kd-tree steps on whole vectors: a node's plane distance, the
  * front and back masks, the segment updates and the LOD test take a few vector operations
  * for all 16 rays. Lanes outside the mask compute too, harmlessly: a ray's segment is live
  * only while its lane is in the mask, and comes back from the stack entry that holds it.
- * Every lane does walk()'s arithmetic, operation for operation (min/max as MINF/MAXF), so
- * a ray gets the same bits in a packet as alone: walk() one ray at a time is the reference
- * (ooc_intersect_lod_packet_scalar, compared by test_ooc). Only a corrupt leaf list is
- * taken differently: the packet keeps the triangles before a bad index, as it always did.
+ * Every lane does the same arithmetic, operation for operation (min/max as MINF/MAXF), so
+ * a ray gets the same bits in a packet as alone (walk1): one ray at a time is the
+ * reference for the packets (ooc_intersect_lod_packet_scalar, compared by test_ooc).
  *
  * Leaves: by the time rays reach a leaf their packet has split (1.2-2.5 rays a leaf on
  * close-up views of the 355M Mandelbulb, docs/results/ooc.md), so the leaf test is SIMD
@@ -458,13 +216,17 @@ typedef struct packet16 {
     uint32_t tri;  /* rays with a triangle hit */
     uint32_t done; /* rays stopped at a voxel, and for any-hit walks rays with any hit */
     bool any;      /* any-hit (shadow packets): a ray's first hit ends its walk */
+    bool lod;      /* LOD walk: rays stop at voxels (exact walks wait for every block) */
     int front[3];  /* the child a ray meets first on each axis (all rays share their signs) */
+    /* Axes the ray of a one-lane walk runs parallel to (or as good as: its reciprocal
+     * overflows); packets of several rays leave such rays alone, so never theirs. */
+    bool flat[3];
 } packet16;
 
 /* The rays of mask that stop at the current voxel. */
 static uint32_t voxel_hits16(packet_state *ps, packet16 *pk, uint32_t mask, vf16 tmin, vi16 axis, int nvox,
                              const uint8_t *vox, float vox_radius) {
-    if (!nvox || !mask) return 0;
+    if (!pk->lod || !nvox || !mask) return 0;
     float tm[PK];
     int32_t ax[PK];
     vf16_store(tm, tmin), vi16_store(ax, axis);
@@ -492,8 +254,9 @@ static void leaf_prefetch_tris(const uint8_t *p, uint32_t size, uint32_t w0) {
 }
 
 /* The rays of mask against a leaf's triangles in triangle block tb (at p, size bytes,
- * acquired by the caller), 8 at a time: each ray's answer is leaf()'s. False for a corrupt
- * list (a triangle index out of range ends the list instead). */
+ * acquired by the caller), 8 at a time, each ray keeping the least (t, mesh id) as a test
+ * one triangle at a time in list order would. False for a corrupt list (a bad index ends it:
+ * the triangles before it count). */
 static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t mask, uint32_t w0, uint32_t tb,
                           const uint8_t *p, uint32_t size) {
     uint16_t sec[2];
@@ -511,7 +274,7 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             uint16_t ti;
             memcpy(&ti, p + list + 2 * j, 2);
             if (ti >= ntri) {
-                more = false; /* the triangles before it count */
+                ok = more = false; /* the triangles before it count */
                 break;
             }
             /* Field by field rather than a copy of the record: straight from the block
@@ -566,6 +329,19 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
     return ok;
 }
 
+/* A plane of axis `axis` at split, for a one-lane walk whose ray runs parallel to it (x its
+ * ray): the ray stays on its origin's side (*front1, and *both false), or when it lies in
+ * the plane visits both sides over its whole segment [tmin, tmax], the low side first (an
+ * empty-space cut gives what touches the plane to the full side). */
+static void flat_split(const prt__rayx *x, int axis, float split, vf16 tmin, vf16 tmax, bool *front1, bool *both,
+                       vf16 *t_front, vf16 *t_back) {
+    *front1 = !(x->org[axis] < split);
+    *both = x->org[axis] == split;
+    *t_front = *both ? tmax : vf16_set1(INFINITY);
+    *t_back = *both ? tmin : vf16_set1(INFINITY);
+    if (*both) *front1 = false;
+}
+
 /* A treelet (7 nodes and the voxels of its LOD nodes: at most OOC_TREELET_MAX bytes) is
  * walked a level a step, each step depending on the node before: ask for all of its cache
  * lines when entering it, so they arrive together rather than one after the other. */
@@ -608,12 +384,8 @@ typedef struct pwalk16 {
  * root; stack holds OOC_MAX_DEPTH + 2 entries. */
 static void pwalk16_init(pwalk16 *s, const walker *w, packet_state *ps, packet16 *pk, pentry16 *stack, uint32_t mask,
                          vf16 tmin, vf16 tmax, vi16 axis_in) {
-    s->w = *w, s->ps = ps, s->pk = pk, s->stack = stack, s->sp = 0;
-    s->block = w->a->h.root_block, s->off = w->a->h.root_offset, s->mask = mask;
-    s->nvox = 0, s->depth = 0, s->vox_radius = 0.0f;
-    s->vox = NULL;
-    s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
-    s->leaf_p = NULL, s->leaf_size = 0;
+    *s = (pwalk16){.tmin = tmin, .tmax = tmax, .axis_in = axis_in, .w = *w, .ps = ps, .pk = pk, .stack = stack,
+                   .block = w->a->h.root_block, .off = w->a->h.root_offset, .mask = mask};
 }
 
 enum { WALK_YIELDS, WALK_ENDS };
@@ -659,15 +431,19 @@ static int walk16_run(pwalk16 *s, bool alone) {
                         break;
                     }
                     leaf_prefetch_tris(lp, lsize, w0);
-                    s->leaf_p = lp, s->leaf_size = lsize;
-                    goto yield;
+                    if (!alone) {
+                        s->leaf_p = lp;
+                        s->leaf_size = lsize;
+                        goto yield;
+                    }
                 }
                 s->leaf_p = NULL;
                 if (!packet_leaf16(w, ps, pk, mask, w0, w1, lp, lsize))
                     mask &= ~voxel_hits16(ps, pk, mask, tmin, axis_in, nvox, vox, vox_radius);
-                else if (pk->any) /* any hit ends a shadow ray's walk */
-                    pk->done |= pk->tri, mask &= ~pk->tri;
-                else /* rays with a hit before their segment's end are done */
+                else if (pk->any) { /* any hit ends a shadow ray's walk */
+                    pk->done |= pk->tri;
+                    mask &= ~pk->tri;
+                } else /* rays with a hit before their segment's end are done */
                     mask &= ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), tmax)));
                 pop = true;
                 break;
@@ -686,7 +462,7 @@ static int walk16_run(pwalk16 *s, bool alone) {
                     break;
                 }
                 /* Each ray's own LOD test (§6.2). */
-                uint32_t small = mask & vi16_mask(vf16_le(vf16_set1(radius), vf16_mul(tmin, C)));
+                uint32_t small = pk->lod ? mask & vi16_mask(vf16_le(vf16_set1(radius), vf16_mul(tmin, C))) : 0;
                 if (small) mask &= ~voxel_hits16(ps, pk, small, tmin, axis_in, nvox, vox, vox_radius);
                 if (!mask) {
                     pop = true;
@@ -699,23 +475,37 @@ static int walk16_run(pwalk16 *s, bool alone) {
             uint32_t kid[2];
             bool has[2];
             inner_children(w0, base, kid, has);
-            const bool front1 = pk->front[axis] != 0;
+            /* The plane's distance: where the front part ends (t_front) and the back part
+             * begins (t_back), the same t but for a one-lane walk parallel to the plane. */
+            bool front1 = pk->front[axis] != 0, both = true;
+            vf16 t_front, t_back;
+            if (!pk->flat[axis]) {
+                t_front = t_back = vf16_mul(vf16_sub(vf16_set1(split), pk->org[axis]), pk->inv[axis]);
+            } else {
+                flat_split(&ps->rx[0], axis, split, tmin, tmax, &front1, &both, &t_front, &t_back);
+            }
             const uint32_t kid_front = front1 ? kid[1] : kid[0], kid_back = front1 ? kid[0] : kid[1];
-            const bool has_front = front1 ? has[1] : has[0], has_back = front1 ? has[0] : has[1];
-            const vf16 t = vf16_mul(vf16_sub(vf16_set1(split), pk->org[axis]), pk->inv[axis]);
-            uint32_t fmask = has_front ? mask & ~vi16_mask(vf16_lt(t, tmin)) : 0;
-            uint32_t bmask = has_back ? mask & ~vi16_mask(vf16_gt(t, tmax)) : 0;
+            const bool has_front = front1 ? has[1] : has[0], has_back = both && (front1 ? has[0] : has[1]);
+            uint32_t fmask = has_front ? mask & ~vi16_mask(vf16_lt(t_front, tmin)) : 0;
+            uint32_t bmask = has_back ? mask & ~vi16_mask(vf16_gt(t_back, tmax)) : 0;
             depth++;
             if (bmask) {
                 /* Rays that cross the plane inside their segment enter the back part
                  * through it; the others entered it where they entered the cell. */
-                const vi16 back_axis = vi16_select(vf16_gt(t, tmin), vi16_set1(axis), axis_in);
-                const vf16 back_tmin = vf16_max(tmin, t);
+                const vi16 back_axis = vi16_select(vf16_gt(t_back, tmin), vi16_set1(axis), axis_in);
+                const vf16 back_tmin = vf16_max(tmin, t_back);
                 if (fmask) {
                     pentry16 *e = &stack[sp++];
-                    e->block = child_block, e->off = kid_back, e->mask = bmask, e->depth = depth;
-                    e->nvox = nvox, e->vox_radius = vox_radius, e->vox = vox;
-                    e->tmin = back_tmin, e->tmax = tmax, e->axis = back_axis;
+                    e->block = child_block;
+                    e->off = kid_back;
+                    e->mask = bmask;
+                    e->depth = depth;
+                    e->nvox = nvox;
+                    e->vox_radius = vox_radius;
+                    e->vox = vox;
+                    e->tmin = back_tmin;
+                    e->tmax = tmax;
+                    e->axis = back_axis;
                 } else {
                     axis_in = back_axis, tmin = back_tmin;
                     mask = bmask;
@@ -723,7 +513,7 @@ static int walk16_run(pwalk16 *s, bool alone) {
                 }
             }
             if (fmask) {
-                tmax = vf16_min(tmax, t);
+                tmax = vf16_min(tmax, t_front);
                 mask = fmask;
                 off = kid_front;
             } else if (!bmask) {
@@ -756,17 +546,31 @@ static int walk16_run(pwalk16 *s, bool alone) {
             uint32_t m2 = e->mask & ~pk->done & ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), e->tmin)));
             if (!m2) continue;
             mask = m2;
-            tmin = e->tmin, tmax = e->tmax, axis_in = e->axis;
-            block = e->block, off = e->off, depth = e->depth, nvox = e->nvox, vox_radius = e->vox_radius;
+            tmin = e->tmin;
+            tmax = e->tmax;
+            axis_in = e->axis;
+            block = e->block;
+            off = e->off;
+            depth = e->depth;
+            nvox = e->nvox;
+            vox_radius = e->vox_radius;
             vox = e->vox;
             break;
         }
         continue;
     yield:
         if (alone) continue; /* its state is where it stopped */
-        s->sp = sp, s->block = block, s->off = off, s->mask = mask;
-        s->nvox = nvox, s->depth = depth, s->vox_radius = vox_radius, s->vox = vox;
-        s->tmin = tmin, s->tmax = tmax, s->axis_in = axis_in;
+        s->sp = sp;
+        s->block = block;
+        s->off = off;
+        s->mask = mask;
+        s->nvox = nvox;
+        s->depth = depth;
+        s->vox_radius = vox_radius;
+        s->vox = vox;
+        s->tmin = tmin;
+        s->tmax = tmax;
+        s->axis_in = axis_in;
         return WALK_YIELDS;
     }
 }
@@ -781,6 +585,88 @@ static void packet_walks16(pwalk16 *walks, uint32_t live) {
         const uint32_t after = live & ~((2u << g) - 1); /* the next live walk after g */
         g = __builtin_ctz(after ? after : live);
     }
+}
+
+/* --- One ray: the packet walk with one lane ----------------------------------------------
+ * Single rays (exact queries, LOD queries one at a time, the rays a packet leaves alone)
+ * take the packet walk's steps with only lane 0 in the mask: every lane holds the same ray,
+ * so the vector operations cost what scalar ones would, and a ray gets the same answer
+ * alone as in a packet. What only a single ray meets: axes it runs parallel to
+ * (packet16.flat, flat_split) and exact walks, which wait for blocks and stop at no voxel. */
+
+/* The walk of ray r alone: exact (w->lod false) or LOD, closest hit or any (`any`). Its
+ * answer is lane 0 of ps: hit (prim PRT_INVALID: none, PRT_VOXEL_HIT: a voxel, with sample
+ * and radius), and a triangle's normal and colour. True on a hit. */
+static bool walk1(const walker *w, const prt_ray *r, bool any, packet_state *ps) {
+    static _Thread_local pentry16 stack[OOC_MAX_DEPTH + 2];
+    prt__rayx *x = &ps->rx[0];
+    prt__hitx *hit = &ps->hit[0];
+    prt__rayx_init(x, r);
+    *hit = (prt__hitx){.t = r->tfar, .prim = PRT_INVALID};
+    float tmin, tmax;
+    int axis;
+    if (!clip_root(w->a, x, r->tnear, r->tfar, &tmin, &tmax, &axis)) return false;
+    packet16 pk;
+    for (int k = 0; k < 3; k++) {
+        pk.org[k] = vf16_set1(x->org[k]);
+        pk.inv[k] = vf16_set1(x->inv[k]);
+        pk.front[k] = x->dir[k] > 0.0f ? 0 : 1;
+        pk.flat[k] = x->dir[k] == 0.0f || isinf(x->inv[k]);
+    }
+    vf16_store(pk.hit_t, vf16_set1(0.0f));
+    pk.tri = 0;
+    pk.done = 0;
+    pk.any = any;
+    pk.lod = w->lod;
+    pwalk16 s;
+    pwalk16_init(&s, w, ps, &pk, stack, 1, vf16_set1(tmin), vf16_set1(tmax), vi16_set1(axis));
+    walk16_run(&s, true);
+    return hit->prim != PRT_INVALID;
+}
+
+void ooc_intersect1(const prt_accel *acc, prt_ray *r, prt_hit *h) {
+    const walker w = {.a = (ooc_accel *)acc, .held = UINT32_MAX};
+    packet_state ps;
+    if (!walk1(&w, r, false, &ps)) {
+        *h = prt__miss();
+        return;
+    }
+    const prt__hitx *hit = &ps.hit[0];
+    *h = (prt_hit){.t = hit->t, .u = hit->u, .v = hit->v, .prim = hit->prim, .geom = 0};
+    r->tfar = hit->t;
+}
+
+bool ooc_occluded1(const prt_accel *acc, const prt_ray *r) {
+    const walker w = {.a = (ooc_accel *)acc, .held = UINT32_MAX};
+    packet_state ps;
+    return walk1(&w, r, true, &ps);
+}
+
+bool ooc_intersect_lod(const prt_accel *acc, prt_ray *r, float C, bool any, prt_lod_hit *out) {
+    const walker w = {.a = (ooc_accel *)acc, .held = UINT32_MAX, .lod = true, .C = C};
+    packet_state ps;
+    memset(out, 0, sizeof *out);
+    out->hit.t = INFINITY;
+    out->hit.prim = PRT_INVALID;
+    if (!walk1(&w, r, any, &ps)) return false;
+    const prt__hitx *hit = &ps.hit[0];
+    out->hit.t = hit->t;
+    out->hit.u = hit->u;
+    out->hit.v = hit->v;
+    out->hit.prim = hit->prim;
+    r->tfar = hit->t;
+    if (hit->prim == PRT_VOXEL_HIT) {
+        ooc_sample_unpack(ps.sample[0], out->normal, out->color);
+        out->voxel_radius = ps.radius[0];
+        return true;
+    }
+    const float *tn = ps.tn[0];
+    const float l = sqrtf(tn[0] * tn[0] + tn[1] * tn[1] + tn[2] * tn[2]);
+    for (int k = 0; k < 3; k++) {
+        out->normal[k] = l > 0.0f ? tn[k] / l : 0.0f;
+        out->color[k] = (float)((ps.tcolor[0] >> (5 * k)) & 31) / 31.0f;
+    }
+    return true;
 }
 
 /* Packets walked together by a call (the renderer passes a tile of 64 rays: 4 packets). */
@@ -1044,7 +930,11 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
                 p->front[k] = sign[k] > 0 ? 0 : 1;
             }
             vf16_store(p->hit_t, vf16_set1(0.0f));
-            p->tri = 0, p->done = 0, p->any = occluded != NULL;
+            p->tri = 0;
+            p->done = 0;
+            p->any = occluded != NULL;
+            p->lod = true;
+            for (int k = 0; k < 3; k++) p->flat[k] = false;
             pwalk16_init(&walks[g], &w, &ps[g], p, stacks[g], mask, vf16_load(tmin), vf16_load(tmax),
                          vi16_load(ax));
             live |= 1u << g;

@@ -61,7 +61,10 @@ static size_t copy_super(const render_frame *f, const dist_config *c, const plan
             for (uint32_t y = 0; y < r[3]; y++) {
                 const size_t n = (size_t)r[2] * p[k].bytes;
                 uint8_t *px = p[k].base + ((size_t)(r[1] + y) * f->cam.width + r[0]) * p[k].bytes;
-                if (buf) to_buf ? memcpy(buf + at, px, n) : memcpy(px, buf + at, n);
+                if (buf && to_buf)
+                    memcpy(buf + at, px, n);
+                else if (buf)
+                    memcpy(px, buf + at, n);
                 at += n;
             }
     }
@@ -81,7 +84,8 @@ static void render_super(render_frame *f, const dist_config *c, long s, double s
     super_range(f, c, s, &first, &count);
     const double t0 = MPI_Wtime(), c0 = thread_cpu();
     render_frame_tiles(f, first, count);
-    sec[0] = MPI_Wtime() - t0, sec[1] = thread_cpu() - c0;
+    sec[0] = MPI_Wtime() - t0;
+    sec[1] = thread_cpu() - c0;
 }
 
 /* Rank 0's side of the dynamic queue: send worker w its next super-tile, or when none is left
@@ -102,8 +106,10 @@ static void give(queue *q, int w) {
         q->outstanding[w]++;
     } else if (q->outstanding[w] || q->stop_sent[w])
         return;
-    else
-        q->stop_sent[w] = true, q->stopped++;
+    else {
+        q->stop_sent[w] = true;
+        q->stopped++;
+    }
     MPI_Send(&s, 1, MPI_INT64_T, w, TAG_TILE, MPI_COMM_WORLD);
 }
 
@@ -155,7 +161,9 @@ void dist_stats_free(dist_stats *st) {
     free(st->owner);
     free(st->seconds);
     free(st->cpu_seconds);
-    st->owner = NULL, st->seconds = NULL, st->cpu_seconds = NULL;
+    st->owner = NULL;
+    st->seconds = NULL;
+    st->cpu_seconds = NULL;
 }
 
 /* Per rank, the super-tiles it renders in order; rank 0 keeps everyone's (it deals them or
@@ -194,117 +202,170 @@ static bool deal_init(deal *d, const dist_config *c, long count, size_t frame_by
 }
 
 static void deal_free(deal *d) {
-    free(d->store), free(d->list), free(d->len), free(d->sec), free(d->secs);
-    free(d->outstanding), free(d->counts), free(d->displs), free(d->stop_sent), free(d->recv);
+    void *owned[] = {d->store, d->list, d->len, d->sec, d->secs, d->outstanding, d->counts, d->displs, d->stop_sent, d->recv};
+    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++) free(owned[k]);
 }
 
-prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
-    const bool root = c->rank == 0;
-    const long count = (f->tiles + c->super - 1) / c->super;
-    dist_stats_free(st);
-    memset(st, 0, sizeof *st);
-    st->super_count = count;
+/* One frame on this rank: the planes that travel, the deal, and this rank's super-tiles. */
+typedef struct frame_job {
+    render_frame *f;
+    const dist_config *c;
+    bool root;
+    bool floats; /* gi's filter runs after the gather: its float buffers travel */
+    plane p[6];
+    int np;
+    long count; /* super-tiles of the frame */
+    size_t frame_bytes;
+    deal d;
+    long *mine; /* this rank's super-tiles, in the order it rendered them */
+    long nmine;
+} frame_job;
+
+/* The planes and the deal; everything that can fail is allocated before the first message,
+ * and every rank learns of any failure, so no rank waits for one that gave up. On failure f
+ * and the deal are freed. */
+static prt_status job_begin(frame_job *j, render_frame *f, const dist_config *c, dist_stats *st) {
+    j->f = f;
+    j->c = c;
+    j->root = c->rank == 0;
+    j->count = (f->tiles + c->super - 1) / c->super;
     /* Without gi's filter every rank finishes its own pixels (gi composes and encodes them):
      * 3 bytes a pixel travel; with it, the float buffers the filter reads. */
-    const bool floats = f->o.shade == PRT_SHADE_GI && f->o.denoise;
-    plane p[6];
-    const int np = frame_planes(f, floats, p);
+    j->floats = f->o.shade == PRT_SHADE_GI && f->o.denoise;
+    j->np = frame_planes(f, j->floats, j->p);
     size_t pixel_bytes = 0;
-    for (int k = 0; k < np; k++) pixel_bytes += p[k].bytes;
-    const size_t frame_bytes = (size_t)f->cam.width * f->cam.height * pixel_bytes;
-    deal d;
-    bool ok = deal_init(&d, c, count, frame_bytes) && frame_bytes <= INT_MAX;
-    if (root && ok) {
-        st->owner = malloc((size_t)(count ? count : 1) * sizeof *st->owner);
-        st->seconds = malloc((size_t)(count ? count : 1) * sizeof *st->seconds);
-        st->cpu_seconds = malloc((size_t)(count ? count : 1) * sizeof *st->cpu_seconds);
+    for (int k = 0; k < j->np; k++) pixel_bytes += j->p[k].bytes;
+    j->frame_bytes = (size_t)f->cam.width * f->cam.height * pixel_bytes;
+    st->super_count = j->count;
+    bool ok = deal_init(&j->d, c, j->count, j->frame_bytes) && j->frame_bytes <= INT_MAX;
+    if (j->root && ok) {
+        const size_t n = (size_t)(j->count ? j->count : 1);
+        st->owner = malloc(n * sizeof *st->owner);
+        st->seconds = malloc(n * sizeof *st->seconds);
+        st->cpu_seconds = malloc(n * sizeof *st->cpu_seconds);
         ok = st->owner && st->seconds && st->cpu_seconds;
     }
-    /* Everything that can fail is allocated before the first message, and every rank learns
-     * of any failure, so no rank waits for one that gave up. */
     int bad = !ok, any_bad = 0;
     MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-    if (any_bad) {
-        deal_free(&d);
-        render_frame_free(f);
-        return frame_bytes > INT_MAX
-                   ? prt__fail(PRT_ERROR_ARGUMENT,
-                               "packrt-mpi: a %zu-byte frame is over MPI's int counts", frame_bytes)
-                   : PRT_ERROR_NOMEM;
-    }
+    if (!any_bad) return PRT_OK;
+    deal_free(&j->d);
+    render_frame_free(f);
+    if (j->frame_bytes > INT_MAX)
+        return prt__fail(PRT_ERROR_ARGUMENT, "packrt-mpi: a %zu-byte frame is over MPI's int counts", j->frame_bytes);
+    return PRT_ERROR_NOMEM;
+}
 
-    double t0 = MPI_Wtime();
-    long *mine = d.list[0], nmine = 0;
+/* This rank's share of the frame, statically dealt or from rank 0's queue. */
+static void render_share(frame_job *j) {
+    const dist_config *c = j->c;
+    deal *d = &j->d;
+    j->mine = d->list[0];
+    j->nmine = 0;
     if (c->balance == DIST_STATIC || c->ranks == 1) {
-        for (int r = 0; root && r < c->ranks; r++)
-            for (long s = r; s < count; s += c->ranks) d.list[r][d.len[r]++] = s;
-        for (long s = c->rank; s < count; s += c->ranks)
-            mine[nmine] = s, render_super(f, c, s, d.sec + 2 * nmine++);
-    } else if (root) {
-        queue q = {0, count, d.outstanding, 0, d.stop_sent, d.list, d.len};
-        dynamic_root(f, c, &q, d.sec);
-        nmine = d.len[0];
+        for (int r = 0; j->root && r < c->ranks; r++)
+            for (long s = r; s < j->count; s += c->ranks) d->list[r][d->len[r]++] = s;
+        for (long s = c->rank; s < j->count; s += c->ranks) {
+            j->mine[j->nmine] = s;
+            render_super(j->f, c, s, d->sec + 2 * j->nmine);
+            j->nmine++;
+        }
+    } else if (j->root) {
+        queue q = {0, j->count, d->outstanding, 0, d->stop_sent, d->list, d->len};
+        dynamic_root(j->f, c, &q, d->sec);
+        j->nmine = d->len[0];
     } else {
-        nmine = dynamic_worker(f, c, mine, d.sec);
+        j->nmine = dynamic_worker(j->f, c, j->mine, d->sec);
     }
-    st->render_s = MPI_Wtime() - t0;
+}
 
-    /* Without the filter render_frame_end only composes (gi) and cannot fail. */
-    prt_status status = floats ? PRT_OK : render_frame_end(f);
-    /* The other ranks' pixels go into rank 0's receive buffer; its own are in place. */
+/* Rank 0's receive counts and offsets for the other ranks' super-tiles; their bytes. */
+static size_t plan_receive(frame_job *j) {
+    size_t total = 0;
+    for (int r = 1; j->root && r < j->c->ranks; r++) {
+        size_t b = 0;
+        for (long i = 0; i < j->d.len[r]; i++) b += copy_super(j->f, j->c, j->p, j->np, j->d.list[r][i], NULL, false);
+        j->d.displs[r] = (int)total;
+        j->d.counts[r] = (int)b;
+        total += b;
+    }
+    return total;
+}
+
+/* The other ranks' pixels into rank 0's planes (its own are in place), after status, this
+ * rank's render_frame_end, is known on every rank: a failure anywhere stops all of them. */
+static prt_status gather_pixels(frame_job *j, prt_status status, dist_stats *st) {
+    const bool root = j->root;
     double tg = MPI_Wtime();
     size_t send_bytes = 0;
-    for (long i = 0; i < nmine && !root; i++)
-        send_bytes += copy_super(f, c, p, np, mine[i], NULL, true);
+    for (long i = 0; i < j->nmine && !root; i++) send_bytes += copy_super(j->f, j->c, j->p, j->np, j->mine[i], NULL, true);
     uint8_t *send = root ? NULL : malloc(send_bytes ? send_bytes : 1);
     int failed = status != PRT_OK || (!root && !send), worst = 0;
     MPI_Allreduce(&failed, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
     if (worst) {
         free(send);
-        deal_free(&d);
-        if (floats) render_frame_free(f);
         return status ? status : PRT_ERROR_NOMEM;
     }
-    for (size_t i = 0, at = 0; !root && i < (size_t)nmine; i++)
-        at += copy_super(f, c, p, np, mine[i], send + at, true);
-    size_t total = 0;
-    for (int r = 1; root && r < c->ranks; r++) {
-        size_t b = 0;
-        for (long i = 0; i < d.len[r]; i++) b += copy_super(f, c, p, np, d.list[r][i], NULL, false);
-        d.displs[r] = (int)total, d.counts[r] = (int)b, total += b;
-    }
-    for (long i = 0; root && i < d.len[0]; i++)
-        st->bytes_own += copy_super(f, c, p, np, d.list[0][i], NULL, false);
-    MPI_Gatherv(send, (int)send_bytes, MPI_BYTE, d.recv, d.counts, d.displs, MPI_BYTE, 0,
-                MPI_COMM_WORLD);
+    for (size_t i = 0, at = 0; !root && i < (size_t)j->nmine; i++)
+        at += copy_super(j->f, j->c, j->p, j->np, j->mine[i], send + at, true);
+    const size_t total = plan_receive(j);
+    for (long i = 0; root && i < j->d.len[0]; i++)
+        st->bytes_own += copy_super(j->f, j->c, j->p, j->np, j->d.list[0][i], NULL, false);
+    MPI_Gatherv(send, (int)send_bytes, MPI_BYTE, j->d.recv, j->d.counts, j->d.displs, MPI_BYTE, 0, MPI_COMM_WORLD);
     free(send);
-    for (int r = 1; root && r < c->ranks; r++)
-        for (long i = 0, at = d.displs[r]; i < d.len[r]; i++)
-            at += (long)copy_super(f, c, p, np, d.list[r][i], d.recv + at, false);
+    for (int r = 1; root && r < j->c->ranks; r++)
+        for (long i = 0, at = j->d.displs[r]; i < j->d.len[r]; i++)
+            at += (long)copy_super(j->f, j->c, j->p, j->np, j->d.list[r][i], j->d.recv + at, false);
     st->bytes_gathered = total;
     st->gather_s = MPI_Wtime() - tg;
+    return PRT_OK;
+}
 
-    /* Each super-tile's wall and CPU seconds, gathered in each rank's order. */
-    for (int r = 0, at = 0; root && r < c->ranks; r++)
-        d.counts[r] = 2 * (int)d.len[r], d.displs[r] = at, at += d.counts[r];
-    MPI_Gatherv(d.sec, 2 * (int)nmine, MPI_DOUBLE, d.secs, d.counts, d.displs, MPI_DOUBLE, 0,
-                MPI_COMM_WORLD);
-    for (int r = 0; root && r < c->ranks; r++)
-        for (long i = 0; i < d.len[r]; i++) {
-            const long s = d.list[r][i];
+/* Each super-tile's owner, wall and CPU seconds to rank 0 (gathered in each rank's order),
+ * and the rays of all ranks. */
+static void gather_seconds(frame_job *j, dist_stats *st) {
+    deal *d = &j->d;
+    for (int r = 0, at = 0; j->root && r < j->c->ranks; r++) {
+        d->counts[r] = 2 * (int)d->len[r];
+        d->displs[r] = at;
+        at += d->counts[r];
+    }
+    MPI_Gatherv(d->sec, 2 * (int)j->nmine, MPI_DOUBLE, d->secs, d->counts, d->displs, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    for (int r = 0; j->root && r < j->c->ranks; r++)
+        for (long i = 0; i < d->len[r]; i++) {
+            const long s = d->list[r][i];
             st->owner[s] = r;
-            st->seconds[s] = d.secs[d.displs[r] + 2 * i];
-            st->cpu_seconds[s] = d.secs[d.displs[r] + 2 * i + 1];
+            st->seconds[s] = d->secs[d->displs[r] + 2 * i];
+            st->cpu_seconds[s] = d->secs[d->displs[r] + 2 * i + 1];
         }
-    uint64_t rays = f->rays;
+    uint64_t rays = j->f->rays;
     MPI_Reduce(&rays, &st->rays, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
-    deal_free(&d);
-    if (floats) {
-        if (root)
+}
+
+prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
+    dist_stats_free(st);
+    memset(st, 0, sizeof *st);
+    frame_job j;
+    prt_status status = job_begin(&j, f, c, st);
+    if (status) return status;
+    double t0 = MPI_Wtime();
+    render_share(&j);
+    st->render_s = MPI_Wtime() - t0;
+    /* Without the filter render_frame_end only composes (gi) and cannot fail. */
+    status = j.floats ? PRT_OK : render_frame_end(f);
+    status = gather_pixels(&j, status, st);
+    if (status) {
+        deal_free(&j.d);
+        if (j.floats) render_frame_free(f);
+        return status;
+    }
+    gather_seconds(&j, st);
+    deal_free(&j.d);
+    if (j.floats) {
+        if (j.root)
             status = render_frame_end(f);
         else
             render_frame_free(f);
     }
-    if (root && !status) f->img->rays = st->rays;
+    if (j.root && !status) f->img->rays = st->rays;
     return status;
 }

@@ -76,15 +76,22 @@ static int parse_own(int *argc, char **argv, mpi_args *m, bool *help) {
  * messages shown. */
 static int quiet_stdio(bool quiet) {
     static int saved[2] = {-1, -1};
-    fflush(stdout), fflush(stderr);
+    fflush(stdout);
+    fflush(stderr);
     if (quiet) {
         int null = open("/dev/null", O_WRONLY);
         if (null < 0) return -1;
-        saved[0] = dup(1), saved[1] = dup(2);
-        dup2(null, 1), dup2(null, 2), close(null);
+        for (int k = 0; k < 2; k++) {
+            saved[k] = dup(k + 1);
+            dup2(null, k + 1);
+        }
+        close(null);
     } else if (saved[0] >= 0) {
-        dup2(saved[0], 1), dup2(saved[1], 2), close(saved[0]), close(saved[1]);
-        saved[0] = saved[1] = -1;
+        for (int k = 0; k < 2; k++) {
+            dup2(saved[k], k + 1);
+            close(saved[k]);
+            saved[k] = -1;
+        }
     }
     return 0;
 }
@@ -176,6 +183,80 @@ static void report(const cli_render_args *r, const dist_config *c, const prt_ima
            (double)st->bytes_gathered / 1e6, own_mb, st->gather_s);
 }
 
+/* packrt-mpi's and packrt render's options, parsed on every rank (the same arguments give
+ * the same answer) with only rank 0's messages shown. Returns -1 to go on, else an exit code. */
+static int parse_all(int argc, char **argv, int rank, mpi_args *ma, cli_render_args *r) {
+    bool help = false;
+    argv[0] = "render";
+    if (rank) quiet_stdio(true);
+    int rc = parse_own(&argc, argv, ma, &help);
+    if (rc < 0 && help && rank == 0) usage();
+    if (rc < 0) rc = cli_render_parse(argc, argv, r);
+    if (rc < 0 && r->compare_specs) rc = cli_usage("mpi", "--compare is packrt render's alone");
+    if (rank) quiet_stdio(false);
+    return rc;
+}
+
+/* After a LOD frame: each rank loads the blocks its own tiles asked for (Afra 5.3); the frame
+ * has converged when no rank asked for one and none is still loading. Rank 0 prints the
+ * frame's line with every rank's working set. */
+static bool lod_converged(prt_accel *a, int f, double sec, int rank, int ranks) {
+    prt_cache_info ci;
+    prt_accel_frame(a, &ci);
+    unsigned long long local[2] = {ci.requested, ci.pending}, sum[2];
+    MPI_Allreduce(local, sum, 2, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    unsigned long long ws = ci.working_set_bytes;
+    unsigned long long *wss = rank == 0 ? calloc((size_t)ranks, sizeof *wss) : NULL;
+    MPI_Gather(&ws, 1, MPI_UNSIGNED_LONG_LONG, wss, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+    if (rank == 0) {
+        printf("frame %3d: %.3f s, requested %llu, loading %llu, working set MB by rank:", f + 1, sec, sum[0], sum[1]);
+        for (int k = 0; wss && k < ranks; k++) printf(" %.1f", (double)wss[k] / 1e6);
+        printf("\n");
+    }
+    free(wss);
+    const bool converged = sum[0] == 0 && sum[1] == 0;
+    if (!converged && sum[0] == 0) usleep(2000); /* only loads in flight: let them land */
+    return converged;
+}
+
+/* The frames: --repeat of them, or with LOD until --repeat frames have converged (at most
+ * --frames); *t is the median time of the converged ones (0 when none converged). */
+static prt_status render_frames(prt_accel *a, const prt_mesh *m, const cli_render_args *r, const mpi_args *ma,
+                                dist_config *c, prt_image *img, dist_stats *st, double *t) {
+    double times[64];
+    int timed = 0;
+    prt_status s = PRT_OK;
+    const bool lod = r->o.lod_pixels > 0.0f;
+    for (int f = 0; f < (lod ? r->frames : r->repeat); f++) {
+        double sec = 0;
+        s = frame(a, m, r, ma, c, img, st, &sec);
+        if (s) return s;
+        const bool converged = lod ? lod_converged(a, f, sec, c->rank, c->ranks) : true;
+        if (converged && timed < 64) times[timed++] = sec;
+        if (lod && converged && timed >= r->repeat) break;
+    }
+    *t = 0;
+    if (timed) {
+        qsort(times, (size_t)timed, sizeof times[0], cmp_double);
+        *t = timed % 2 ? times[timed / 2] : 0.5 * (times[timed / 2 - 1] + times[timed / 2]);
+    }
+    if (lod && !timed && c->rank == 0) fprintf(stderr, "packrt-mpi: did not converge in %d frames\n", r->frames);
+    return PRT_OK;
+}
+
+/* Rank 0 prints every rank's peak resident memory (when all went well, rc 0). Collective. */
+static void report_rss(int rc, int rank, int ranks) {
+    long rss = max_rss_kb();
+    long *rsss = rank == 0 ? calloc((size_t)ranks, sizeof *rsss) : NULL;
+    MPI_Gather(&rss, 1, MPI_LONG, rsss, 1, MPI_LONG, 0, MPI_COMM_WORLD);
+    if (!rc && rank == 0) {
+        printf("peak resident MB by rank:");
+        for (int k = 0; rsss && k < ranks; k++) printf(" %.1f", (double)rsss[k] / 1e3);
+        printf("\n");
+    }
+    free(rsss);
+}
+
 int main(int argc, char **argv) {
     int provided, rank, ranks;
     /* Only the main thread calls MPI; OpenMP threads render inside a rank. */
@@ -189,14 +270,7 @@ int main(int argc, char **argv) {
     }
     mpi_args ma = {DIST_STATIC, 0, NULL};
     cli_render_args r;
-    bool help = false;
-    argv[0] = "render";
-    if (rank) quiet_stdio(true);
-    int rc = parse_own(&argc, argv, &ma, &help);
-    if (rc < 0 && help && rank == 0) usage();
-    if (rc < 0) rc = cli_render_parse(argc, argv, &r);
-    if (rc < 0 && r.compare_specs) rc = cli_usage("mpi", "--compare is packrt render's alone");
-    if (rank) quiet_stdio(false);
+    int rc = parse_all(argc, argv, rank, &ma, &r);
     if (rc >= 0) {
         MPI_Finalize();
         return rc;
@@ -206,7 +280,8 @@ int main(int argc, char **argv) {
     prt_mesh *m = NULL;
     prt_accel *a = NULL;
     rc = cli_render_open(&r, rank == 0, &m, &a);
-    if ((rc = agree(rc, rank, ranks, "open the input"))) {
+    rc = agree(rc, rank, ranks, "open the input");
+    if (rc) {
         prt_accel_free(a);
         prt_mesh_free(m);
         MPI_Finalize();
@@ -216,57 +291,13 @@ int main(int argc, char **argv) {
     dist_config c = {rank, ranks, ma.balance, 0};
     dist_stats st = {0};
     prt_image img = {0};
-    double t = 0, times[64];
-    int timed = 0;
-    prt_status s = PRT_OK;
-    const bool lod = r.o.lod_pixels > 0.0f;
-    for (int f = 0; f < (lod ? r.frames : r.repeat) && !s; f++) {
-        double sec = 0;
-        s = frame(a, m, &r, &ma, &c, &img, &st, &sec);
-        if (s) break;
-        bool converged = true;
-        if (lod) {
-            /* Each rank loads the blocks its own tiles asked for (Afra 5.3); the frame has
-             * converged when no rank asked for one and none is still loading. */
-            prt_cache_info ci;
-            prt_accel_frame(a, &ci);
-            unsigned long long local[2] = {ci.requested, ci.pending}, sum[2];
-            MPI_Allreduce(local, sum, 2, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-            unsigned long long ws = ci.working_set_bytes,
-                               *wss = rank == 0 ? calloc((size_t)ranks, sizeof *wss) : NULL;
-            MPI_Gather(&ws, 1, MPI_UNSIGNED_LONG_LONG, wss, 1, MPI_UNSIGNED_LONG_LONG, 0,
-                       MPI_COMM_WORLD);
-            if (rank == 0) {
-                printf("frame %3d: %.3f s, requested %llu, loading %llu, working set MB by rank:",
-                       f + 1, sec, sum[0], sum[1]);
-                for (int k = 0; wss && k < ranks; k++) printf(" %.1f", (double)wss[k] / 1e6);
-                printf("\n");
-            }
-            free(wss);
-            converged = sum[0] == 0 && sum[1] == 0;
-            if (!converged && sum[0] == 0) usleep(2000); /* only loads in flight: let them land */
-        }
-        if (converged && timed < 64) times[timed++] = sec;
-        if (lod && converged && timed >= r.repeat) break;
-    }
-    if (!s && timed) {
-        qsort(times, (size_t)timed, sizeof times[0], cmp_double);
-        t = timed % 2 ? times[timed / 2] : 0.5 * (times[timed / 2 - 1] + times[timed / 2]);
-    }
-    if (!s && lod && !timed && rank == 0)
-        fprintf(stderr, "packrt-mpi: did not converge in %d frames\n", r.frames);
+    double t = 0;
+    prt_status s = render_frames(a, m, &r, &ma, &c, &img, &st, &t);
     rc = s ? cli_fail("mpi", "render", s) : 0;
     if (!rc && rank == 0) rc = cli_render_save(&img, r.out);
     if (!rc && rank == 0 && ma.tile_times) rc = write_tile_times(ma.tile_times, &img, &c, &st);
     if (!rc && rank == 0) report(&r, &c, &img, &st, t, a);
-    long rss = max_rss_kb(), *rsss = rank == 0 ? calloc((size_t)ranks, sizeof *rsss) : NULL;
-    MPI_Gather(&rss, 1, MPI_LONG, rsss, 1, MPI_LONG, 0, MPI_COMM_WORLD);
-    if (!rc && rank == 0) {
-        printf("peak resident MB by rank:");
-        for (int k = 0; rsss && k < ranks; k++) printf(" %.1f", (double)rsss[k] / 1e3);
-        printf("\n");
-    }
-    free(rsss);
+    report_rss(rc, rank, ranks);
     rc = agree(rc, rank, ranks, "render or write the image");
     prt_image_free(&img);
     dist_stats_free(&st);

@@ -341,82 +341,96 @@ static int run(viewer *v, int win_w, int win_h, long frames, const char *screens
     return rc;
 }
 
-int main(int argc, char **argv) {
-    const char *path = NULL, *spec = NULL, *mesh_path = NULL, *screenshot = NULL,
-               *window_shot = NULL;
-    int win_w = 960, win_h = 540;
-    long frames = 0;
-    bool lod_given = false;
-    viewer v;
-    memset(&v, 0, sizeof v);
-    v.shade = PRT_SHADE_SHADOWS;
-    v.spp_still = 8;
-    v.scale = 0.5f;
+/* packrt-view's command line; the viewer's own settings (shade, spp, threads) go into v. */
+typedef struct view_args {
+    const char *path, *spec, *mesh_path, *screenshot, *window_shot;
+    int win_w, win_h;
+    long frames;
+} view_args;
+
+/* Returns -1 to go on, else an exit code. */
+static int parse_args(int argc, char **argv, view_args *g, viewer *v) {
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage();
         if (a[0] != '-') {
-            if (path) return cli_usage("view", "more than one input given ('%s')", a);
-            path = a;
+            if (g->path) return cli_usage("view", "more than one input given ('%s')", a);
+            g->path = a;
             continue;
         }
         if (!val) return cli_usage("view", "%s needs a value", a);
         i++;
         if (!strcmp(a, "-r"))
-            spec = val;
+            g->spec = val;
         else if (!strcmp(a, "--mesh"))
-            mesh_path = val;
+            g->mesh_path = val;
         else if (!strcmp(a, "--screenshot"))
-            screenshot = val;
+            g->screenshot = val;
         else if (!strcmp(a, "--screenshot-window"))
-            window_shot = val;
+            g->window_shot = val;
         else if (!strcmp(a, "--frames")) {
-            frames = strtol(val, NULL, 10);
-            if (frames < 1) return cli_usage("view", "--frames wants 1 or more (got '%s')", val);
+            g->frames = strtol(val, NULL, 10);
+            if (g->frames < 1) return cli_usage("view", "--frames wants 1 or more (got '%s')", val);
         } else if (!strcmp(a, "--size")) {
-            if (!parse_size(val, &win_w, &win_h))
-                return cli_usage("view", "--size wants WxH (got '%s')", val);
+            if (!parse_size(val, &g->win_w, &g->win_h)) return cli_usage("view", "--size wants WxH (got '%s')", val);
         } else if (!strcmp(a, "--shade")) {
-            if (prt_shade_parse(val, &v.shade)) return cli_usage("view", "%s", prt_last_error());
+            if (prt_shade_parse(val, &v->shade)) return cli_usage("view", "%s", prt_last_error());
         } else if (!strcmp(a, "--spp")) {
-            v.spp_still = (uint32_t)strtoul(val, NULL, 10);
-            if (v.spp_still < 1 || v.spp_still > 4096)
-                return cli_usage("view", "--spp wants 1..4096");
+            v->spp_still = (uint32_t)strtoul(val, NULL, 10);
+            if (v->spp_still < 1 || v->spp_still > 4096) return cli_usage("view", "--spp wants 1..4096");
         } else if (!strcmp(a, "--threads"))
-            v.threads = atoi(val);
+            v->threads = atoi(val);
         else
             return cli_usage("view", "unknown option '%s'", a);
     }
-    if (!path) return cli_usage("view", "needs MESH or FILE.prt");
-    if ((screenshot || window_shot) && !frames)
+    if (!g->path) return cli_usage("view", "needs MESH or FILE.prt");
+    if ((g->screenshot || g->window_shot) && !g->frames)
         return cli_usage("view", "--screenshot goes with --frames N (interactively: F12)");
+    return -1;
+}
 
-    int rc = cli_open_accel("view", path, spec, DEFAULT_SPEC, &v.mesh, &v.accel);
+/* The accel (and the mesh, when given or built from), its stats and the first camera;
+ * 0 or an exit code. */
+static int open_scene(const view_args *g, viewer *v) {
+    int rc = cli_open_accel("view", g->path, g->spec, DEFAULT_SPEC, &v->mesh, &v->accel);
     if (rc) return rc;
-    /* Out-of-core files render with levels of detail unless told otherwise (3 pixels, as
-     * the paper's tables). */
+    /* Files with a block cache (out-of-core) render with levels of detail (3 pixels, as the
+     * paper's tables). */
     prt_cache_info probe;
-    prt_accel_frame(v.accel, &probe);
-    if (!lod_given && probe.blocks) v.lod = 3.0f;
-    if (mesh_path && !v.mesh) {
-        prt_status s = prt_mesh_load(mesh_path, &v.mesh);
+    prt_accel_frame(v->accel, &probe);
+    if (probe.blocks) v->lod = 3.0f;
+    if (g->mesh_path && !v->mesh) {
+        prt_status s = prt_mesh_load(g->mesh_path, &v->mesh);
         if (s) {
-            prt_accel_free(v.accel);
-            return cli_fail("view", mesh_path, s);
+            prt_accel_free(v->accel);
+            return cli_fail("view", g->mesh_path, s);
         }
     }
-    v.repr = repr_index_of(v.accel);
-    prt_accel_stats(v.accel, &v.stats);
+    v->repr = repr_index_of(v->accel);
+    prt_accel_stats(v->accel, &v->stats);
     float lo[3], hi[3];
-    prt_accel_bounds(v.accel, lo, hi);
-    v.diag = sqrtf((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                   (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    prt_accel_bounds(v->accel, lo, hi);
+    v->diag = sqrtf((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                    (hi[2] - lo[2]) * (hi[2] - lo[2]));
     prt_camera cam;
     prt_camera_default(lo, hi, &cam);
-    view_fly_from_camera(&v.fly, &cam, v.diag);
-    if (!v.threads) v.threads = omp_get_max_threads();
+    view_fly_from_camera(&v->fly, &cam, v->diag);
+    if (!v->threads) v->threads = omp_get_max_threads();
+    return 0;
+}
 
-    rc = run(&v, win_w, win_h, frames, screenshot, window_shot);
+int main(int argc, char **argv) {
+    view_args g = {.win_w = 960, .win_h = 540};
+    viewer v;
+    memset(&v, 0, sizeof v);
+    v.shade = PRT_SHADE_SHADOWS;
+    v.spp_still = 8;
+    v.scale = 0.5f;
+    int rc = parse_args(argc, argv, &g, &v);
+    if (rc >= 0) return rc;
+    rc = open_scene(&g, &v);
+    if (rc) return rc;
+    rc = run(&v, g.win_w, g.win_h, g.frames, g.screenshot, g.window_shot);
     prt_image_free(&v.img);
     prt_accel_free(v.accel);
     prt_mesh_free(v.mesh);

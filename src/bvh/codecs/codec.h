@@ -4,9 +4,10 @@
  * them (bvh/layouts/instantiate.inc); the table below holds what encoding and loading
  * need, where an indirect call costs nothing.
  *
- * Adding a codec: codecs/<name>.h, one line in BVH_TRIANGLE_CODECS below (or, for leaves
- * that are not runs of triangles, BVH_KIND_CODECS), one include in
- * codecs/codecs.h and two lines in layouts/instantiate.inc. A codec header defines
+ * Adding a codec: codecs/<id>.h and one line in BVH_TRIANGLE_CODECS below (or, for leaves
+ * that are not runs of triangles, BVH_KIND_CODECS); CMakeLists.txt reads these lines (each
+ * `    X(id, "` at the start of a line) and generates the header's include (codecs.h) and
+ * its kernels' instantiation in every layout (layouts/instantiate.inc). A codec header defines
  * <name>_block, <name>_align, <name>_leaf_bytes, <name>_encode, <name>_ray (per-ray state),
  * <name>_ray_init(ray, rayx, shared), <name>_intersect, <name>_occluded,
  * <name>_shared_build / <name>_leaf_valid / <name>_shared_remap / <name>_vertex_error /
