@@ -455,8 +455,8 @@ typedef enum prt_contains_method {
 
 /* prt_contains by method. The winding number here is the fast hierarchical one (Barill et
  * al. 2018, accuracy beta = 2: prt_winding_number_fast), on a tree built for the call over
- * the representation's triangles (O(n log n) time, about 190 bytes a triangle while the call
- * runs); result[i] has PRT_BY_WINDING set for the points it decided. Errors as prt_contains,
+ * the representation's triangles (O(n log n) time, at most about 240 bytes a triangle while the
+ * call runs); result[i] has PRT_BY_WINDING set for the points it decided. Errors as prt_contains,
  * and PRT_ERROR_ARGUMENT for an unknown method, PRT_ERROR_NOMEM. */
 prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, prt_contains_method method,
                                uint8_t *result, int threads);

@@ -163,8 +163,9 @@ prt_status prt__wtree_build(const prt_accel *a, prt__wtree **out) {
         return prt__fail(PRT_ERROR_NOMEM, "winding number: out of memory for the tree of %zu triangles", g.count);
     }
     t->tris = g.tris, t->count = (uint32_t)g.count;
-    /* A binary tree with leaves of at least WTREE_LEAF / 2 triangles: fewer than 2 n nodes. */
-    t->nodes = prt__alloc(prt__mul_size(2 * (size_t)t->count + 1, sizeof *t->nodes));
+    /* Leaves of more than WTREE_LEAF split in halves, so every leaf holds at least
+     * WTREE_LEAF / 2 triangles (or is the root): at most n / 4 leaves, n / 2 nodes. */
+    t->nodes = prt__alloc(prt__mul_size((size_t)t->count / 2 + 2, sizeof *t->nodes));
     t->cent = prt__alloc(prt__mul_size(3 * (size_t)t->count + 1, sizeof *t->cent));
     if (!t->nodes || !t->cent) {
         prt__wtree_free(t);
