@@ -128,6 +128,10 @@ bool wide8_point_walk(const bvh_view *w, prt__query *q) {
                 c.ref = hd.geometry + 4 * (uint64_t)n.leaf + (uint64_t)start * hd.grain;
                 c.count = bvh_leaf_count_of(w->codec, (size_t)(end - start) * hd.grain);
             }
+            /* Its first bytes on their way now: a node or leaf header popped later would
+             * otherwise wait for memory then (the walk is bound by those loads). */
+            __builtin_prefetch(w->blob + c.ref);
+            __builtin_prefetch(w->blob + c.ref + 64);
             uint32_t j = m++;
             for (; j > 0 && next[j - 1].cost < c.cost; j--) next[j] = next[j - 1];
             next[j] = c;
