@@ -93,11 +93,20 @@ static prt_status contains_all(const prt_accel *a, const float *points, size_t n
     return PRT_OK;
 }
 
+/* The checks every function here makes: a answers queries, and points and out are set
+ * when there are points (out: the name of the caller's output, for the message). */
+static prt_status check_call(const prt_accel *a, const char *fn, size_t n, const float *points, const void *out,
+                             const char *what) {
+    prt_status s = prt__query_check(a, fn);
+    if (s) return s;
+    if (n && (!points || !out)) return prt__fail(PRT_ERROR_ARGUMENT, "%s: points and %s must be set", fn, what);
+    return PRT_OK;
+}
+
 prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, prt_contains_method method,
                                uint8_t *result, int threads) {
-    prt_status s = prt__query_check(a, "prt_contains");
+    prt_status s = check_call(a, "prt_contains", n, points, result, "result");
     if (s) return s;
-    if (n && (!points || !result)) return prt__fail(PRT_ERROR_ARGUMENT, "prt_contains: points and result must be set");
     if (method != PRT_CONTAINS_AUTO && method != PRT_CONTAINS_PARITY && method != PRT_CONTAINS_WINDING)
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_contains: method %d is none of auto (0), parity (1), winding (2)",
                          (int)method);
@@ -110,10 +119,8 @@ prt_status prt_contains(const prt_accel *a, const float *points, size_t n, uint8
 
 prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size_t n, float beta, float *winding,
                                    int threads) {
-    prt_status s = prt__query_check(a, "prt_winding_number_fast");
+    prt_status s = check_call(a, "prt_winding_number_fast", n, points, winding, "winding");
     if (s) return s;
-    if (n && (!points || !winding))
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_winding_number_fast: points and winding must be set");
     if (isnan(beta)) return prt__fail(PRT_ERROR_ARGUMENT, "prt_winding_number_fast: beta is NaN");
     prt__wtree *t;
     if ((s = prt__wtree_build(a, &t))) return s;
@@ -128,10 +135,8 @@ prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size
 }
 
 prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n, float *winding, int threads) {
-    prt_status s = prt__query_check(a, "prt_winding_number");
+    prt_status s = check_call(a, "prt_winding_number", n, points, winding, "winding");
     if (s) return s;
-    if (n && (!points || !winding))
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_winding_number: points and winding must be set");
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 4)
     for (size_t i = 0; i < n; i++) {
         const float *p = points + 3 * i;
@@ -142,10 +147,8 @@ prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n,
 
 prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n, float max_distance, float *distance,
                                int threads) {
-    prt_status s = prt__query_check(a, "prt_signed_distance");
+    prt_status s = check_call(a, "prt_signed_distance", n, points, distance, "distance");
     if (s) return s;
-    if (n && (!points || !distance))
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_signed_distance: points and distance must be set");
     if (!(max_distance >= 0.0f))
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_signed_distance: max_distance %g is not a distance", (double)max_distance);
     uint8_t *in = prt__alloc(n ? n : 1);
