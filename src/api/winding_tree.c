@@ -176,7 +176,7 @@ prt_status prt__wtree_build(const prt_accel *a, prt__wtree **out) {
         for (int x = 0; x < 3; x++) t->cent[3 * k + x] = ((double)v[x] + v[3 + x] + v[6 + x]) / 3;
     }
     t->node_count = 1;
-    build_node(t, 0, 0, t->count);
+    if (t->count) build_node(t, 0, 0, t->count); /* no triangles: prt__wtree_winding answers 0 */
     prt__free(t->cent);
     t->cent = NULL;
     *out = t;
