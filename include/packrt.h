@@ -440,15 +440,41 @@ prt_status prt_closest_points(const prt_accel *a, const float *points, size_t n,
 
 /* Inside/outside of n points on threads: the parity of the crossings along several ray
  * directions from each point, which is exact for closed meshes; when the directions
- * disagree, the generalized winding number (Jacobson et al. 2013) decides: inside when it is
- * at least 0.5. result[i] is a combination of PRT_INSIDE and PRT_BY_WINDING. A point that is
+ * disagree, the generalized winding number (Jacobson et al. 2013, computed as
+ * prt_winding_number_fast with beta 2) decides: inside when it is at least 0.5. result[i] is a combination of PRT_INSIDE and PRT_BY_WINDING. A point that is
  * not finite is outside. */
 prt_status prt_contains(const prt_accel *a, const float *points, size_t n, uint8_t *result, int threads);
+
+/* How prt_contains_by decides. */
+typedef enum prt_contains_method {
+    PRT_CONTAINS_AUTO = 0,    /* prt_contains: parity when the three directions agree, else the winding number */
+    PRT_CONTAINS_PARITY = 1,  /* the majority of the three parities, always (right for closed meshes) */
+    PRT_CONTAINS_WINDING = 2  /* the fast winding number for every point (meshes with holes, self-
+                               * intersections or inconsistent closure): inside when it is at least 0.5 */
+} prt_contains_method;
+
+/* prt_contains by method. The winding number here is the fast hierarchical one (Barill et
+ * al. 2018, accuracy beta = 2: prt_winding_number_fast), on a tree built for the call over
+ * the representation's triangles (O(n log n) time, at most about 240 bytes a triangle while the
+ * call runs); result[i] has PRT_BY_WINDING set for the points it decided. Errors as prt_contains,
+ * and PRT_ERROR_ARGUMENT for an unknown method, PRT_ERROR_NOMEM. */
+prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, prt_contains_method method,
+                               uint8_t *result, int threads);
 
 /* Generalized winding number of the surface at n points (Jacobson et al. 2013: the sum of
  * the triangles' signed solid angles over 4 pi): 1 inside a closed outward-wound mesh, 0
  * outside, fractional near holes. */
 prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n, float *winding, int threads);
+
+/* The generalized winding number by Barill et al. 2018's fast approximation ("Fast Winding
+ * Numbers for Soups and Clouds"): a tree over the triangles (built for the call) whose
+ * nodes keep their dipole and its first correction; a node whose centre is more than beta
+ * times its radius from the point answers by that expansion, nearer ones by their
+ * triangles' exact solid angles. beta = 2 is the paper's choice (docs/queries.md states the
+ * error measured); beta <= 0 sums every triangle exactly. O(log n) a point far from the
+ * surface. Points that are not finite get NaN. */
+prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size_t n, float beta, float *winding,
+                                   int threads);
 
 /* Signed distance of n points: the closest point's distance, negative inside (prt_contains'
  * answer), +inf (or -inf) when nothing lies within max_distance. */

@@ -17,6 +17,10 @@ check query_closest 0 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$di
 check query_signed 0 "$packrt" query "$dir/s.ply" --points "$dir/p.txt" -o "$dir/s.dist" --signed
 check query_contains 0 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/in.bin" --contains
 check query_winding 0 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/w.bin" --winding
+check query_contains_winding 0 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/inw.bin" --contains --method winding
+check query_winding_fast 0 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/wf.bin" --winding --beta 2
+check query_bad_method 2 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/x.bin" --contains --method vote
+check query_bad_beta 2 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/x.bin" --winding --beta -1
 check query_max_distance 0 "$packrt" query "$dir/s.prt" --points "$dir/p.txt" -o "$dir/m.dist" --max-distance 0.6
 py "$dir" <<'PY'
 import math, struct, sys
@@ -41,9 +45,12 @@ for name, signed in (("d.dist", False), ("s.dist", True)):
         if signed: assert (dist < 0) == ins, (p, dist)
 for r, ins in zip(records(f"{d}/in.bin", b"PRTINSD1", 1), inside):
     assert (r[0] & 1) == ins and not r[0] & 2, (r[0], ins)
-for r, ins in zip(records(f"{d}/w.bin", b"PRTWIND1", 4), inside):
-    w, = struct.unpack("<f", r)
-    assert abs(w - (1 if ins else 0)) < 1e-3, w
+for r, ins in zip(records(f"{d}/inw.bin", b"PRTINSD1", 1), inside):
+    assert (r[0] & 1) == ins and r[0] & 2, (r[0], ins)  # decided by the winding number, and says so
+for name, tol in (("w.bin", 1e-3), ("wf.bin", 1e-2)):
+    for r, ins in zip(records(f"{d}/{name}", b"PRTWIND1", 4), inside):
+        w, = struct.unpack("<f", r)
+        assert abs(w - (1 if ins else 0)) < tol, (name, w)
 for r, c in zip(records(f"{d}/m.dist", b"PRTDIST1", 28), near):
     dist, prim = struct.unpack("<f I", r[:8])
     assert (prim == 0xFFFFFFFF) == (abs(1 - c) > 0.62), (c, dist, prim)

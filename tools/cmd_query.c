@@ -8,9 +8,15 @@
 
 static int usage(void) {
     printf("usage: packrt query MESH|FILE.prt [-r SPEC] --points in.points -o out.dist\n"
-           "                    [--signed | --contains | --winding] [--max-distance D] [--threads N]\n"
+           "                    [--signed | --contains [--method M] | --winding [--beta B]] [--max-distance D]\n"
+           "                    [--threads N]\n"
            "  closest surface point of every point (default), its signed distance (--signed: negative inside),\n"
            "  inside/outside (--contains) or the generalized winding number (--winding)\n"
+           "  --method auto|parity|winding: how --contains decides (default auto: crossing parity along three\n"
+           "    rays, the winding number where they disagree; winding: Barill et al.'s fast winding number\n"
+           "    for every point, for meshes with holes or self-intersections)\n"
+           "  --beta B: --winding by the fast approximation with accuracy B (2: Barill et al.'s; default:\n"
+           "    the exact sum over every triangle)\n"
            "  MESH is built with SPEC (default wide8:idx8-soa4); a .prt file is used as saved\n"
            "  in.points: a .points file or text, x y z a line; formats of the output: docs/formats.md\n"
            "  (PRTDIST1: distance, prim, u, v, point xyz a point; PRTINSD1: one byte a point, bit 0 inside,\n"
@@ -28,13 +34,15 @@ static void closest_record(const prt_closest *c, float distance, uint8_t *r) {
 }
 
 static int answer(const char *out, const prt_accel *a, const float *pts, size_t n, int mode, float max_distance,
-                  int threads) {
+                  prt_contains_method method, float beta, int threads) {
     prt_status s = PRT_OK;
     int rc = 0;
     if (mode == 'c' || mode == 'w') {
         void *res = malloc(n ? n * (mode == 'c' ? 1 : 4) : 1);
         if (!res) return fprintf(stderr, "packrt query: out of memory for %zu points\n", n), 1;
-        s = mode == 'c' ? prt_contains(a, pts, n, res, threads) : prt_winding_number(a, pts, n, res, threads);
+        s = mode == 'c'        ? prt_contains_by(a, pts, n, method, res, threads)
+            : isnan(beta) ? prt_winding_number(a, pts, n, res, threads)
+                          : prt_winding_number_fast(a, pts, n, beta, res, threads);
         if (!s) rc = qf_write("query", out, mode == 'c' ? "PRTINSD1" : "PRTWIND1", n, NULL, 0, res, n * (mode == 'c' ? 1 : 4));
         free(res);
         return s ? cli_fail("query", "query", s) : rc;
@@ -59,7 +67,8 @@ static int answer(const char *out, const prt_accel *a, const float *pts, size_t 
 int cmd_query(int argc, char **argv) {
     const char *path = NULL, *spec = NULL, *points_path = NULL, *out = NULL;
     int mode = 'd', threads = 0;
-    float max_distance = INFINITY;
+    float max_distance = INFINITY, beta = NAN;
+    prt_contains_method method = PRT_CONTAINS_AUTO;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) return usage();
         if (!strcmp(argv[i], "-r") && i + 1 < argc) spec = argv[++i];
@@ -70,6 +79,16 @@ int cmd_query(int argc, char **argv) {
             char *end;
             max_distance = strtof(argv[++i], &end);
             if (*end || !(max_distance >= 0)) return cli_usage("query", "--max-distance needs a distance, not '%s'", argv[i]);
+        } else if (!strcmp(argv[i], "--beta") && i + 1 < argc) {
+            char *end;
+            beta = strtof(argv[++i], &end);
+            if (*end || !(beta > 0)) return cli_usage("query", "--beta needs a positive number, not '%s'", argv[i]);
+        } else if (!strcmp(argv[i], "--method") && i + 1 < argc) {
+            const char *m = argv[++i];
+            if (!strcmp(m, "auto")) method = PRT_CONTAINS_AUTO;
+            else if (!strcmp(m, "parity")) method = PRT_CONTAINS_PARITY;
+            else if (!strcmp(m, "winding")) method = PRT_CONTAINS_WINDING;
+            else return cli_usage("query", "--method is auto, parity or winding, not '%s'", m);
         } else if (!strcmp(argv[i], "--signed")) mode = 's';
         else if (!strcmp(argv[i], "--contains")) mode = 'c';
         else if (!strcmp(argv[i], "--winding")) mode = 'w';
@@ -84,7 +103,7 @@ int cmd_query(int argc, char **argv) {
     if (rc) return rc;
     prt_accel *a;
     if (!(rc = cli_open_accel("query", path, spec, "wide8:idx8-soa4", NULL, &a))) {
-        rc = answer(out, a, pts, n, mode, max_distance, threads);
+        rc = answer(out, a, pts, n, mode, max_distance, method, beta, threads);
         prt_accel_free(a);
     }
     free(pts);

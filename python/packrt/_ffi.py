@@ -77,12 +77,18 @@ prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n,
                               int threads);
 prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n, float max_distance,
                                float *distance, int threads);
+prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, int method, uint8_t *result,
+                           int threads);
+prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size_t n, float beta, float *winding,
+                                   int threads);
 """
 )
 
 #: Bits of prt_contains' answers (include/packrt.h).
 PRT_INSIDE = 1
 PRT_BY_WINDING = 2
+#: prt_contains_method values, by name (include/packrt.h).
+CONTAINS_METHODS = {"auto": 0, "parity": 1, "winding": 2}
 
 
 def _candidates():

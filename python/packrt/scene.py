@@ -11,7 +11,7 @@ import threading
 
 import numpy as np
 
-from ._ffi import PRT_INSIDE, ffi, lib, library_path
+from ._ffi import CONTAINS_METHODS, PRT_INSIDE, ffi, lib, library_path
 
 #: primitive_ids and geometry_ids of a miss (PRT_INVALID).
 INVALID_ID = 0xFFFFFFFF
@@ -532,25 +532,40 @@ class Scene:
                                           ffi.from_buffer("float[]", out), _threads(threads, nthreads)))
         return out.reshape(shape)
 
-    def _contains(self, query_points, threads, nthreads):
+    def _contains(self, query_points, threads, nthreads, method="auto"):
+        if method not in CONTAINS_METHODS:
+            raise Error("invalid argument", f"method must be one of {sorted(CONTAINS_METHODS)}, not {method!r}")
         p, shape = _points(query_points)
         out = np.empty(len(p), np.uint8)
-        _check(_fn("prt_contains")(self._a, ffi.from_buffer("float[]", p), len(p),
-                                   ffi.from_buffer("uint8_t[]", out), _threads(threads, nthreads)))
+        args = (ffi.from_buffer("float[]", p), len(p))
+        if method == "auto":  # libraries from before prt_contains_by answer this one too
+            _check(_fn("prt_contains")(self._a, *args, ffi.from_buffer("uint8_t[]", out), _threads(threads, nthreads)))
+        else:
+            _check(_fn("prt_contains_by")(self._a, *args, CONTAINS_METHODS[method], ffi.from_buffer("uint8_t[]", out),
+                                          _threads(threads, nthreads)))
         return (out & PRT_INSIDE).astype(bool).reshape(shape)
 
-    def compute_occupancy(self, query_points, threads=0, nthreads=None, nsamples=None):
-        """1.0 inside the mesh, 0.0 outside (float32, as Open3D), for (..., 3) points: crossing
-        parity along several rays, the generalized winding number where they disagree."""
-        return self._contains(query_points, threads, nthreads).astype(np.float32)
+    def compute_occupancy(self, query_points, threads=0, nthreads=None, nsamples=None, method="auto"):
+        """1.0 inside the mesh, 0.0 outside (float32, as Open3D), for (..., 3) points. method
+        (a packrt addition): "auto", crossing parity along several rays and the generalized
+        winding number where they disagree; "parity", their majority; "winding", the fast
+        winding number (Barill et al. 2018) for every point, for meshes with holes or
+        self-intersections."""
+        return self._contains(query_points, threads, nthreads, method).astype(np.float32)
 
-    def compute_winding_number(self, query_points, threads=0, nthreads=None):
+    def compute_winding_number(self, query_points, threads=0, nthreads=None, beta=None):
         """Generalized winding number (Jacobson et al. 2013) at (..., 3) points: 1 inside a
-        closed outward-wound mesh, 0 outside (a packrt addition)."""
+        closed outward-wound mesh, 0 outside (a packrt addition). beta None: the exact sum
+        over every triangle; a number (2: the paper's): Barill et al. 2018's fast
+        approximation with that accuracy."""
         p, shape = _points(query_points)
         out = np.empty(len(p), np.float32)
-        _check(_fn("prt_winding_number")(self._a, ffi.from_buffer("float[]", p), len(p),
-                                         ffi.from_buffer("float[]", out), _threads(threads, nthreads)))
+        args = (self._a, ffi.from_buffer("float[]", p), len(p))
+        if beta is None:
+            _check(_fn("prt_winding_number")(*args, ffi.from_buffer("float[]", out), _threads(threads, nthreads)))
+        else:
+            _check(_fn("prt_winding_number_fast")(*args, float(beta), ffi.from_buffer("float[]", out),
+                                                  _threads(threads, nthreads)))
         return out.reshape(shape)
 
 

@@ -140,6 +140,13 @@ def test_winding_number_and_containment_of_an_open_mesh():
     assert ((w > 0.1) & (w < 0.9)).any()  # the hole makes fractional values
     clear = np.abs(w - 0.5) > 1e-3
     assert np.array_equal(scene.compute_occupancy(p)[clear] > 0, (w >= 0.5)[clear])
+    # The fast winding number (Barill et al. 2018, beta 2) within 0.01 of the exact one, and
+    # containment by it alone.
+    np.testing.assert_allclose(scene.compute_winding_number(p, beta=2), w, atol=1e-2)
+    clear = np.abs(w - 0.5) > 1e-2
+    assert np.array_equal(scene.compute_occupancy(p, method="winding")[clear] > 0, (w >= 0.5)[clear])
+    with pytest.raises(packrt.Error, match="method"):
+        scene.compute_occupancy(p, method="vote")
 
 
 @needs_queries

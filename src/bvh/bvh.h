@@ -113,6 +113,14 @@ bool bvh_accel_view(const struct prt_accel *a, bvh_view *out);
 struct prt__query;
 void bvh_walk(const bvh_view *w, const float bounds[6], struct prt__query *q);
 
+/* n triangles as w's codec decoded them (v, ids) renamed as the mesh names them: strip
+ * triangles rotated back to the mesh's vertex order, leaf-order ids mapped to mesh ids
+ * (bvh/walk.c). Every walk hands the queries triangles so named. */
+void bvh_walk_name(const bvh_view *w, float *v, uint32_t *ids, uint32_t n);
+
+/* Hand q the leaf of count triangles at byte ref of w's blob, decoded and named. */
+void bvh_walk_leaf(const bvh_view *w, uint64_t ref, uint32_t count, struct prt__query *q);
+
 /* Leaf counts a loaded file may claim (the spec's leaf option is at most 16). */
 #define BVH_MAX_LEAF 16
 

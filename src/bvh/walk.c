@@ -6,12 +6,13 @@
 #include "api/query.h"
 #include "bvh/bvh.h"
 #include "bvh/codecs/strip.h"
+#include "bvh/layouts/wide8_point.h"
 #include "bvh/strip_leaves.h"
 
 /* Triangles as the mesh names them: strip triangles rotated back to the mesh's vertex order
  * (mesh vertex i is the strip's (i + 3 - r) % 3, bvh_strip_rotate_uv) and leaf-order ids
  * mapped to mesh ids, as bvh_accel.c names a kernel's hit. */
-static void name_triangles(const bvh_view *w, float *v, uint32_t *ids, uint32_t n) {
+void bvh_walk_name(const bvh_view *w, float *v, uint32_t *ids, uint32_t n) {
     const bvh_shared *sh = w->shared;
     for (uint32_t i = 0; i < n; i++) {
         if (ids[i] >= sh->triangles) continue;
@@ -31,6 +32,14 @@ static void name_triangles(const bvh_view *w, float *v, uint32_t *ids, uint32_t 
     }
 }
 
+void bvh_walk_leaf(const bvh_view *w, uint64_t ref, uint32_t count, prt__query *q) {
+    float v[9 * BVH_DECODE_MAX];
+    uint32_t ids[BVH_DECODE_MAX];
+    const uint32_t n = w->codec->decode(w->blob + ref, count, w->shared, v, ids);
+    bvh_walk_name(w, v, ids, n);
+    q->leaf(q, v, ids, n);
+}
+
 /* A node's cost for q, tested on its box widened to hold what the codec decodes (lossy
  * codecs only: bvh_decoded_box leaves the others' boxes as they are). */
 static double walk_cost(const bvh_view *w, bool widen, const prt__query *q, const bvh_child *c) {
@@ -46,9 +55,8 @@ typedef struct walk_entry {
 } walk_entry;
 
 void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
+    if (q->kind == PRT__QUERY_POINT && wide8_point_walk(w, q)) return; /* its own SIMD walk */
     walk_entry stack[8 * BVH_MAX_DEPTH + 8];
-    float v[9 * BVH_DECODE_MAX];
-    uint32_t ids[BVH_DECODE_MAX];
     uint32_t sp = 0;
     const bool widen = w->codec->leaf_error || w->codec->vertex_error;
     const bvh_child root = w->layout->root(w->blob, w->codec, bounds);
@@ -57,9 +65,7 @@ void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
         const walk_entry e = stack[--sp];
         if (e.cost == INFINITY || (q->kind == PRT__QUERY_POINT && e.cost > q->r2)) continue;
         if (e.node.count) {
-            const uint32_t n = w->codec->decode(w->blob + e.node.ref, e.node.count, w->shared, v, ids);
-            name_triangles(w, v, ids, n);
-            q->leaf(q, v, ids, n);
+            bvh_walk_leaf(w, e.node.ref, e.node.count, q);
             continue;
         }
         bvh_child kids[8];
