@@ -31,8 +31,8 @@ typedef struct viewer {
     prt_image img;
     double frame_s, fps, mrays;
     int shots;
-    char status[160]; /* a transient message (screenshots, errors) */
-    float lod;          /* pixels of error (0: exact) */
+    char status[160];     /* a transient message (screenshots, errors) */
+    float lod;            /* pixels of error (0: exact) */
     prt_cache_info cache; /* after the last frame (out-of-core files) */
 } viewer;
 
@@ -76,11 +76,8 @@ static bool save_screenshot(viewer *v, const char *path) {
     size_t n = strlen(path);
     bool ppm = n > 4 && !strcasecmp(path + n - 4, ".ppm");
     prt_status s = ppm ? prt_image_save_ppm(&v->img, path) : prt_image_save_png(&v->img, path);
-    if (s)
-        snprintf(v->status, sizeof v->status, "screenshot failed: %s", prt_last_error());
-    else
-        snprintf(v->status, sizeof v->status, "saved %s (%ux%u)", path, v->img.width,
-                 v->img.height);
+    if (s) snprintf(v->status, sizeof v->status, "screenshot failed: %s", prt_last_error());
+    else snprintf(v->status, sizeof v->status, "saved %s (%ux%u)", path, v->img.width, v->img.height);
     fprintf(stderr, "packrt-view: %s\n", v->status);
     return s == PRT_OK;
 }
@@ -91,15 +88,13 @@ static bool save_window(viewer *v, SDL_Renderer *r, const char *path) {
     SDL_GetRendererOutputSize(r, &w, &h);
     /* Owned here (malloc/free), not by packrt: only prt_image_save_* read it. */
     prt_image shot = {(uint32_t)w, (uint32_t)h, malloc((size_t)w * h * 3), 0, 0};
-    bool ok =
-        shot.rgb && SDL_RenderReadPixels(r, NULL, SDL_PIXELFORMAT_RGB24, shot.rgb, 3 * w) == 0;
+    bool ok = shot.rgb && SDL_RenderReadPixels(r, NULL, SDL_PIXELFORMAT_RGB24, shot.rgb, 3 * w) == 0;
     if (ok) {
         prt_image keep = v->img;
         v->img = shot;
         ok = save_screenshot(v, path);
         v->img = keep;
-    } else
-        snprintf(v->status, sizeof v->status, "window capture failed: %s", SDL_GetError());
+    } else snprintf(v->status, sizeof v->status, "window capture failed: %s", SDL_GetError());
     free(shot.rgb);
     return ok;
 }
@@ -111,25 +106,24 @@ static void draw_hud(SDL_Renderer *r, const viewer *v, bool help) {
              v->mesh || v->lod > 0.0f ? "" : "  (.prt alone: normals estimated)");
     /* fps counts frames drawn (none while a refined view stands still); the frame time is
      * what the last frame cost. */
-    snprintf(l[1], sizeof l[1], "%5.1f fps  frame %.0f ms  %6.2f Mrays/s  %ux%u (scale %.2f)  %s",
-             v->fps, v->frame_s * 1e3, v->mrays, v->img.width, v->img.height,
-             v->refine ? 1.0 : v->scale,
+    snprintf(l[1], sizeof l[1], "%5.1f fps  frame %.0f ms  %6.2f Mrays/s  %ux%u (scale %.2f)  %s", v->fps,
+             v->frame_s * 1e3, v->mrays, v->img.width, v->img.height, v->refine ? 1.0 : v->scale,
              v->refine == 2   ? "refined"
              : v->refine == 1 ? "refining"
                               : "moving");
     size_t ws;
     prt_memory_usage(&ws, NULL);
     double tris = (double)(v->stats.triangles ? v->stats.triangles : 1);
-    snprintf(l[2], sizeof l[2],
-             "%.1f B/tri (tree %.1f, geometry %.1f)  %zu tris  packrt memory %.1f MB",
+    snprintf(l[2], sizeof l[2], "%.1f B/tri (tree %.1f, geometry %.1f)  %zu tris  packrt memory %.1f MB",
              (double)(v->stats.bytes_tree + v->stats.bytes_geometry + v->stats.bytes_other) / tris,
-             (double)v->stats.bytes_tree / tris, (double)v->stats.bytes_geometry / tris,
-             v->stats.triangles, (double)ws / 1048576.0);
+             (double)v->stats.bytes_tree / tris, (double)v->stats.bytes_geometry / tris, v->stats.triangles,
+             (double)ws / 1048576.0);
     char l4[160];
     int n = 3;
     if (v->cache.blocks) {
         /* Out-of-core (Afra Fig. 2): what the frame touched, what is held, what is coming. */
-        snprintf(l4, sizeof l4, "LOD %.1f px  working set %.1f MB  resident %.1f / %.0f MB  loading %u  loaded %.0f%% of %llu blocks",
+        snprintf(l4, sizeof l4,
+                 "LOD %.1f px  working set %.1f MB  resident %.1f / %.0f MB  loading %u  loaded %.0f%% of %llu blocks",
                  v->lod, (double)v->cache.working_set_bytes / 1048576.0, (double)v->cache.resident_bytes / 1048576.0,
                  (double)v->cache.cache_bytes / 1048576.0, v->cache.pending,
                  100.0 * (double)v->cache.resident_bytes / 65536.0 / (double)v->cache.blocks,
@@ -142,9 +136,8 @@ static void draw_hud(SDL_Renderer *r, const viewer *v, bool help) {
     }
     view_hud_draw(r, lines, n, false);
     if (help) {
-        const char *keys[] = {
-            "WASD QE move  mouse drag look  wheel speed  shift fast",
-            "1-5 shading  Tab representation  F12/P screenshot  H help  Esc quit"};
+        const char *keys[] = {"WASD QE move  mouse drag look  wheel speed  shift fast",
+                              "1-5 shading  Tab representation  F12/P screenshot  H help  Esc quit"};
         view_hud_draw(r, keys, 2, true);
     }
 }
@@ -152,8 +145,7 @@ static void draw_hud(SDL_Renderer *r, const viewer *v, bool help) {
 /* Rebuild the mesh as the next registered representation (blocking; the HUD says so). */
 static void next_representation(viewer *v, SDL_Renderer *r) {
     if (!v->mesh) {
-        snprintf(v->status, sizeof v->status,
-                 "a .prt file holds one representation: give --mesh to switch");
+        snprintf(v->status, sizeof v->status, "a .prt file holds one representation: give --mesh to switch");
         return;
     }
     size_t next = (v->repr + 1) % prt_repr_count();
@@ -170,8 +162,7 @@ static void next_representation(viewer *v, SDL_Renderer *r) {
     v->accel = a;
     v->repr = next;
     prt_accel_stats(a, &v->stats);
-    snprintf(v->status, sizeof v->status, "built %s in %.2f s", prt_repr_name(next),
-             v->stats.build_seconds);
+    snprintf(v->status, sizeof v->status, "built %s in %.2f s", prt_repr_name(next), v->stats.build_seconds);
     v->dirty = true;
 }
 
@@ -182,8 +173,7 @@ static int render_frame(viewer *v, int win_w, int win_h) {
     o.width = (uint32_t)fmaxf(16.0f, roundf((float)win_w * scale));
     o.height = (uint32_t)fmaxf(16.0f, roundf((float)win_h * scale));
     o.shade = v->shade;
-    o.spp =
-        v->refine == 2 && (v->shade == PRT_SHADE_AO || v->shade == PRT_SHADE_GI) ? v->spp_still : 1;
+    o.spp = v->refine == 2 && (v->shade == PRT_SHADE_AO || v->shade == PRT_SHADE_GI) ? v->spp_still : 1;
     o.denoise = true;
     o.threads = v->threads;
     o.seed = 1;
@@ -208,136 +198,163 @@ static int render_frame(viewer *v, int win_w, int win_h) {
     return 0;
 }
 
-static int run(viewer *v, int win_w, int win_h, long frames, const char *screenshot,
-               const char *window_shot) {
+/* The window's state across frames of the event loop. */
+typedef struct view_loop {
+    SDL_Window *win;
+    SDL_Renderer *r;
+    SDL_Texture *tex;
+    uint32_t tex_w, tex_h;
+    bool running, help, dragging;
+    char *want_window_shot; /* Shift+F12: captured after this frame's HUD is drawn */
+    double fps_time;
+    int fps_frames;
+} view_loop;
+
+static bool window_open(view_loop *l, int win_w, int win_h) {
     /* Offscreen runs need no vsync or acceleration; software rendering works on Xvfb. */
     SDL_SetHint(SDL_HINT_RENDER_SCALE_QUALITY, "1");
     if (SDL_Init(SDL_INIT_VIDEO) != 0) {
         fprintf(stderr, "packrt-view: cannot open a display: %s\n", SDL_GetError());
-        return 1;
+        return false;
     }
-    SDL_Window *win = SDL_CreateWindow("packrt-view", SDL_WINDOWPOS_CENTERED,
-                                       SDL_WINDOWPOS_CENTERED, win_w, win_h, SDL_WINDOW_RESIZABLE);
-    SDL_Renderer *r = win ? SDL_CreateRenderer(win, -1, 0) : NULL;
-    if (!r) {
+    l->win = SDL_CreateWindow("packrt-view", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, win_w, win_h,
+                              SDL_WINDOW_RESIZABLE);
+    l->r = l->win ? SDL_CreateRenderer(l->win, -1, 0) : NULL;
+    if (!l->r) {
         fprintf(stderr, "packrt-view: cannot create a window: %s\n", SDL_GetError());
-        if (win) SDL_DestroyWindow(win);
+        if (l->win) SDL_DestroyWindow(l->win);
         SDL_Quit();
+        return false;
+    }
+    return true;
+}
+
+static void window_close(view_loop *l) {
+    if (l->tex) SDL_DestroyTexture(l->tex);
+    SDL_DestroyRenderer(l->r);
+    SDL_DestroyWindow(l->win);
+    SDL_Quit();
+}
+
+static void on_key(viewer *v, view_loop *l, const SDL_KeyboardEvent *key) {
+    SDL_Keycode k = key->keysym.sym;
+    if (k == SDLK_ESCAPE) l->running = false;
+    else if (k >= SDLK_1 && k <= SDLK_5) {
+        v->shade = (prt_shade)(k - SDLK_1);
+        v->dirty = true;
+    } else if (k == SDLK_TAB) next_representation(v, l->r);
+    else if (k == SDLK_F12 || k == SDLK_p) {
+        char name[64];
+        snprintf(name, sizeof name, "packrt-view-%d.png", ++v->shots);
+        if (key->keysym.mod & KMOD_SHIFT) l->want_window_shot = strdup(name);
+        else save_screenshot(v, name);
+    } else if (k == SDLK_h) l->help = !l->help;
+}
+
+/* This frame's events; true when the mouse turned the camera. */
+static bool on_events(viewer *v, view_loop *l) {
+    bool moved = false;
+    SDL_Event e;
+    while (SDL_PollEvent(&e)) {
+        if (e.type == SDL_QUIT) l->running = false;
+        else if (e.type == SDL_KEYDOWN) on_key(v, l, &e.key);
+        else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) {
+            l->dragging = true;
+            SDL_SetRelativeMouseMode(SDL_TRUE);
+        } else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) {
+            l->dragging = false;
+            SDL_SetRelativeMouseMode(SDL_FALSE);
+        } else if (e.type == SDL_MOUSEMOTION && l->dragging) {
+            view_fly_look(&v->fly, (float)e.motion.xrel, (float)e.motion.yrel);
+            moved = true;
+        } else if (e.type == SDL_MOUSEWHEEL) v->fly.speed *= powf(1.25f, (float)e.wheel.y);
+        else if (e.type == SDL_WINDOWEVENT) v->dirty = true;
+    }
+    return moved;
+}
+
+/* WASD/QE flight over dt seconds; true when the camera moved. */
+static bool on_flight_keys(viewer *v, float dt) {
+    const Uint8 *key = SDL_GetKeyboardState(NULL);
+    float fwd = (float)(key[SDL_SCANCODE_W] - key[SDL_SCANCODE_S]);
+    float side = (float)(key[SDL_SCANCODE_D] - key[SDL_SCANCODE_A]);
+    float up =
+        (float)(key[SDL_SCANCODE_E] + key[SDL_SCANCODE_PAGEUP] - key[SDL_SCANCODE_Q] - key[SDL_SCANCODE_PAGEDOWN]);
+    if (fwd == 0 && side == 0 && up == 0) return false;
+    float boost = key[SDL_SCANCODE_LSHIFT] || key[SDL_SCANCODE_RSHIFT] ? 4.0f : 1.0f;
+    /* A frame time is at most a tenth of a second here: a slow refined frame must not turn
+     * the next key press into a leap. */
+    view_fly_move(&v->fly, fwd * boost, side * boost, up * boost, fminf(dt, 0.1f));
+    return true;
+}
+
+/* Render a frame into the window's texture when the view changed (or frames are counted);
+ * else sleep. Returns non-zero on failure. */
+static int draw_frame(viewer *v, view_loop *l, long frames) {
+    int win_w, win_h;
+    SDL_GetRendererOutputSize(l->r, &win_w, &win_h);
+    if (!v->dirty && frames <= 0) {
+        SDL_Delay(10); /* nothing changed: leave the cores to other work */
+        return 0;
+    }
+    int rc = render_frame(v, win_w, win_h);
+    if (rc) return rc;
+    v->dirty = false;
+    if (!l->tex || l->tex_w != v->img.width || l->tex_h != v->img.height) {
+        if (l->tex) SDL_DestroyTexture(l->tex);
+        l->tex = SDL_CreateTexture(l->r, SDL_PIXELFORMAT_RGB24, SDL_TEXTUREACCESS_STREAMING, (int)v->img.width,
+                                   (int)v->img.height);
+        l->tex_w = v->img.width, l->tex_h = v->img.height;
+    }
+    if (!l->tex) {
+        fprintf(stderr, "packrt-view: cannot create a texture: %s\n", SDL_GetError());
         return 1;
     }
-    SDL_Texture *tex = NULL;
-    uint32_t tex_w = 0, tex_h = 0;
-    bool running = true, help = true, dragging = false;
-    char *want_window_shot = NULL; /* Shift+F12: captured after this frame's HUD is drawn */
+    SDL_UpdateTexture(l->tex, NULL, v->img.rgb, (int)(3 * v->img.width));
+    l->fps_frames++;
+    return 0;
+}
+
+static int run(viewer *v, int win_w, int win_h, long frames, const char *screenshot, const char *window_shot) {
+    view_loop l = {.running = true, .help = true};
+    if (!window_open(&l, win_w, win_h)) return 1;
     long drawn = 0;
     int rc = 0;
     uint64_t last = SDL_GetPerformanceCounter();
-    double freq = (double)SDL_GetPerformanceFrequency(), fps_time = 0;
-    int fps_frames = 0;
+    double freq = (double)SDL_GetPerformanceFrequency();
     v->dirty = true;
-    while (running) {
+    while (l.running) {
         uint64_t now = SDL_GetPerformanceCounter();
         float dt = (float)((double)(now - last) / freq);
         last = now;
-        bool moved = false;
-        SDL_Event e;
-        while (SDL_PollEvent(&e)) {
-            if (e.type == SDL_QUIT)
-                running = false;
-            else if (e.type == SDL_KEYDOWN) {
-                SDL_Keycode k = e.key.keysym.sym;
-                if (k == SDLK_ESCAPE)
-                    running = false;
-                else if (k >= SDLK_1 && k <= SDLK_5)
-                    v->shade = (prt_shade)(k - SDLK_1), v->dirty = true;
-                else if (k == SDLK_TAB)
-                    next_representation(v, r);
-                else if (k == SDLK_F12 || k == SDLK_p) {
-                    char name[64];
-                    snprintf(name, sizeof name, "packrt-view-%d.png", ++v->shots);
-                    if (e.key.keysym.mod & KMOD_SHIFT)
-                        want_window_shot = strdup(name);
-                    else
-                        save_screenshot(v, name);
-                } else if (k == SDLK_h)
-                    help = !help;
-            } else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) {
-                dragging = true;
-                SDL_SetRelativeMouseMode(SDL_TRUE);
-            } else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) {
-                dragging = false;
-                SDL_SetRelativeMouseMode(SDL_FALSE);
-            } else if (e.type == SDL_MOUSEMOTION && dragging) {
-                view_fly_look(&v->fly, (float)e.motion.xrel, (float)e.motion.yrel);
-                moved = true;
-            } else if (e.type == SDL_MOUSEWHEEL) {
-                v->fly.speed *= powf(1.25f, (float)e.wheel.y);
-            } else if (e.type == SDL_WINDOWEVENT)
-                v->dirty = true;
+        bool moved = on_events(v, &l);
+        moved |= on_flight_keys(v, dt);
+        if (moved) v->refine = 0, v->dirty = true;
+        else if (!v->dirty && v->refine < 2) v->refine++, v->dirty = true;
+        if ((rc = draw_frame(v, &l, frames))) break;
+        l.fps_time += dt;
+        if (l.fps_time >= 0.5) {
+            v->fps = l.fps_frames / l.fps_time;
+            l.fps_time = 0, l.fps_frames = 0;
         }
-        const Uint8 *key = SDL_GetKeyboardState(NULL);
-        float fwd = (float)(key[SDL_SCANCODE_W] - key[SDL_SCANCODE_S]);
-        float side = (float)(key[SDL_SCANCODE_D] - key[SDL_SCANCODE_A]);
-        float up = (float)(key[SDL_SCANCODE_E] + key[SDL_SCANCODE_PAGEUP] - key[SDL_SCANCODE_Q] -
-                           key[SDL_SCANCODE_PAGEDOWN]);
-        if (fwd != 0 || side != 0 || up != 0) {
-            float boost = key[SDL_SCANCODE_LSHIFT] || key[SDL_SCANCODE_RSHIFT] ? 4.0f : 1.0f;
-            /* A frame time is at most a tenth of a second here: a slow refined frame must not
-             * turn the next key press into a leap. */
-            view_fly_move(&v->fly, fwd * boost, side * boost, up * boost, fminf(dt, 0.1f));
-            moved = true;
-        }
-        if (moved)
-            v->refine = 0, v->dirty = true;
-        else if (!v->dirty && v->refine < 2)
-            v->refine++, v->dirty = true;
-
-        int win_w2, win_h2;
-        SDL_GetRendererOutputSize(r, &win_w2, &win_h2);
-        if (v->dirty || frames > 0) {
-            if ((rc = render_frame(v, win_w2, win_h2))) break;
-            v->dirty = false;
-            if (!tex || tex_w != v->img.width || tex_h != v->img.height) {
-                if (tex) SDL_DestroyTexture(tex);
-                tex = SDL_CreateTexture(r, SDL_PIXELFORMAT_RGB24, SDL_TEXTUREACCESS_STREAMING,
-                                        (int)v->img.width, (int)v->img.height);
-                tex_w = v->img.width, tex_h = v->img.height;
-            }
-            if (!tex) {
-                fprintf(stderr, "packrt-view: cannot create a texture: %s\n", SDL_GetError());
-                rc = 1;
-                break;
-            }
-            SDL_UpdateTexture(tex, NULL, v->img.rgb, (int)(3 * v->img.width));
-            fps_frames++;
-        } else
-            SDL_Delay(10); /* nothing changed: leave the cores to other work */
-        fps_time += dt;
-        if (fps_time >= 0.5) {
-            v->fps = fps_frames / fps_time;
-            fps_time = 0, fps_frames = 0;
-        }
-        SDL_SetRenderDrawColor(r, 0, 0, 0, 255);
-        SDL_RenderClear(r);
-        if (tex) SDL_RenderCopy(r, tex, NULL, NULL);
-        draw_hud(r, v, help);
+        SDL_SetRenderDrawColor(l.r, 0, 0, 0, 255);
+        SDL_RenderClear(l.r);
+        if (l.tex) SDL_RenderCopy(l.r, l.tex, NULL, NULL);
+        draw_hud(l.r, v, l.help);
         bool last_frame = frames > 0 && ++drawn >= frames;
-        if (want_window_shot) {
-            save_window(v, r, want_window_shot);
-            free(want_window_shot);
-            want_window_shot = NULL;
+        if (l.want_window_shot) {
+            save_window(v, l.r, l.want_window_shot);
+            free(l.want_window_shot);
+            l.want_window_shot = NULL;
         }
-        if (last_frame && window_shot && !save_window(v, r, window_shot)) rc = 1;
-        SDL_RenderPresent(r);
+        if (last_frame && window_shot && !save_window(v, l.r, window_shot)) rc = 1;
+        SDL_RenderPresent(l.r);
         if (last_frame) {
             if (screenshot && !save_screenshot(v, screenshot)) rc = 1;
-            running = false;
+            l.running = false;
         }
     }
-    if (tex) SDL_DestroyTexture(tex);
-    SDL_DestroyRenderer(r);
-    SDL_DestroyWindow(win);
-    SDL_Quit();
+    window_close(&l);
     return rc;
 }
 
@@ -360,14 +377,10 @@ static int parse_args(int argc, char **argv, view_args *g, viewer *v) {
         }
         if (!val) return cli_usage("view", "%s needs a value", a);
         i++;
-        if (!strcmp(a, "-r"))
-            g->spec = val;
-        else if (!strcmp(a, "--mesh"))
-            g->mesh_path = val;
-        else if (!strcmp(a, "--screenshot"))
-            g->screenshot = val;
-        else if (!strcmp(a, "--screenshot-window"))
-            g->window_shot = val;
+        if (!strcmp(a, "-r")) g->spec = val;
+        else if (!strcmp(a, "--mesh")) g->mesh_path = val;
+        else if (!strcmp(a, "--screenshot")) g->screenshot = val;
+        else if (!strcmp(a, "--screenshot-window")) g->window_shot = val;
         else if (!strcmp(a, "--frames")) {
             g->frames = strtol(val, NULL, 10);
             if (g->frames < 1) return cli_usage("view", "--frames wants 1 or more (got '%s')", val);
@@ -378,10 +391,8 @@ static int parse_args(int argc, char **argv, view_args *g, viewer *v) {
         } else if (!strcmp(a, "--spp")) {
             v->spp_still = (uint32_t)strtoul(val, NULL, 10);
             if (v->spp_still < 1 || v->spp_still > 4096) return cli_usage("view", "--spp wants 1..4096");
-        } else if (!strcmp(a, "--threads"))
-            v->threads = atoi(val);
-        else
-            return cli_usage("view", "unknown option '%s'", a);
+        } else if (!strcmp(a, "--threads")) v->threads = atoi(val);
+        else return cli_usage("view", "unknown option '%s'", a);
     }
     if (!g->path) return cli_usage("view", "needs MESH or FILE.prt");
     if ((g->screenshot || g->window_shot) && !g->frames)
