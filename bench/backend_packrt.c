@@ -26,10 +26,10 @@ void bench_accel_free(bench_accel *b) {
 }
 
 struct bench_batch {
-    bench_rays layout;    /* kind, count, tiles; .rays borrowed: the pristine rays */
-    prt_ray *work;        /* what the queries see and shrink */
-    prt_hit *hits;        /* closest-hit results */
-    uint8_t *occluded;    /* any-hit results */
+    bench_rays layout; /* kind, count, tiles; .rays borrowed: the pristine rays */
+    prt_ray *work;     /* what the queries see and shrink */
+    prt_hit *hits;     /* closest-hit results */
+    uint8_t *occluded; /* any-hit results */
 };
 
 static bench_batch *pk_load(void *self, const bench_rays *r) {
@@ -108,7 +108,14 @@ static void pk_unload(void *self, bench_batch *b) {
 static void pk_stats(void *self, prt_stats *s) { prt_accel_stats(((const bench_accel *)self)->accel, s); }
 
 bench_backend bench_backend_packrt(const bench_accel *a, const char *name) {
-    bench_backend b = {name ? name : prt_accel_spec(a->accel), (void *)a, pk_load, pk_reset, pk_single,
-                       pk_stream, pk_results, pk_unload, pk_stats};
+    bench_backend b = {name ? name : prt_accel_spec(a->accel),
+                       (void *)a,
+                       pk_load,
+                       pk_reset,
+                       pk_single,
+                       pk_stream,
+                       pk_results,
+                       pk_unload,
+                       pk_stats};
     return b;
 }

@@ -59,8 +59,7 @@ size_t bench_rays_pixel_index(const bench_rays *r, uint32_t x, uint32_t y);
  * around the bounds centre and points at a uniform point inside the sphere of radius R/4 around
  * the centre. dir is normalised, tnear = 0, tfar = +inf. Ray i depends only on (seed, i)
  * order: the first 1024 rays of any count are the same 1024 rays. */
-prt_status bench_rays_random(const float lo[3], const float hi[3], size_t count, uint64_t seed,
-                             bench_rays *out);
+prt_status bench_rays_random(const float lo[3], const float hi[3], size_t count, uint64_t seed, bench_rays *out);
 
 /* A pinhole camera. */
 typedef struct bench_camera {
@@ -74,8 +73,7 @@ void bench_camera_default(const float lo[3], const float hi[3], bench_camera *c)
 
 /* Primary rays for a width x height image, stored in tiles of `tile` pixels (8 when 0) so a
  * tile is a coherent packet. dir is normalised, tnear = 0, tfar = +inf. */
-prt_status bench_rays_primary(const bench_camera *c, uint32_t width, uint32_t height, uint32_t tile,
-                              bench_rays *out);
+prt_status bench_rays_primary(const bench_camera *c, uint32_t width, uint32_t height, uint32_t tile, bench_rays *out);
 
 /* The default point light: above, in front of and to the left of the box, outside it. */
 void bench_light_default(const float lo[3], const float hi[3], float light[3]);
@@ -90,14 +88,14 @@ void bench_light_default(const float lo[3], const float hi[3], float light[3]);
  * from the hit point (interpolated on triangle prim, moved along the geometric normal toward
  * the side the primary ray came from by `offset`, in mesh units) toward light; dir
  * normalised, tnear = 0, tfar = distance to the light. Misses make no shadow ray. */
-prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                             const float light[3], float offset, bench_rays *out);
+prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits, const float light[3],
+                             float offset, bench_rays *out);
 
 /* Diffuse bounce rays: for every primary hit, a cosine-weighted direction about the geometric
  * normal (facing the primary ray's side), same offset origin, tnear = 0, tfar = +inf. The
  * direction of the ray from pixel p depends only on (seed, p). */
-prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                              uint64_t seed, float offset, bench_rays *out);
+prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits, uint64_t seed,
+                              float offset, bench_rays *out);
 
 /* ---------------------------------------------------------------------------------
  * Backends: what the harness times (packrt: bench/backend_packrt.c)
@@ -147,7 +145,6 @@ bench_backend bench_backend_packrt(const bench_accel *b, const char *name);
  * copied, r is unchanged). *hits is malloc'ed (free()). */
 prt_status bench_trace_hits(const bench_accel *b, const bench_rays *r, prt_hit **hits);
 
-
 /* ---------------------------------------------------------------------------------
  * Embree (bench/embree_backend.c; stubs returning PRT_ERROR_UNSUPPORTED without Embree)
  * --------------------------------------------------------------------------------- */
@@ -167,8 +164,7 @@ typedef struct bench_embree_options {
 /* An Embree device and scene holding mesh m as one triangle geometry. The scene uses shared
  * buffers owned by the wrapper (vertices padded to 16 bytes, indices copied), so m may be
  * freed afterwards. options may be NULL. PRT_ERROR_UNSUPPORTED without Embree. */
-prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *options,
-                               bench_embree **out);
+prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *options, bench_embree **out);
 void bench_embree_free(bench_embree *e);
 
 /* Same contract as prt_intersect1 / prt_occluded1 (hits converted to prt_hit: t, u, v, prim;
@@ -179,10 +175,8 @@ bool bench_embree_occluded(const bench_embree *e, const prt_ray *r);
  * coherent flag (as the primary workload's tiles), same contract as prt_intersect_packet. */
 void bench_embree_intersect_coherent(const bench_embree *e, prt_ray *rays, prt_hit *hits, uint32_t n);
 /* Same contract as prt_intersect_stream / prt_occluded_stream (threads 0: all cores). */
-void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n,
-                                   int threads);
-void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, uint8_t *occluded,
-                                  size_t n, int threads);
+void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n, int threads);
+void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, uint8_t *occluded, size_t n, int threads);
 
 /* Memory split (see docs/benchmark.md): bytes_tree = every byte Embree itself holds after the
  * build, counted by its memory monitor (BVH nodes and the triangle data it copies into leaves);
@@ -238,8 +232,8 @@ typedef struct bench_figures {
  * warm = minimum over repetitions after a warm-up pass, in µs per 1024 rays; cold = median
  * over repetitions with caches flushed before each batch, in µs per 1024 rays (divide by 1024
  * for the paper's µs per ray). */
-void bench_measure_random_1024(const bench_backend *b, const bench_rays *random,
-                               const bench_options *o, double *warm_us, double *cold_us);
+void bench_measure_random_1024(const bench_backend *b, const bench_rays *random, const bench_options *o,
+                               double *warm_us, double *cold_us);
 
 /* Rouwé's FLUSH_CACHE_AFTER_EVERY_RAY figure: each of the first n random rays cast alone
  * after a cache flush of flush_bytes (0: the default), the times summed and scaled to µs
@@ -249,8 +243,8 @@ double bench_measure_random_cold_per_ray(const bench_backend *b, const bench_ray
 
 /* Mrays/s of a workload on one thread and on o->threads threads; hits / occluded (either may
  * be NULL, sized rays->count) receive the results for checking. False when out of memory. */
-bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, const bench_options *o,
-                            bench_figures *f, prt_hit *hits, uint8_t *occluded);
+bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, const bench_options *o, bench_figures *f,
+                            prt_hit *hits, uint8_t *occluded);
 
 /* ---------------------------------------------------------------------------------
  * Checks: do two backends agree on the benchmark rays? (bench/check.c)
@@ -259,10 +253,10 @@ bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, cons
 typedef struct bench_check {
     bool done;
     size_t rays;
-    size_t hit_miss;    /* one hit, the other missed (or occluded flags differ) */
-    size_t prim_differ; /* both hit, different triangles (often a shared edge: fine when t agrees) */
-    size_t t_differ;    /* both hit, |t - t_ref| > BENCH_CHECK_T_REL x scene diagonal */
-    double max_dt_rel;  /* max |t - t_ref| / scene diagonal over rays both hit */
+    size_t hit_miss;     /* one hit, the other missed (or occluded flags differ) */
+    size_t prim_differ;  /* both hit, different triangles (often a shared edge: fine when t agrees) */
+    size_t t_differ;     /* both hit, |t - t_ref| > BENCH_CHECK_T_REL x scene diagonal */
+    double max_dt_rel;   /* max |t - t_ref| / scene diagonal over rays both hit */
     bool lossy;          /* checked against a lossy representation's stated bound too */
     size_t beyond_bound; /* lossy: rays whose answer no surface within the bound explains */
 } bench_check;
@@ -388,11 +382,11 @@ bool bench_plot_svg(FILE *f, const bench_report *r);
  * --------------------------------------------------------------------------------- */
 
 typedef struct bench_matrix_options {
-    int reps;                /* warm figure: minimum over 4 x reps batches; cold: median of reps */
-    bool cold;               /* measure the cold figures */
-    size_t flush_bytes;      /* per-batch flush buffer (0: default) */
-    size_t cold_rays;        /* rays of the per-ray cold figure (0: skip it) */
-    size_t flush_bytes_ray;  /* per-ray flush buffer */
+    int reps;               /* warm figure: minimum over 4 x reps batches; cold: median of reps */
+    bool cold;              /* measure the cold figures */
+    size_t flush_bytes;     /* per-batch flush buffer (0: default) */
+    size_t cold_rays;       /* rays of the per-ray cold figure (0: skip it) */
+    size_t flush_bytes_ray; /* per-ray flush buffer */
     uint64_t seed;
     bool vs_embree;
     const char *const *specs; /* representations of the main table; NULL: every registered one */

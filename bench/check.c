@@ -22,7 +22,8 @@ static double triangle_distance(const double p[3], const double v[3][3], double 
     for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], ap[k] = p[k] - v[0][k];
     n[0] = e1[1] * e2[2] - e1[2] * e2[1], n[1] = e1[2] * e2[0] - e1[0] * e2[2], n[2] = e1[0] * e2[1] - e1[1] * e2[0];
     double nn = dot3(n, n);
-    *edge = fmin(fmin(segment_distance(p, v[0], v[1]), segment_distance(p, v[1], v[2])), segment_distance(p, v[2], v[0]));
+    *edge =
+        fmin(fmin(segment_distance(p, v[0], v[1]), segment_distance(p, v[1], v[2])), segment_distance(p, v[2], v[0]));
     if (nn == 0) return *edge;
     double h = dot3(ap, n) / nn, q[3]; /* q: p projected onto the plane */
     for (int k = 0; k < 3; k++) q[k] = p[k] - h * n[k];
@@ -31,7 +32,8 @@ static double triangle_distance(const double p[3], const double v[3][3], double 
         const double *a = v[i], *b = v[(i + 1) % 3];
         double ab[3], aq[3], c[3];
         for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], aq[k] = q[k] - a[k];
-        c[0] = ab[1] * aq[2] - ab[2] * aq[1], c[1] = ab[2] * aq[0] - ab[0] * aq[2], c[2] = ab[0] * aq[1] - ab[1] * aq[0];
+        c[0] = ab[1] * aq[2] - ab[2] * aq[1], c[1] = ab[2] * aq[0] - ab[0] * aq[2],
+        c[2] = ab[0] * aq[1] - ab[1] * aq[0];
         inside &= dot3(c, n) >= 0;
     }
     return inside ? fabs(h) * sqrt(nn) : *edge;
@@ -58,7 +60,8 @@ bool bench_lossy_acceptable(const prt_mesh *m, const prt_ray *r, const prt_hit *
      * copy may be missed, or grazes it (reach grows as 1/cos). */
     triangle_of(m, want->prim, v);
     double e1[3], e2[3], n[3];
-    for (int k = 0; k < 3; k++) e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], p[k] = o[k] + (double)want->t * d[k];
+    for (int k = 0; k < 3; k++)
+        e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], p[k] = o[k] + (double)want->t * d[k];
     n[0] = e1[1] * e2[2] - e1[2] * e2[1], n[1] = e1[2] * e2[0] - e1[0] * e2[2], n[2] = e1[0] * e2[1] - e1[1] * e2[0];
     double cosine = fabs(dot3(d, n)) / (dl * sqrt(dot3(n, n)));
     double reach = 2 * slack / fmax(cosine, 1e-3);
@@ -76,7 +79,8 @@ void bench_check_hits(const prt_hit *hits, const prt_hit *ref, size_t n, double 
     c->lossy = lossy != NULL;
     double scale = diagonal > 0 ? 1.0 / diagonal : 1.0;
     for (size_t i = 0; i < n; i++) {
-        if (lossy && !bench_lossy_acceptable(lossy->mesh, &lossy->rays[i], &hits[i], &ref[i], lossy->vertex_error, lossy->tol))
+        if (lossy &&
+            !bench_lossy_acceptable(lossy->mesh, &lossy->rays[i], &hits[i], &ref[i], lossy->vertex_error, lossy->tol))
             c->beyond_bound++;
         bool a = hits[i].prim != PRT_INVALID, b = ref[i].prim != PRT_INVALID;
         if (a != b) {
@@ -130,7 +134,8 @@ static double segment_segment_distance(const double a[3], const double b[3], con
  * or -1 when it does not. */
 static double segment_crossing(const double p[3], const double q[3], const double v[3][3]) {
     double d[3], e1[3], e2[3], s[3], h[3], g[3];
-    for (int k = 0; k < 3; k++) d[k] = q[k] - p[k], e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], s[k] = p[k] - v[0][k];
+    for (int k = 0; k < 3; k++)
+        d[k] = q[k] - p[k], e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k], s[k] = p[k] - v[0][k];
     h[0] = d[1] * e2[2] - d[2] * e2[1], h[1] = d[2] * e2[0] - d[0] * e2[2], h[2] = d[0] * e2[1] - d[1] * e2[0];
     double det = dot3(e1, h);
     if (det == 0) return -1;
@@ -146,16 +151,19 @@ static double segment_crossing(const double p[3], const double q[3], const doubl
  * reach of its triangle's edges or of the segment's ends (the copy may be missed there).
  * Brute force over the mesh: run only for the rays that disagree. */
 static bool lossy_occlusion_acceptable(const prt_mesh *m, const prt_ray *r, bool occluded, double err, double tol) {
-    double p[3], q[3], v[3][3], slack = err + tol, dl = sqrt((double)r->dir[0] * r->dir[0] + (double)r->dir[1] * r->dir[1] +
-                                                             (double)r->dir[2] * r->dir[2]);
-    for (int k = 0; k < 3; k++) p[k] = r->org[k] + (double)r->tnear * r->dir[k], q[k] = r->org[k] + (double)r->tfar * r->dir[k];
+    double p[3], q[3], v[3][3],
+        slack = err + tol,
+        dl = sqrt((double)r->dir[0] * r->dir[0] + (double)r->dir[1] * r->dir[1] + (double)r->dir[2] * r->dir[2]);
+    for (int k = 0; k < 3; k++)
+        p[k] = r->org[k] + (double)r->tnear * r->dir[k], q[k] = r->org[k] + (double)r->tfar * r->dir[k];
     const double len = dl * ((double)r->tfar - r->tnear);
     for (size_t t = 0; t < m->triangle_count; t++) {
         triangle_of(m, (uint32_t)t, v);
         /* Cheap rejection: the segment misses the triangle's box grown by slack. */
         double t0 = 0, t1 = 1;
         for (int k = 0; k < 3 && t0 <= t1; k++) {
-            double lo = fmin(fmin(v[0][k], v[1][k]), v[2][k]) - slack, hi = fmax(fmax(v[0][k], v[1][k]), v[2][k]) + slack;
+            double lo = fmin(fmin(v[0][k], v[1][k]), v[2][k]) - slack,
+                   hi = fmax(fmax(v[0][k], v[1][k]), v[2][k]) + slack;
             double dk = q[k] - p[k];
             if (dk == 0) {
                 if (p[k] < lo || p[k] > hi) t1 = -1;
@@ -166,17 +174,23 @@ static bool lossy_occlusion_acceptable(const prt_mesh *m, const prt_ray *r, bool
         }
         if (t0 > t1) continue;
         if (occluded) { /* any triangle within slack of the segment explains a block */
-            double edge, dist = segment_crossing(p, q, v) >= 0 ? 0 : fmin(triangle_distance(p, v, &edge), triangle_distance(q, v, &edge));
-            for (int e = 0; e < 3 && dist > slack; e++) dist = fmin(dist, segment_segment_distance(p, q, v[e], v[(e + 1) % 3]));
+            double edge, dist = segment_crossing(p, q, v) >= 0
+                                    ? 0
+                                    : fmin(triangle_distance(p, v, &edge), triangle_distance(q, v, &edge));
+            for (int e = 0; e < 3 && dist > slack; e++)
+                dist = fmin(dist, segment_segment_distance(p, q, v[e], v[(e + 1) % 3]));
             if (dist <= slack) return true;
             continue;
         }
         double f = segment_crossing(p, q, v);
         if (f < 0) continue;
         double x[3], e1[3], e2[3], n[3], edge;
-        for (int k = 0; k < 3; k++) x[k] = p[k] + f * (q[k] - p[k]), e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
-        n[0] = e1[1] * e2[2] - e1[2] * e2[1], n[1] = e1[2] * e2[0] - e1[0] * e2[2], n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-        double cosine = fabs((double)r->dir[0] * n[0] + (double)r->dir[1] * n[1] + (double)r->dir[2] * n[2]) / (dl * sqrt(dot3(n, n)));
+        for (int k = 0; k < 3; k++)
+            x[k] = p[k] + f * (q[k] - p[k]), e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1], n[1] = e1[2] * e2[0] - e1[0] * e2[2],
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        double cosine = fabs((double)r->dir[0] * n[0] + (double)r->dir[1] * n[1] + (double)r->dir[2] * n[2]) /
+                        (dl * sqrt(dot3(n, n)));
         double reach = 2 * slack / fmax(cosine, 1e-3);
         triangle_distance(x, v, &edge);
         if (edge > reach && f * len > reach && (1 - f) * len > reach) return false; /* a firm crossing */

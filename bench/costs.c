@@ -33,13 +33,15 @@ void bench_costs_read(bench_costs *t, const char *path) {
 /* Whether line is the row of spec on kind. */
 static bool is_row(const char *line, const char *spec, const char *kind) {
     size_t ls = strlen(spec), lk = strlen(kind);
-    return !strncmp(line, spec, ls) && line[ls] == '\t' && !strncmp(line + ls + 1, kind, lk) && line[ls + 1 + lk] == '\t';
+    return !strncmp(line, spec, ls) && line[ls] == '\t' && !strncmp(line + ls + 1, kind, lk) &&
+           line[ls + 1 + lk] == '\t';
 }
 
 bool bench_costs_set(bench_costs *t, const char *spec, const char *kind, const char *line) {
-    if (!t->count) push(t, "# packrt cost table for \"auto\" specs (docs/auto.md), written by `packrt bench --calibrate`.\n"
-                           "# Time per ray over Embree's default in the same run (lower is faster); \"-\": not measured.\n"
-                           "# spec\tkind\tlossy\trandom\tprimary\tshadow\tdiffuse");
+    if (!t->count)
+        push(t, "# packrt cost table for \"auto\" specs (docs/auto.md), written by `packrt bench --calibrate`.\n"
+                "# Time per ray over Embree's default in the same run (lower is faster); \"-\": not measured.\n"
+                "# spec\tkind\tlossy\trandom\tprimary\tshadow\tdiffuse");
     for (size_t i = 0; i < t->count; i++)
         if (is_row(t->lines[i], spec, kind)) {
             char *copy = strdup(line);

@@ -27,14 +27,11 @@ static void ea_packet(const prt_accel *a, prt_packet *p) {
     bench_embree_intersect_coherent(((const embree_accel *)a)->e, p->rays, p->hits, p->count);
 }
 
-static void ea_stats(const prt_accel *a, prt_stats *s) {
-    bench_embree_stats(((const embree_accel *)a)->e, s);
-}
+static void ea_stats(const prt_accel *a, prt_stats *s) { bench_embree_stats(((const embree_accel *)a)->e, s); }
 
 static prt_status ea_save(const prt_accel *a, prt_writer *w) {
     (void)a, (void)w;
-    return prt__fail(PRT_ERROR_UNSUPPORTED,
-                     "embree: an Embree scene cannot be saved to a .prt file");
+    return prt__fail(PRT_ERROR_UNSUPPORTED, "embree: an Embree scene cannot be saved to a .prt file");
 }
 
 static void ea_destroy(prt_accel *a) {
@@ -52,8 +49,7 @@ static const prt_accel_ops g_embree_ops = {
     .destroy = ea_destroy,
 };
 
-prt_status bench_embree_accel(const prt_mesh *m, const bench_embree_options *options,
-                              prt_accel **out) {
+prt_status bench_embree_accel(const prt_mesh *m, const bench_embree_options *options, prt_accel **out) {
     *out = NULL;
     prt_status s = prt_mesh_validate(m);
     if (s) return s;

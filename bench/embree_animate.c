@@ -70,7 +70,8 @@ prt_status bench_embree_anim_update(bench_embree_anim *e, const float *vertices)
     rtcUpdateGeometryBuffer(e->geom, RTC_BUFFER_TYPE_VERTEX, 0);
     rtcCommitGeometry(e->geom);
     rtcCommitScene(e->scene);
-    if (rtcGetDeviceError(e->device) != RTC_ERROR_NONE) return prt__fail(PRT_ERROR_UNSUPPORTED, "embree: commit failed");
+    if (rtcGetDeviceError(e->device) != RTC_ERROR_NONE)
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "embree: commit failed");
     return PRT_OK;
 }
 
@@ -92,10 +93,8 @@ void bench_embree_anim_intersect16(const bench_embree_anim *e, const prt_ray *ra
     }
     rtcIntersect16(valid, e->scene, &ctx, &q);
     for (int i = 0; i < count; i++) {
-        if (q.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID)
-            hits[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
-        else
-            hits[i] = (prt_hit){q.ray.tfar[i], q.hit.u[i], q.hit.v[i], q.hit.primID[i], 0};
+        if (q.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) hits[i] = (prt_hit){INFINITY, 0, 0, PRT_INVALID, 0};
+        else hits[i] = (prt_hit){q.ray.tfar[i], q.hit.u[i], q.hit.v[i], q.hit.primID[i], 0};
     }
 }
 

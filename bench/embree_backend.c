@@ -49,8 +49,7 @@ void bench_embree_free(bench_embree *e) {
     free(e);
 }
 
-prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *options,
-                               bench_embree **out) {
+prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *options, bench_embree **out) {
     *out = NULL;
     bench_embree_options o = {0};
     if (options) o = *options;
@@ -91,13 +90,10 @@ prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *op
     e->scene = rtcNewScene(e->device);
     int flags = (o.robust ? RTC_SCENE_FLAG_ROBUST : 0) | (o.compact ? RTC_SCENE_FLAG_COMPACT : 0);
     rtcSetSceneFlags(e->scene, (enum RTCSceneFlags)flags);
-    if (o.quality >= 1 && o.quality <= 3)
-        rtcSetSceneBuildQuality(e->scene, (enum RTCBuildQuality)(o.quality - 1));
+    if (o.quality >= 1 && o.quality <= 3) rtcSetSceneBuildQuality(e->scene, (enum RTCBuildQuality)(o.quality - 1));
     RTCGeometry g = rtcNewGeometry(e->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, e->vertices, 0, 16,
-                               m->vertex_count);
-    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, e->indices, 0, 12,
-                               m->triangle_count);
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, e->vertices, 0, 16, m->vertex_count);
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, e->indices, 0, 12, m->triangle_count);
     rtcCommitGeometry(g);
     rtcAttachGeometryByID(e->scene, g, 0); /* geomID 0: prt_hit.geom is 0 too */
     rtcReleaseGeometry(g);
@@ -185,15 +181,14 @@ void bench_embree_intersect_coherent(const bench_embree *e, prt_ray *rays, prt_h
     }
 }
 
-void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n,
-                                   int threads) {
+void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n, int threads) {
     long ln = (long)n;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(prt__threads(threads))
     for (long i = 0; i < ln; i++) bench_embree_intersect(e, &rays[i], &hits[i]);
 }
 
-void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, uint8_t *occluded,
-                                  size_t n, int threads) {
+void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, uint8_t *occluded, size_t n,
+                                  int threads) {
     long ln = (long)n;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(prt__threads(threads))
     for (long i = 0; i < ln; i++) occluded[i] = bench_embree_occluded(e, &rays[i]);
@@ -203,7 +198,7 @@ void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, ui
 
 /* Rays are converted once at load; a pristine copy restores them before each timed run. */
 struct bench_batch {
-    bench_rays layout; /* kind, count, tiles (rays borrowed) */
+    bench_rays layout;                 /* kind, count, tiles (rays borrowed) */
     struct RTCRayHit *work, *pristine; /* closest hit */
     struct RTCRay *rwork, *rpristine;  /* any hit */
 };
@@ -255,8 +250,7 @@ static void em_single(void *self, bench_batch *b, size_t first, size_t count) {
 static void em_stream(void *self, bench_batch *b, int threads) {
     const bench_embree *e = self;
     bool tiles = b->layout.tile != 0;
-    long chunks = tiles ? (long)bench_rays_tile_count(&b->layout)
-                        : (long)((b->layout.count + EM_CHUNK - 1) / EM_CHUNK);
+    long chunks = tiles ? (long)bench_rays_tile_count(&b->layout) : (long)((b->layout.count + EM_CHUNK - 1) / EM_CHUNK);
 #pragma omp parallel num_threads(threads) if (threads > 1)
     {
         struct RTCIntersectContext ctx;
@@ -296,8 +290,8 @@ static void em_unload(void *self, bench_batch *b) {
 static void em_stats(void *self, prt_stats *s) { bench_embree_stats(self, s); }
 
 bench_backend bench_backend_embree(bench_embree *e, const char *name) {
-    bench_backend b = {name ? name : "embree", e, em_load, em_reset, em_single, em_stream,
-                       em_results, em_unload, em_stats};
+    bench_backend b = {
+        name ? name : "embree", e, em_load, em_reset, em_single, em_stream, em_results, em_unload, em_stats};
     return b;
 }
 

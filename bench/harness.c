@@ -28,8 +28,8 @@ double bench_min(const double *v, size_t n) {
 
 static int reps_of(const bench_options *o) { return o->reps < 5 ? 5 : o->reps; }
 
-void bench_measure_random_1024(const bench_backend *b, const bench_rays *random,
-                               const bench_options *o, double *warm_us, double *cold_us) {
+void bench_measure_random_1024(const bench_backend *b, const bench_rays *random, const bench_options *o,
+                               double *warm_us, double *cold_us) {
     *warm_us = *cold_us = 0.0;
     /* The paper's batch: the first 1024 rays (fewer if the set is smaller). */
     bench_rays batch = *random;
@@ -93,8 +93,8 @@ static double time_stream(const bench_backend *b, bench_batch *bb, size_t count,
     return bench_median(scratch, (size_t)reps);
 }
 
-bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, const bench_options *o,
-                            bench_figures *f, prt_hit *hits, uint8_t *occluded) {
+bool bench_measure_workload(const bench_backend *b, const bench_rays *rays, const bench_options *o, bench_figures *f,
+                            prt_hit *hits, uint8_t *occluded) {
     memset(f, 0, sizeof *f);
     f->rays = rays->count;
     if (!rays->count) return true;

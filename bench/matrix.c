@@ -14,9 +14,9 @@
 
 typedef struct matrix_row {
     char name[96];
-    bool ok, limit;     /* built; or the mesh is beyond what it can encode */
-    prt_status status;  /* of prt_build */
-    char error[200];    /* why not built */
+    bool ok, limit;    /* built; or the mesh is beyond what it can encode */
+    prt_status status; /* of prt_build */
+    char error[200];   /* why not built */
     double warm, cold, cold_ray, build_s;
     double tree, total; /* bytes per triangle */
     double vertex_error;
@@ -81,14 +81,17 @@ static void measure_spec(matrix_run *run, const char *spec, matrix_row *row) {
 static const char *check_text(const matrix_row *r, char *buf, size_t size) {
     if (!r->check.done) return "-";
     if (!r->check.hit_miss && !r->check.t_differ) return "same";
-    int k = snprintf(buf, size, "%zu hit/miss, %zu t (max %.1e)", r->check.hit_miss, r->check.t_differ, r->check.max_dt_rel);
+    int k = snprintf(buf, size, "%zu hit/miss, %zu t (max %.1e)", r->check.hit_miss, r->check.t_differ,
+                     r->check.max_dt_rel);
     if (r->check.lossy && k > 0 && (size_t)k < size)
         snprintf(buf + k, size - (size_t)k, ", %zu beyond the vertex error", r->check.beyond_bound);
     return buf;
 }
 
 static void print_rows(FILE *f, matrix_row *rows, size_t n, const matrix_row *embree, bool cold, bool cold_ray) {
-    fprintf(f, "| representation | warm µs/1024 | vs Embree |%s%s tree B/tri | total B/tri | vs Embree | vertex error | vs Embree's hits | build s |\n",
+    fprintf(f,
+            "| representation | warm µs/1024 | vs Embree |%s%s tree B/tri | total B/tri | vs Embree | vertex error | "
+            "vs Embree's hits | build s |\n",
             cold ? " cold µs/1024 |" : "", cold_ray ? " cold/ray µs/1024 |" : "");
     fprintf(f, "|---|---:|---:|%s%s---:|---:|---:|---:|---|---:|\n", cold ? "---:|" : "", cold_ray ? "---:|" : "");
     for (size_t i = 0; i < n; i++) {
@@ -104,8 +107,8 @@ static void print_rows(FILE *f, matrix_row *rows, size_t n, const matrix_row *em
         if (cold) fprintf(f, " %.1f |", r->cold);
         if (cold_ray) fprintf(f, " %.1f |", r->cold_ray);
         fprintf(f, " %.1f | %.1f | %s | %s | %s | %.2f |\n", r->tree, r->total, br,
-                r->vertex_error > 0 ? (snprintf(c, sizeof c, "%.2g", r->vertex_error), c) : "0", check_text(r, c, sizeof c),
-                r->build_s);
+                r->vertex_error > 0 ? (snprintf(c, sizeof c, "%.2g", r->vertex_error), c) : "0",
+                check_text(r, c, sizeof c), r->build_s);
     }
 }
 
@@ -216,18 +219,21 @@ int bench_matrix(FILE *f, const prt_mesh *m, const bench_matrix_options *o) {
     fprintf(f, "## %s: %zu triangles, %zu vertices\n\n", o->mesh_name, m->triangle_count, m->vertex_count);
     fprintf(f, "Machine: %s; commit %s; 1-minute load average %.2f at the start.\n", o->machine, o->commit,
             o->load_average);
-    fprintf(f, "The first 1024 random rays (seed %llu), one thread, one ray at a time. Warm: minimum over %d "
-               "batches after a warm-up batch. ",
+    fprintf(f,
+            "The first 1024 random rays (seed %llu), one thread, one ray at a time. Warm: minimum over %d "
+            "batches after a warm-up batch. ",
             (unsigned long long)o->seed, 4 * (o->reps < 5 ? 5 : o->reps));
     if (o->cold)
-        fprintf(f, "Cold: median over batches, caches flushed (%zu MiB read) before each batch as in the paper's "
-                   "tables; cold/ray: %zu rays each cast alone after a %zu MiB flush "
-                   "(FLUSH_CACHE_AFTER_EVERY_RAY), scaled to 1024 rays. ",
+        fprintf(f,
+                "Cold: median over batches, caches flushed (%zu MiB read) before each batch as in the paper's "
+                "tables; cold/ray: %zu rays each cast alone after a %zu MiB flush "
+                "(FLUSH_CACHE_AFTER_EVERY_RAY), scaled to 1024 rays. ",
                 (o->flush_bytes ? o->flush_bytes : bench_cache_flush_default_bytes()) >> 20, o->cold_rays,
                 o->flush_bytes_ray >> 20);
-    fprintf(f, "Bytes per triangle over all %zu mesh triangles; total = tree + geometry (triangles, vertices, "
-               "ids). \"vs Embree's hits\": rays whose hit or distance (1e-5 of the diagonal) differs from "
-               "Embree's.\n\n",
+    fprintf(f,
+            "Bytes per triangle over all %zu mesh triangles; total = tree + geometry (triangles, vertices, "
+            "ids). \"vs Embree's hits\": rays whose hit or distance (1e-5 of the diagonal) differs from "
+            "Embree's.\n\n",
             m->triangle_count);
     fprintf(f, "### Every representation, fastest first\n\n");
     matrix_row *all = calloc(n + 1, sizeof *all);
@@ -243,23 +249,25 @@ int bench_matrix(FILE *f, const prt_mesh *m, const bench_matrix_options *o) {
     static const char *const split_f3[] = {"aabb:float3,leaf=8,split=sah", "aabb:float3,leaf=8,split=mean",
                                            "aabb:float3,leaf=8,split=longest", "aabb:float3,leaf=8,split=morton",
                                            "aabb:float3,leaf=8,split=fixed"};
-    static const char *const split_soa[] = {
-        "aabb:float3-soa4,leaf=8,split=sah", "aabb:float3-soa4,leaf=8,split=mean",
-        "aabb:float3-soa4,leaf=8,split=longest", "aabb:float3-soa4,leaf=8,split=morton",
-        "aabb:float3-soa4,leaf=8,split=fixed"};
+    static const char *const split_soa[] = {"aabb:float3-soa4,leaf=8,split=sah", "aabb:float3-soa4,leaf=8,split=mean",
+                                            "aabb:float3-soa4,leaf=8,split=longest",
+                                            "aabb:float3-soa4,leaf=8,split=morton",
+                                            "aabb:float3-soa4,leaf=8,split=fixed"};
     static const char *const leaves[] = {"aabb:float3,split=sah,leaf=1", "aabb:float3,split=sah,leaf=2",
                                          "aabb:float3,split=sah,leaf=4", "aabb:float3,split=sah,leaf=8",
                                          "aabb:float3,split=sah,leaf=16"};
-    failed |= section_table(f, &run, "### §4.1 Splitters: AABBTree, Float3, 8 triangles per leaf", split_f3, 5, &embree);
-    failed |= section_table(f, &run, "### §4.1 Splitters: AABBTree, Float3SOA4, 8 triangles per leaf", split_soa, 5,
-                            &embree);
+    failed |=
+        section_table(f, &run, "### §4.1 Splitters: AABBTree, Float3, 8 triangles per leaf", split_f3, 5, &embree);
+    failed |=
+        section_table(f, &run, "### §4.1 Splitters: AABBTree, Float3SOA4, 8 triangles per leaf", split_soa, 5, &embree);
     failed |= section_table(f, &run, "### §4.2 Leaf size: AABBTree, Float3, binned SAH", leaves, 5, &embree);
     static const char *const orders[] = {
         "aabb:float3,split=sah,leaf=8,order=df", "aabb:float3,split=sah,leaf=8,order=df-leaves-last",
         "aabb:float3,split=sah,leaf=8,order=bf", "aabb:float3,split=sah,leaf=8,order=bf-leaves-last",
         "aabb:float3,split=sah,leaf=8,order=veb"};
     size_t no = PRT_ARRAY_SIZE(orders);
-    failed |= section_table(f, &run, "### §4.3 Node order: AABBTree, Float3, binned SAH, 8 per leaf", orders, no, &embree);
+    failed |=
+        section_table(f, &run, "### §4.3 Node order: AABBTree, Float3, binned SAH, 8 per leaf", orders, no, &embree);
     free(rows);
     free(run.reference);
     bench_rays_free(&run.rays);

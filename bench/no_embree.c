@@ -11,8 +11,7 @@
 
 bool bench_embree_available(void) { return false; }
 
-prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *options,
-                               bench_embree **out) {
+prt_status bench_embree_create(const prt_mesh *m, const bench_embree_options *options, bench_embree **out) {
     (void)m, (void)options;
     *out = NULL;
     return prt__fail(PRT_ERROR_UNSUPPORTED, "this build has no Embree (libembree-dev was not found by CMake)");
@@ -45,14 +44,13 @@ bool bench_embree_occluded(const bench_embree *e, const prt_ray *r) {
     return false;
 }
 
-void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n,
-                                   int threads) {
+void bench_embree_intersect_stream(const bench_embree *e, prt_ray *rays, prt_hit *hits, size_t n, int threads) {
     (void)threads;
     for (size_t i = 0; i < n; i++) bench_embree_intersect(e, &rays[i], &hits[i]);
 }
 
-void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, uint8_t *occluded,
-                                  size_t n, int threads) {
+void bench_embree_occluded_stream(const bench_embree *e, const prt_ray *rays, uint8_t *occluded, size_t n,
+                                  int threads) {
     (void)e, (void)rays, (void)threads;
     memset(occluded, 0, n);
 }

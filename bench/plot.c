@@ -63,14 +63,17 @@ static void log_ticks(FILE *f, const axes *a, bool x_axis) {
 }
 
 static void draw_axes(FILE *f, const axes *a) {
-    fprintf(f, "<rect x='%d' y='%d' width='%d' height='%d' fill='none' stroke='#444'/>\n", LEFT, TOP,
-            W - LEFT - RIGHT, H - TOP - BOTTOM);
+    fprintf(f, "<rect x='%d' y='%d' width='%d' height='%d' fill='none' stroke='#444'/>\n", LEFT, TOP, W - LEFT - RIGHT,
+            H - TOP - BOTTOM);
     log_ticks(f, a, true);
     log_ticks(f, a, false);
-    fprintf(f, "<text x='%d' y='%d' text-anchor='middle'>memory, bytes per triangle (tree + geometry, log scale)</text>\n",
+    fprintf(f,
+            "<text x='%d' y='%d' text-anchor='middle'>memory, bytes per triangle (tree + geometry, log scale)</text>\n",
             (W + LEFT - RIGHT) / 2, H - 18);
-    fprintf(f, "<text transform='translate(18,%d) rotate(-90)' text-anchor='middle'>warm time per ray, "
-               "&#181;s (random rays, one thread, log scale)</text>\n", (H + TOP - BOTTOM) / 2);
+    fprintf(f,
+            "<text transform='translate(18,%d) rotate(-90)' text-anchor='middle'>warm time per ray, "
+            "&#181;s (random rays, one thread, log scale)</text>\n",
+            (H + TOP - BOTTOM) / 2);
 }
 
 bool bench_plot_svg(FILE *f, const bench_report *r) {
@@ -99,14 +102,18 @@ bool bench_plot_svg(FILE *f, const bench_report *r) {
     if (a.x1 - a.x0 < 0.5) a.x0 -= 0.25, a.x1 += 0.25;
     if (a.y1 - a.y0 < 0.5) a.y0 -= 0.25, a.y1 += 0.25;
 
-    fprintf(f, "<svg xmlns='http://www.w3.org/2000/svg' width='%d' height='%d' font-family='sans-serif' "
-               "font-size='12'>\n<rect width='100%%' height='100%%' fill='white'/>\n", W, H);
+    fprintf(f,
+            "<svg xmlns='http://www.w3.org/2000/svg' width='%d' height='%d' font-family='sans-serif' "
+            "font-size='12'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
+            W, H);
     fprintf(f, "<text x='%d' y='22' font-size='14'>", LEFT);
     xml_text(f, r->mesh_path);
     fprintf(f, ": %zu triangles; ", r->triangles);
     xml_text(f, r->machine);
-    fprintf(f, "</text>\n<text x='%d' y='40' fill='#555'>lower left is better; the line joins the "
-               "representations nothing beats on both</text>\n", LEFT);
+    fprintf(f,
+            "</text>\n<text x='%d' y='40' fill='#555'>lower left is better; the line joins the "
+            "representations nothing beats on both</text>\n",
+            LEFT);
     draw_axes(f, &a);
     fprintf(f, "<polyline fill='none' stroke='#1f77b4' stroke-width='1.5' points='");
     for (size_t i = 0; i < n; i++)
@@ -122,7 +129,9 @@ bool bench_plot_svg(FILE *f, const bench_report *r) {
         else fprintf(f, "<circle cx='%.1f' cy='%.1f' r='4' fill='%s'/>\n", x, y, p[i].front ? "#1f77b4" : "#999");
         fprintf(f, "<text x='%.1f' y='%.1f' text-anchor='%s'%s>", left ? x - 7 : x + 7, labels++ % 2 ? y + 15 : y - 6,
                 left ? "end" : "start",
-                em ? " fill='#d62728'" : p[i].front ? "" : " fill='#777' font-size='10'");
+                em           ? " fill='#d62728'"
+                : p[i].front ? ""
+                             : " fill='#777' font-size='10'");
         xml_text(f, p[i].row->name);
         fprintf(f, "</text>\n");
     }

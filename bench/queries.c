@@ -75,7 +75,9 @@ static double time_closest(closest_fn f, const void *self, const float *pts, siz
  * just past each hit. */
 static void embree_contains_recast(const bench_embree *e, const float *pts, size_t n, double offset, uint8_t *in) {
     for (size_t i = 0; i < n; i++) {
-        prt_ray r = {{pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]}, 0, {g_trimesh_dir[0], g_trimesh_dir[1], g_trimesh_dir[2]},
+        prt_ray r = {{pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]},
+                     0,
+                     {g_trimesh_dir[0], g_trimesh_dir[1], g_trimesh_dir[2]},
                      INFINITY};
         unsigned hits = 0;
         for (int guard = 0; guard < 10000; guard++) {
@@ -115,7 +117,8 @@ static size_t make_aligned_points(const prt_mesh *m, const prt_accel *exact, boo
 /* Answers differing from the exact ones in distance by more than err (and rounding). */
 static size_t count_differing(const prt_closest *got, const prt_closest *want, size_t n, double err) {
     size_t d = 0;
-    for (size_t i = 0; i < n; i++) d += fabs((double)got[i].distance - want[i].distance) > err + 1e-6 * fabs(want[i].distance);
+    for (size_t i = 0; i < n; i++)
+        d += fabs((double)got[i].distance - want[i].distance) > err + 1e-6 * fabs(want[i].distance);
     return d;
 }
 
@@ -144,8 +147,9 @@ int bench_queries(FILE *f, const prt_mesh *m, const bench_queries_options *o) {
     for (int k = 0; k < 2; k++) make_points(m, n, k == 0, o->seed, pts + 3 * n * k);
     prt_closest_points(exact, pts, 2 * n, INFINITY, want, 0);
     const double tris = (double)m->triangle_count;
-    fprintf(f, "closest points, one thread, median of %d, %zu points a set (µs per point; ratio: Embree's time / ours)\n\n",
-            o->reps, n);
+    fprintf(
+        f, "closest points, one thread, median of %d, %zu points a set (µs per point; ratio: Embree's time / ours)\n\n",
+        o->reps, n);
     fprintf(f, "| representation | B/tri (tree + geometry) | near µs | ratio | far µs | ratio | answers differing |\n");
     fprintf(f, "|---|---|---|---|---|---|---|\n");
     double em_t[2] = {0, 0};
@@ -167,9 +171,9 @@ int bench_queries(FILE *f, const prt_mesh *m, const bench_queries_options *o) {
         double t[2];
         for (int k = 0; k < 2; k++) t[k] = time_closest(packrt_closest, a, pts + 3 * n * k, n, o->reps, got + n * k);
         fprintf(f, "| `%s` | %.1f (%.1f + %.1f) | %.3f | %.2f | %.3f | %.2f | %zu of %zu |\n", o->specs[s],
-                (double)(st.bytes_tree + st.bytes_geometry) / tris, st.bytes_tree / tris, st.bytes_geometry / tris, t[0],
-                em ? em_t[0] / t[0] : 0, t[1], em ? em_t[1] / t[1] : 0, count_differing(got, want, 2 * n, st.vertex_error),
-                2 * n);
+                (double)(st.bytes_tree + st.bytes_geometry) / tris, st.bytes_tree / tris, st.bytes_geometry / tris,
+                t[0], em ? em_t[0] / t[0] : 0, t[1], em ? em_t[1] / t[1] : 0,
+                count_differing(got, want, 2 * n, st.vertex_error), 2 * n);
         prt_accel_free(a);
     }
 
@@ -200,10 +204,12 @@ int bench_queries(FILE *f, const prt_mesh *m, const bench_queries_options *o) {
                 prt_winding_number(exact, pts, nc, w, 0);
                 k = 0;
                 for (size_t i = 0; i < nc; i++)
-                    if (fabsf(w[i] - roundf(w[i])) <= 0.01f) memcpy(pts + 3 * k, pts + 3 * i, 12), truth[k++] = w[i] > 0.5f;
+                    if (fabsf(w[i] - roundf(w[i])) <= 0.01f)
+                        memcpy(pts + 3 * k, pts + 3 * i, 12), truth[k++] = w[i] > 0.5f;
                 free(w);
             } else {
-                k = make_aligned_points(m, exact, kind == 2, method ? g_trimesh_dir : cd, nc, o->seed + kind, pts, truth);
+                k = make_aligned_points(m, exact, kind == 2, method ? g_trimesh_dir : cd, nc, o->seed + kind, pts,
+                                        truth);
             }
             if (method == 0) prt_contains(exact, pts, k, in, 0);
             else embree_contains_recast(em, pts, k, offset, in);
@@ -231,8 +237,10 @@ int bench_queries(FILE *f, const prt_mesh *m, const bench_queries_options *o) {
     const double t_fast = (prt__now() - t0) * 1e6 / (double)nc;
     double worst = 0;
     for (size_t i = 0; i < nc; i++) worst = fmax(worst, fabs((double)w[i] - w[nc + i]));
-    fprintf(f, "\nwinding number, one thread, %zu random points: exact %.1f µs a point, fast (beta 2, tree build "
-               "included) %.1f µs a point, largest difference %.2e\n", nc, t_exact, t_fast, worst);
+    fprintf(f,
+            "\nwinding number, one thread, %zu random points: exact %.1f µs a point, fast (beta 2, tree build "
+            "included) %.1f µs a point, largest difference %.2e\n",
+            nc, t_exact, t_fast, worst);
     free(w);
 done:
     prt_accel_free(exact);

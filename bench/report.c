@@ -70,8 +70,8 @@ void bench_report_text(FILE *f, const bench_report *r) {
     fprintf(f, "packrt bench: %s: %zu triangles", r->mesh_path, r->triangles);
     if (r->vertices) fprintf(f, ", %zu vertices", r->vertices); /* a .prt file does not say */
     fputc('\n', f);
-    fprintf(f, "machine: %s; commit %s; mt = %d threads; %d repetitions (median)", r->machine, r->commit,
-            r->threads_mt, r->options.reps < 5 ? 5 : r->options.reps);
+    fprintf(f, "machine: %s; commit %s; mt = %d threads; %d repetitions (median)", r->machine, r->commit, r->threads_mt,
+            r->options.reps < 5 ? 5 : r->options.reps);
     if (r->rounds > 1) fprintf(f, " in each of %d rounds (median of rounds)", r->rounds);
     fputc('\n', f);
     /* The accels were built under the same PRT_ISA, so they picked what this names. */
@@ -81,15 +81,15 @@ void bench_report_text(FILE *f, const bench_report *r) {
     /* Other processes on the cores spoil timings, the all-threads figures most: a thread that
      * waits a scheduler slice at a barrier costs milliseconds. Say so next to the numbers. */
     if (r->load_average > 0.5 && cores > 0 && r->load_average > 0.25 * (double)cores)
-        fprintf(f, "warning: load average %.2f on %ld cores at start: other processes share the CPUs, "
-                   "timings (mt most) are unreliable\n", r->load_average, cores);
+        fprintf(f,
+                "warning: load average %.2f on %ld cores at start: other processes share the CPUs, "
+                "timings (mt most) are unreliable\n",
+                r->load_average, cores);
     fprintf(f, "rays (seed %llu):", (unsigned long long)r->seed);
     for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++) {
         if (!r->workload_on[w]) continue;
-        if (w == BENCH_PRIMARY)
-            fprintf(f, " primary %ux%u (8x8 tiles)", r->width, r->height);
-        else
-            fprintf(f, " %s %zu", bench_workload_name((bench_workload)w), r->workload_rays[w]);
+        if (w == BENCH_PRIMARY) fprintf(f, " primary %ux%u (8x8 tiles)", r->width, r->height);
+        else fprintf(f, " %s %zu", bench_workload_name((bench_workload)w), r->workload_rays[w]);
         fputc(';', f);
     }
     fputc('\n', f);
@@ -105,8 +105,8 @@ void bench_report_text(FILE *f, const bench_report *r) {
         if (r->workload_on[w]) fprintf(f, " %13s", bench_workload_name((bench_workload)w));
     if (em) fprintf(f, "  %13s", "vs embree");
     if (r->rounds > 1) fprintf(f, " %7s", "rounds");
-    fprintf(f, "\n%-*s %7s %5s %5s %5s %11s %7s", nw, "representation", "build s", "tree", "geom",
-            "total", "us/1024", "us/ray");
+    fprintf(f, "\n%-*s %7s %5s %5s %5s %11s %7s", nw, "representation", "build s", "tree", "geom", "total", "us/1024",
+            "us/ray");
     for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++)
         if (r->workload_on[w]) fprintf(f, " %6s %6s", "1t", "mt");
     if (em) fprintf(f, "  %6s %6s", "time", "memory");
@@ -143,23 +143,29 @@ void bench_report_text(FILE *f, const bench_report *r) {
         fputc('\n', f);
     }
 
-    fprintf(f, "\nbuild s: wall-clock build; bytes/triangle: every byte a query touches, tree + "
-               "geometry + other = total;\nrandom 1t us/1024: warm, one thread, single-ray queries, "
-               "minimum; cold us/ray: caches flushed before\neach batch of 1024 (Rouwe's unit); "
-               "workload columns: Mrays/s, median, 1 thread and %d threads", r->threads_mt);
+    fprintf(f,
+            "\nbuild s: wall-clock build; bytes/triangle: every byte a query touches, tree + "
+            "geometry + other = total;\nrandom 1t us/1024: warm, one thread, single-ray queries, "
+            "minimum; cold us/ray: caches flushed before\neach batch of 1024 (Rouwe's unit); "
+            "workload columns: Mrays/s, median, 1 thread and %d threads",
+            r->threads_mt);
     if (em) fprintf(f, ";\nvs embree: random us/1024 and total bytes/triangle over Embree's (lower is better)");
     if (r->rounds > 1)
-        fprintf(f, ";\nspread: largest (max - min) / median over the %d rounds of a one-thread figure; ! over %.0f%%: "
-                   "that row's figures are unreliable", r->rounds, 100 * BENCH_SPREAD_MARK);
+        fprintf(f,
+                ";\nspread: largest (max - min) / median over the %d rounds of a one-thread figure; ! over %.0f%%: "
+                "that row's figures are unreliable",
+                r->rounds, 100 * BENCH_SPREAD_MARK);
     fprintf(f, ".\n");
 
     if (!r->reference) {
         fprintf(f, "\ncheck: no reference backend, results not compared\n");
         return;
     }
-    fprintf(f, "\ncheck against %s: W hit/miss disagreements/rays, t differs > %g of the diagonal, "
-               "different triangle, max |t - t_ref| / diagonal; lossy representations: (rays whose answer no "
-               "surface within the stated vertex error explains; these decide)\n", r->reference, BENCH_CHECK_T_REL);
+    fprintf(f,
+            "\ncheck against %s: W hit/miss disagreements/rays, t differs > %g of the diagonal, "
+            "different triangle, max |t - t_ref| / diagonal; lossy representations: (rays whose answer no "
+            "surface within the stated vertex error explains; these decide)\n",
+            r->reference, BENCH_CHECK_T_REL);
     size_t compared = 0;
     for (size_t i = 0; i < r->row_count; i++) {
         const bench_row *row = &r->rows[i];

@@ -16,9 +16,7 @@ static inline uint32_t min_u32(uint32_t a, uint32_t b) { return a < b ? a : b; }
 
 static const char *const g_names[BENCH_WORKLOAD_COUNT] = {"random", "primary", "shadow", "diffuse"};
 
-const char *bench_workload_name(bench_workload w) {
-    return (unsigned)w < BENCH_WORKLOAD_COUNT ? g_names[w] : "?";
-}
+const char *bench_workload_name(bench_workload w) { return (unsigned)w < BENCH_WORKLOAD_COUNT ? g_names[w] : "?"; }
 
 bool bench_workload_parse(const char *name, bench_workload *out) {
     for (int i = 0; i < BENCH_WORKLOAD_COUNT; i++)
@@ -61,8 +59,7 @@ static prt_vec3 unit_sphere(prt_rng *g) {
     return prt_v3(s * cosf(phi), s * sinf(phi), z);
 }
 
-prt_status bench_rays_random(const float lo[3], const float hi[3], size_t count, uint64_t seed,
-                             bench_rays *out) {
+prt_status bench_rays_random(const float lo[3], const float hi[3], size_t count, uint64_t seed, bench_rays *out) {
     prt_status s = alloc_rays(out, BENCH_RANDOM, count);
     if (s) return s;
     /* RayCastTest (TestRaycast.cpp) enlarges the bounds by 10% of their size on each side "so
@@ -132,8 +129,7 @@ size_t bench_rays_pixel_index(const bench_rays *r, uint32_t x, uint32_t y) {
     return (size_t)ty * T * r->width + (size_t)tx * T * h + (size_t)(y - ty * T) * w + (x - tx * T);
 }
 
-prt_status bench_rays_primary(const bench_camera *c, uint32_t width, uint32_t height, uint32_t tile,
-                              bench_rays *out) {
+prt_status bench_rays_primary(const bench_camera *c, uint32_t width, uint32_t height, uint32_t tile, bench_rays *out) {
     if (!width || !height) return PRT_ERROR_ARGUMENT;
     prt_status s = alloc_rays(out, BENCH_PRIMARY, (size_t)width * height);
     if (s) return s;
@@ -207,8 +203,8 @@ static prt_status alloc_secondary(bench_rays *out, bench_workload kind, size_t c
     return PRT_OK;
 }
 
-prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                             const float light[3], float eps, bench_rays *out) {
+prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits, const float light[3],
+                             float eps, bench_rays *out) {
     prt_status s = alloc_secondary(out, BENCH_SHADOW, count_hits(m, primary, hits));
     if (s) return s;
     out->any_hit = true;
@@ -229,8 +225,8 @@ prt_status bench_rays_shadow(const prt_mesh *m, const bench_rays *primary, const
     return PRT_OK;
 }
 
-prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits,
-                              uint64_t seed, float eps, bench_rays *out) {
+prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, const prt_hit *hits, uint64_t seed,
+                              float eps, bench_rays *out) {
     prt_status s = alloc_secondary(out, BENCH_DIFFUSE, count_hits(m, primary, hits));
     if (s) return s;
     size_t k = 0;
@@ -247,7 +243,8 @@ prt_status bench_rays_diffuse(const prt_mesh *m, const bench_rays *primary, cons
         float sign = copysignf(1.0f, n.z), a = -1.0f / (sign + n.z), b = n.x * n.y * a;
         prt_vec3 t1 = prt_v3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
         prt_vec3 t2 = prt_v3(b, sign + n.y * n.y * a, -n.y);
-        prt_vec3 d = prt_v3_norm(prt_v3_add(prt_v3_add(prt_v3_scale(t1, lx), prt_v3_scale(t2, ly)), prt_v3_scale(n, lz)));
+        prt_vec3 d =
+            prt_v3_norm(prt_v3_add(prt_v3_add(prt_v3_scale(t1, lx), prt_v3_scale(t2, ly)), prt_v3_scale(n, lz)));
         prt_vec3 o = prt_v3_add(p, prt_v3_scale(n, eps));
         prt_ray *r = &out->rays[k];
         r->org[0] = o.x, r->org[1] = o.y, r->org[2] = o.z, r->tnear = 0.0f;

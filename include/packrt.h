@@ -282,8 +282,7 @@ typedef struct prt_stats {
  * A mesh that a representation cannot encode (too many vertices for 16-bit indices, offsets
  * past its bits) is PRT_ERROR_LIMIT with the reason in prt_last_error().
  * The accel does not keep a pointer to m. Free it with prt_accel_free(). */
-prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_options *options,
-                     prt_accel **out);
+prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_options *options, prt_accel **out);
 
 /* "auto" specs choose for the caller (docs/auto.md): "auto,budget=B" (total bytes per
  * triangle), "auto,memory=N[K|M|G]" (total bytes for this mesh) or neither (no limit), with
@@ -303,11 +302,11 @@ prt_status prt_build(const prt_mesh *m, const char *spec, const prt_build_option
  * bytes), and its estimated size when est is not NULL. */
 typedef struct prt_size_estimate {
     size_t bytes_tree, bytes_geometry, bytes_other; /* for the whole mesh */
-    double bytes_per_triangle;                       /* total over the mesh's triangles */
-    size_t sample_triangles; /* triangles the estimate built; the mesh's: exact */
+    double bytes_per_triangle;                      /* total over the mesh's triangles */
+    size_t sample_triangles;                        /* triangles the estimate built; the mesh's: exact */
 } prt_size_estimate;
-prt_status prt_auto_choose(const prt_mesh *m, const char *auto_spec, const prt_build_options *options,
-                           char *spec_out, size_t spec_size, prt_size_estimate *est);
+prt_status prt_auto_choose(const prt_mesh *m, const char *auto_spec, const prt_build_options *options, char *spec_out,
+                           size_t spec_size, prt_size_estimate *est);
 
 /* The size spec would take on m, without building it over the whole mesh: representations
  * are built on a sample of at most 65536 triangles in four spatially compact patches and
@@ -365,8 +364,7 @@ void prt_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occlu
 void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n, int threads);
 
 /* Any-hit for n rays; occluded[i] = 1 when ray i is blocked, else 0. */
-void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n,
-                         int threads);
+void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n, int threads);
 
 /* Closest hits (any hits) for n rays given as 6 floats each, origin xyz then direction
  * xyz (Open3D's and trimesh's layout: no prt_ray records to build), on threads, answered
@@ -434,23 +432,24 @@ prt_status prt_closest_points(const prt_accel *a, const float *points, size_t n,
                               int threads);
 
 /* Results of prt_contains (bits). */
-#define PRT_INSIDE 1u     /* the point is inside the mesh */
-#define PRT_BY_WINDING 2u /* the crossing parities along the rays disagreed (an open or self-
-                           * intersecting mesh), so the generalized winding number decided */
+#define PRT_INSIDE 1u /* the point is inside the mesh */
+#define PRT_BY_WINDING                                                     \
+    2u /* the crossing parities along the rays disagreed (an open or self- \
+        * intersecting mesh), so the generalized winding number decided */
 
 /* Inside/outside of n points on threads: the parity of the crossings along several ray
  * directions from each point, which is exact for closed meshes; when the directions
  * disagree, the generalized winding number (Jacobson et al. 2013, computed as
- * prt_winding_number_fast with beta 2) decides: inside when it is at least 0.5. result[i] is a combination of PRT_INSIDE and PRT_BY_WINDING. A point that is
- * not finite is outside. */
+ * prt_winding_number_fast with beta 2) decides: inside when it is at least 0.5. result[i] is a combination of
+ * PRT_INSIDE and PRT_BY_WINDING. A point that is not finite is outside. */
 prt_status prt_contains(const prt_accel *a, const float *points, size_t n, uint8_t *result, int threads);
 
 /* How prt_contains_by decides. */
 typedef enum prt_contains_method {
-    PRT_CONTAINS_AUTO = 0,    /* prt_contains: parity when the three directions agree, else the winding number */
-    PRT_CONTAINS_PARITY = 1,  /* the majority of the three parities, always (right for closed meshes) */
-    PRT_CONTAINS_WINDING = 2  /* the fast winding number for every point (meshes with holes, self-
-                               * intersections or inconsistent closure): inside when it is at least 0.5 */
+    PRT_CONTAINS_AUTO = 0,   /* prt_contains: parity when the three directions agree, else the winding number */
+    PRT_CONTAINS_PARITY = 1, /* the majority of the three parities, always (right for closed meshes) */
+    PRT_CONTAINS_WINDING = 2 /* the fast winding number for every point (meshes with holes, self-
+                              * intersections or inconsistent closure): inside when it is at least 0.5 */
 } prt_contains_method;
 
 /* prt_contains by method. The winding number here is the fast hierarchical one (Barill et
@@ -459,7 +458,7 @@ typedef enum prt_contains_method {
  * call runs); result[i] has PRT_BY_WINDING set for the points it decided. Errors as prt_contains,
  * and PRT_ERROR_ARGUMENT for an unknown method, PRT_ERROR_NOMEM. */
 prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, prt_contains_method method,
-                               uint8_t *result, int threads);
+                           uint8_t *result, int threads);
 
 /* Generalized winding number of the surface at n points (Jacobson et al. 2013: the sum of
  * the triangles' signed solid angles over 4 pi): 1 inside a closed outward-wound mesh, 0
@@ -515,7 +514,7 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
 #define PRT_VOXEL_HIT 0xFFFFFFFEu
 
 typedef struct prt_lod_hit {
-    prt_hit hit;        /* hit.prim: a triangle, PRT_VOXEL_HIT, or PRT_INVALID on a miss */
+    prt_hit hit; /* hit.prim: a triangle, PRT_VOXEL_HIT, or PRT_INVALID on a miss */
     /* Shading data from representations with LOD ("ooc"; zero from the others): a voxel's
      * normal, or the hit triangle's geometric normal (unit, as the mesh winds it), and the
      * voxel's or triangle's colour (linear, 0..1; meshes without colours are 0.74 grey). */
@@ -549,13 +548,13 @@ bool prt_occluded_lod(const prt_accel *a, const prt_ray *r, float error);
 void prt_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float error);
 
 typedef struct prt_cache_info {
-    uint64_t cache_bytes;     /* the cache's size */
-    uint64_t resident_bytes;  /* decompressed blocks held */
-    uint64_t working_set_bytes; /* blocks the last frame touched */
-    uint32_t requested;       /* blocks the last frame asked for and did not have */
-    uint32_t pending;         /* blocks being loaded */
+    uint64_t cache_bytes;                 /* the cache's size */
+    uint64_t resident_bytes;              /* decompressed blocks held */
+    uint64_t working_set_bytes;           /* blocks the last frame touched */
+    uint32_t requested;                   /* blocks the last frame asked for and did not have */
+    uint32_t pending;                     /* blocks being loaded */
     uint64_t blocks, blocks_loaded_total; /* in the file; loads since opening */
-    uint64_t bytes_read_total; /* compressed bytes read since opening */
+    uint64_t bytes_read_total;            /* compressed bytes read since opening */
     double decompress_seconds_total;
 } prt_cache_info;
 
@@ -702,8 +701,8 @@ typedef struct prt_image {
  * matches (a viewer renders frame after frame without allocating). options may be NULL
  * (all defaults). On failure img is left empty. Errors: PRT_ERROR_ARGUMENT (NULL a or img,
  * bad size, fov or camera), PRT_ERROR_NOMEM. */
-prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c,
-                      const prt_render_options *options, prt_image *img);
+prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c, const prt_render_options *options,
+                      prt_image *img);
 
 /* Write img as an 8-bit RGB PNG (libpng). PRT_ERROR_UNSUPPORTED when this build has no
  * libpng (use prt_image_save_ppm), PRT_ERROR_IO when the file cannot be written. */
@@ -721,8 +720,8 @@ bool prt_image_png_supported(void);
  * any output pointer may be NULL. When diff is not NULL it receives a new image showing
  * where they differ: black where equal, red scaled so that the largest difference is
  * full red. PRT_ERROR_ARGUMENT when the sizes differ. */
-prt_status prt_image_compare(const prt_image *a, const prt_image *b, int *max_diff,
-                             size_t *differing, double *psnr_db, prt_image *diff);
+prt_status prt_image_compare(const prt_image *a, const prt_image *b, int *max_diff, size_t *differing, double *psnr_db,
+                             prt_image *diff);
 
 /* Free an image's pixels and reset it to empty. NULL is ignored. */
 void prt_image_free(prt_image *img);

@@ -24,13 +24,13 @@ static void *counting_alloc(size_t n) {
 typedef struct scenario {
     const char *name;
     const char *spec;
-    int render;        /* 0: build only; 1: build outside, render counted; 2: save and load counted */
-    int update;        /* also prt_accel_update (cgrid) inside the counted part */
+    int render; /* 0: build only; 1: build outside, render counted; 2: save and load counted */
+    int update; /* also prt_accel_update (cgrid) inside the counted part */
     prt_mesh *(*mesh)(void);
     int threads; /* 0: one; else this many (OpenMP paths: the order of allocations varies) */
 } scenario;
 
-static prt_mesh *grid(void) { return mesh_grid(8); }     /* 128 connected triangles */
+static prt_mesh *grid(void) { return mesh_grid(8); } /* 128 connected triangles */
 static prt_mesh *soup(void) { return mesh_random_soup(200, 3); }
 static prt_mesh *big_soup(void) { return mesh_random_soup(20000, 5); }
 static prt_mesh *mid_soup(void) { return mesh_random_soup(3000, 6); }
@@ -157,8 +157,10 @@ TEST(test_every_failed_allocation_is_a_clean_error) {
         /* The library works afterwards. */
         atomic_store(&g_count, 0);
         CHECK_MSG(run(c, m, pre) == PRT_OK, "%s: a normal run after the failures: %s", c->name, prt_last_error());
-        fprintf(stderr, "  %-24s %5ld allocations, %5ld of them refused one at a time: %ld clean errors, %d runs did without it\n",
-                c->name, n, tried, tried - tolerated, tolerated);
+        fprintf(
+            stderr,
+            "  %-24s %5ld allocations, %5ld of them refused one at a time: %ld clean errors, %d runs did without it\n",
+            c->name, n, tried, tried - tolerated, tolerated);
         total_k += tried, total_ok += tolerated;
         prt_accel_free(pre);
         prt_mesh_free(m);

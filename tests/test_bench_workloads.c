@@ -21,9 +21,11 @@ TEST(test_random_rays_are_deterministic_and_prefix_stable) {
         double o = sqrt((double)r->org[0] * r->org[0] + (double)r->org[1] * r->org[1] + (double)r->org[2] * r->org[2]);
         /* Closest approach of the ray line to the centre must be within R/4. */
         double dl = sqrt((double)r->dir[0] * r->dir[0] + (double)r->dir[1] * r->dir[1] + (double)r->dir[2] * r->dir[2]);
-        double along = -((double)r->org[0] * r->dir[0] + (double)r->org[1] * r->dir[1] + (double)r->org[2] * r->dir[2]) / dl;
+        double along =
+            -((double)r->org[0] * r->dir[0] + (double)r->org[1] * r->dir[1] + (double)r->org[2] * r->dir[2]) / dl;
         double miss = sqrt(fmax(0, o * o - along * along));
-        bad += fabs(o - R) > 1e-4 * R || miss > R / 4 * 1.0001 || fabs(dl - 1) > 1e-5 || r->tnear != 0 || !isinf(r->tfar);
+        bad +=
+            fabs(o - R) > 1e-4 * R || miss > R / 4 * 1.0001 || fabs(dl - 1) > 1e-5 || r->tnear != 0 || !isinf(r->tfar);
     }
     CHECK_MSG(bad == 0, "%zu of %zu random rays off the documented shape", bad, a.count);
     bench_rays_free(&a), bench_rays_free(&b), bench_rays_free(&c);
@@ -102,8 +104,8 @@ TEST(test_lossy_check_counts_only_answers_beyond_the_bound) {
         ref[i] = (prt_hit){1.0f, 0.3f, 0.3f, 0, 0};
         got[i] = ref[i];
     }
-    got[1].t = 1.005f; /* half the error away: within */
-    got[2].t = 1.1f;   /* ten times the error: beyond */
+    got[1].t = 1.005f;                              /* half the error away: within */
+    got[2].t = 1.1f;                                /* ten times the error: beyond */
     got[3].prim = PRT_INVALID, got[3].t = INFINITY; /* a miss in the middle of a face: beyond */
     const bench_lossy lossy = {m, rays, 0.01, 1e-6};
     bench_check c;
@@ -120,8 +122,8 @@ TEST(test_lossy_check_counts_only_answers_beyond_the_bound) {
     const uint8_t occ[3] = {1, 1, 0}, exact[3] = {0, 0, 1};
     const bench_lossy sl = {m, sr, 0.01, 1e-6};
     bench_check_occluded(occ, exact, 3, &sl, &c);
-    CHECK_MSG(c.hit_miss == 3 && c.beyond_bound == 2, "%zu disagreements, %zu beyond the bound, want 3 and 2", c.hit_miss,
-              c.beyond_bound);
+    CHECK_MSG(c.hit_miss == 3 && c.beyond_bound == 2, "%zu disagreements, %zu beyond the bound, want 3 and 2",
+              c.hit_miss, c.beyond_bound);
     bench_check_occluded(occ, exact, 1, &sl, &c);
     CHECK(c.hit_miss == 1 && c.beyond_bound == 0 && !bench_check_bad(&c));
     prt_mesh_free(m);

@@ -75,8 +75,8 @@ static double lattice_bound(const prt_mesh *m, double steps) {
 TEST(test_bitpack_lattice_errors_are_measured_and_bound_hits) {
     prt_mesh *grid = mesh_grid(60), *soup = mesh_random_soup(3000, 9);
     prt_mesh *meshes[] = {grid, soup, mesh_transformed(soup, 3.0f, 1000.0f)};
-    const char *specs[] = {"quad:bitpack-soa4", "wide8:bitpack-soa4", "aabb:bitpack-soa4,leaf=6", "quad:bitpack",
-                           "skd:bitpack", "wide8:strip-bitpack"};
+    const char *specs[] = {"quad:bitpack-soa4", "wide8:bitpack-soa4", "aabb:bitpack-soa4,leaf=6",
+                           "quad:bitpack",      "skd:bitpack",        "wide8:strip-bitpack"};
     for (size_t i = 0; i < COUNT_OF(meshes); i++)
         for (size_t s = 0; s < COUNT_OF(specs); s++) {
             prt_accel *a;
@@ -88,8 +88,8 @@ TEST(test_bitpack_lattice_errors_are_measured_and_bound_hits) {
              * (2^-14 for 2^16 steps, finer for more): every vertex is on the lattice already
              * and nothing is lost. */
             const bool coarse_floats = i == 2;
-            CHECK_MSG((err > 0 || coarse_floats) && err <= bound, "mesh %zu %s: stated error %.3g, bound %.3g", i, specs[s],
-                      err, bound);
+            CHECK_MSG((err > 0 || coarse_floats) && err <= bound, "mesh %zu %s: stated error %.3g, bound %.3g", i,
+                      specs[s], err, bound);
             size_t wrong = lossy_hits_outside_the_bound(meshes[i], a, 2000, 15 + i);
             CHECK_MSG(wrong == 0, "mesh %zu %s: %zu of 2000 hits outside the error bound", i, specs[s], wrong);
             prt_accel_free(a);
@@ -125,7 +125,8 @@ TEST(test_bitpack_lattice_runs_decode_exactly) {
                 float rlo[3] = {INFINITY, INFINITY, INFINITY}, rhi[3] = {-INFINITY, -INFINITY, -INFINITY};
                 for (size_t c = 3 * first; c < 3 * (first + n); c++)
                     for (int k = 0; k < 3; k++)
-                        rlo[k] = fminf(rlo[k], v[3 * m->triangles[c] + k]), rhi[k] = fmaxf(rhi[k], v[3 * m->triangles[c] + k]);
+                        rlo[k] = fminf(rlo[k], v[3 * m->triangles[c] + k]),
+                        rhi[k] = fmaxf(rhi[k], v[3 * m->triangles[c] + k]);
                 for (int k = 0; k < 3; k++) {
                     const float step = bvh_lattice_step((double)rhi[k] - rlo[k], masks[mk]);
                     for (size_t c = 3 * first; c < 3 * (first + n); c++) {
@@ -138,8 +139,8 @@ TEST(test_bitpack_lattice_runs_decode_exactly) {
             }
             free(v);
         }
-    CHECK_MSG(inexact == 0 && moved_too_far == 0 && runs > 1000, "%zu coordinates of %zu runs inexact, %zu moved too far",
-              inexact, runs, moved_too_far);
+    CHECK_MSG(inexact == 0 && moved_too_far == 0 && runs > 1000,
+              "%zu coordinates of %zu runs inexact, %zu moved too far", inexact, runs, moved_too_far);
     for (size_t i = 0; i < COUNT_OF(meshes); i++) prt_mesh_free(meshes[i]);
 }
 
@@ -184,9 +185,10 @@ TEST(test_indexed_bitpack_geometry_follows_the_format) {
         if (!a) continue;
         prt_stats st;
         prt_accel_stats(a, &st);
-        size_t lo = 3 * index_bytes[s] * T + 4 * st.leaves + 32 + 8 * V + 4 * T, hi = lo + 9 * index_bytes[s] * st.leaves;
-        CHECK_MSG(st.bytes_geometry >= lo && st.bytes_geometry <= hi, "%s: %zu bytes of geometry, the format says %zu..%zu",
-                  specs[s], (size_t)st.bytes_geometry, lo, hi);
+        size_t lo = 3 * index_bytes[s] * T + 4 * st.leaves + 32 + 8 * V + 4 * T,
+               hi = lo + 9 * index_bytes[s] * st.leaves;
+        CHECK_MSG(st.bytes_geometry >= lo && st.bytes_geometry <= hi,
+                  "%s: %zu bytes of geometry, the format says %zu..%zu", specs[s], (size_t)st.bytes_geometry, lo, hi);
         printf("     %s: %.2f B/tri of geometry\n", specs[s], (double)st.bytes_geometry / (double)T);
         prt_accel_free(a);
     }
@@ -196,7 +198,7 @@ TEST(test_indexed_bitpack_geometry_follows_the_format) {
 /* 16-bit indices reach 65536 entries (no padding vertex: padding repeats a vertex). */
 TEST(test_idx16_bitpack_more_than_65536_vertices_is_a_limit) {
     prt_mesh *big = mesh_random_soup(70000 / 3 + 1, 5); /* 70002 vertices */
-    prt_mesh *fits = mesh_random_soup(65536 / 3, 6);   /* 65535 vertices */
+    prt_mesh *fits = mesh_random_soup(65536 / 3, 6);    /* 65535 vertices */
     prt_accel *a = NULL;
     prt_status st = prt_build(big, "quad:idx16-bitpack-soa4", NULL, &a);
     CHECK_MSG(st == PRT_ERROR_LIMIT && a == NULL, "%zu vertices: %s", big->vertex_count, prt_status_string(st));
@@ -254,8 +256,8 @@ TEST(test_bitpack_save_and_load_keep_every_hit_and_the_error) {
             differ += h1.prim != h2.prim || h1.t != h2.t || h1.u != h2.u || h1.v != h2.v;
         }
         CHECK_MSG(b && differ == 0, "%s: %zu of 2000 hits changed by saving and loading", specs[s], differ);
-        CHECK_MSG(b && repr_vertex_error(a) > 0 && repr_vertex_error(a) == repr_vertex_error(b), "%s: error %.3g, loaded %.3g",
-                  specs[s], repr_vertex_error(a), b ? repr_vertex_error(b) : -1.0);
+        CHECK_MSG(b && repr_vertex_error(a) > 0 && repr_vertex_error(a) == repr_vertex_error(b),
+                  "%s: error %.3g, loaded %.3g", specs[s], repr_vertex_error(a), b ? repr_vertex_error(b) : -1.0);
         prt_accel_free(a), prt_accel_free(b);
     }
     remove(path);

@@ -17,13 +17,15 @@ static int check_node(const bvh_tree *t, const bvh_node *parent, uint32_t i, int
         for (uint32_t k = 0; k < n->count; k++) {
             uint32_t id = t->prims[n->index + k];
             if (seen[id]++) bad++;
-            prt_aabb pb = {{orig[id].lo[0], orig[id].lo[1], orig[id].lo[2]}, {orig[id].hi[0], orig[id].hi[1], orig[id].hi[2]}};
+            prt_aabb pb = {{orig[id].lo[0], orig[id].lo[1], orig[id].lo[2]},
+                           {orig[id].hi[0], orig[id].hi[1], orig[id].hi[2]}};
             if (!prt_aabb_contains(&n->box, &pb)) bad++;
         }
         return bad;
     }
     if (n->index + 1 >= t->node_count) return bad + 1;
-    return bad + check_node(t, n, n->index, max_leaf, seen, orig) + check_node(t, n, n->index + 1, max_leaf, seen, orig);
+    return bad + check_node(t, n, n->index, max_leaf, seen, orig) +
+           check_node(t, n, n->index + 1, max_leaf, seen, orig);
 }
 
 static void check_all_splitters(const prt_mesh *m) {

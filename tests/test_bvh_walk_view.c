@@ -18,16 +18,26 @@
 /* Every layout object behind a spec: the 8 layouts, aabb's three other node orders and
  * wide8's filled collapse. */
 static const char *const g_layouts[] = {
-    "aabb", "aabb,order=df-leaves-last", "aabb,order=bf", "aabb,order=bf-leaves-last", "aabb-split", "aabb-pns",
-    "aabb-compressed", "quad", "quad-half", "skd", "wide8", "wide8,collapse=fill",
+    "aabb",
+    "aabb,order=df-leaves-last",
+    "aabb,order=bf",
+    "aabb,order=bf-leaves-last",
+    "aabb-split",
+    "aabb-pns",
+    "aabb-compressed",
+    "quad",
+    "quad-half",
+    "skd",
+    "wide8",
+    "wide8,collapse=fill",
 };
 
 #define RAYS 200
 
 /* The decoded triangles of a whole tree, in walk order. */
 typedef struct decoded {
-    float *v;      /* 9 per triangle */
-    uint32_t *id;  /* as decode reports it */
+    float *v;       /* 9 per triangle */
+    uint32_t *id;   /* as decode reports it */
     uint32_t *mesh; /* mapped to the mesh */
     size_t n, cap;
     size_t leaves, outside_raw; /* vertices outside a raw (unwidened) box: lossy codecs only */
@@ -124,7 +134,8 @@ static void check_triangles(const char *name, const prt_mesh *m, const bvh_view 
         twice += seen[id]++ == 1;
         const uint32_t r = w->codec->strips ? strip_rotation(w->shared, d->id[i]) : 0;
         for (int c = 0; c < 3; c++) {
-            const float *want = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)id + (c + r) % 3], *got = d->v + 9 * i + 3 * c;
+            const float *want = m->vertices + 3 * (size_t)m->triangles[3 * (size_t)id + (c + r) % 3],
+                        *got = d->v + 9 * i + 3 * c;
             if (lossless) {
                 bad_vertex += memcmp(want, got, 12) != 0;
             } else {
@@ -171,8 +182,8 @@ static void check_rays(const char *name, const prt_accel *a, const bvh_view *w, 
         prt_ray r = rays[i];
         prt_hit h;
         prt_intersect1(a, &r, &h);
-        const bool ok = prim == PRT_INVALID ? h.prim == PRT_INVALID
-                                            : h.prim == prim && h.t == best && h.u == bu && h.v == bv;
+        const bool ok =
+            prim == PRT_INVALID ? h.prim == PRT_INVALID : h.prim == prim && h.t == best && h.u == bu && h.v == bv;
         if (!ok && wrong++ < 3)
             fprintf(stderr, "  %s: ray %d: decoded %u t %a u %a v %a, intersect1 %u t %a u %a v %a\n", name, i, prim,
                     best, bu, bv, h.prim, h.t, h.u, h.v);
@@ -232,7 +243,8 @@ static void check_spec(const char *spec, const prt_mesh *m, const prt_ray *rays,
     }
     CHECK_MSG(d.leaves == st.leaves, "%s: %zu leaves walked, %zu in the tree", spec, d.leaves, st.leaves);
     if (lossless)
-        CHECK_MSG(d.outside_raw == 0 && d.outside_bounds == 0, "%s: a lossless codec's vertex lies outside its raw box", spec);
+        CHECK_MSG(d.outside_raw == 0 && d.outside_bounds == 0, "%s: a lossless codec's vertex lies outside its raw box",
+                  spec);
     outside[0] += d.outside_raw, outside[1] += d.outside_bounds;
     decoded_free(&d);
     prt_accel_free(a);
@@ -247,7 +259,8 @@ static void check_mesh(const char *kind, const prt_mesh *m) {
             char spec[128];
             const char *comma = strchr(g_layouts[l], ',');
             if (comma)
-                snprintf(spec, sizeof spec, "%.*s:%s%s", (int)(comma - g_layouts[l]), g_layouts[l], bvh_codecs[c].name, comma);
+                snprintf(spec, sizeof spec, "%.*s:%s%s", (int)(comma - g_layouts[l]), g_layouts[l], bvh_codecs[c].name,
+                         comma);
             else snprintf(spec, sizeof spec, "%s:%s", g_layouts[l], bvh_codecs[c].name);
             check_spec(spec, m, rays, outside);
         }

@@ -46,8 +46,8 @@ static void expect_matches_reference(const prt_mesh *m, prt_accel *a, const char
         wrong += !ok;
         occ_wrong += prt_occluded1(a, &rays[i]) != (want.prim != PRT_INVALID);
     }
-    CHECK_MSG(compared > n / 2 && wrong == 0 && occ_wrong == 0, "%s: %zu rays compared, %zu closest and %zu any hits wrong",
-              what, compared, wrong, occ_wrong);
+    CHECK_MSG(compared > n / 2 && wrong == 0 && occ_wrong == 0,
+              "%s: %zu rays compared, %zu closest and %zu any hits wrong", what, compared, wrong, occ_wrong);
 }
 
 /* Packets of the given rays (count a multiple of w*w) give bit-identical hits to prt_intersect1. */
@@ -63,11 +63,12 @@ static void expect_packets_match_single(prt_accel *a, const char *what, const pr
             prt_ray r = rays[base + i];
             prt_hit h;
             prt_intersect1(a, &r, &h);
-            bool ok = h.prim == ph[i].prim && (h.prim == PRT_INVALID || (h.t == ph[i].t && h.u == ph[i].u && h.v == ph[i].v &&
-                                                                        pr[i].tfar == h.t));
+            bool ok =
+                h.prim == ph[i].prim &&
+                (h.prim == PRT_INVALID || (h.t == ph[i].t && h.u == ph[i].u && h.v == ph[i].v && pr[i].tfar == h.t));
             if (!ok && wrong < 3)
-                fprintf(stderr, "    %s: packet ray %zu: packet %u t %.9g, single %u t %.9g\n", what, base + i, ph[i].prim,
-                        (double)ph[i].t, h.prim, (double)h.t);
+                fprintf(stderr, "    %s: packet ray %zu: packet %u t %.9g, single %u t %.9g\n", what, base + i,
+                        ph[i].prim, (double)ph[i].t, h.prim, (double)h.t);
             wrong += !ok;
             hits += h.prim != PRT_INVALID;
         }
@@ -105,7 +106,7 @@ static void camera_rays(const prt_mesh *m, const float view[3], uint32_t res, ui
                 }
 }
 
-static const float g_views[][3] = {{0, 0, 1},  {0, 0, -1}, {1, 0, 0},      {-1, 0, 0},     {0, 1, 0},
+static const float g_views[][3] = {{0, 0, 1},  {0, 0, -1}, {1, 0, 0},         {-1, 0, 0},      {0, 1, 0},
                                    {0, -1, 0}, {1, 1, 1},  {-0.3f, 0.5f, -1}, {0.2f, -1, 0.4f}};
 
 TEST(test_every_option_matches_brute_force) {
@@ -129,16 +130,20 @@ TEST(test_canonical_spec_spells_every_option_and_bad_options_fail) {
     prt_mesh *m = mesh_grid(4);
     prt_accel *a = NULL;
     CHECK_OK(prt_build(m, "cgrid", NULL, &a));
-    if (a) CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,tri=watertight,spread=8"), "%s", prt_accel_spec(a));
+    if (a)
+        CHECK_MSG(
+            !strcmp(prt_accel_spec(a), "cgrid,lambda=6,macro=6,packet=0,mailbox=on,cull=on,tri=watertight,spread=8"),
+            "%s", prt_accel_spec(a));
     prt_accel_free(a);
     a = NULL;
     CHECK_OK(prt_build(m, "cgrid,cull=off,spread=0,packet=4,lambda=3", NULL, &a));
     if (a)
-        CHECK_MSG(!strcmp(prt_accel_spec(a), "cgrid,lambda=3,macro=6,packet=4,mailbox=on,cull=off,tri=watertight,spread=0"), "%s",
-                  prt_accel_spec(a));
+        CHECK_MSG(
+            !strcmp(prt_accel_spec(a), "cgrid,lambda=3,macro=6,packet=4,mailbox=on,cull=off,tri=watertight,spread=0"),
+            "%s", prt_accel_spec(a));
     prt_accel_free(a);
-    const char *bad[] = {"cgrid,packet=3", "cgrid,lambda=0", "cgrid,macro=99", "cgrid,mailbox=maybe", "cgrid,spread=-1", "cgrid,tri=moller", "cgrid,foo=1",
-                         "cgrid:float3"};
+    const char *bad[] = {"cgrid,packet=3",  "cgrid,lambda=0",   "cgrid,macro=99", "cgrid,mailbox=maybe",
+                         "cgrid,spread=-1", "cgrid,tri=moller", "cgrid,foo=1",    "cgrid:float3"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
         a = NULL;
         CHECK_MSG(prt_build(m, bad[i], NULL, &a) != PRT_OK && !a, "%s was accepted", bad[i]);
@@ -151,8 +156,12 @@ TEST(test_canonical_spec_spells_every_option_and_bad_options_fail) {
 TEST(test_packets_of_every_size_equal_single_rays) {
     prt_mesh *meshes[] = {mesh_grid(40), mesh_random_soup(3000, 5)};
     static prt_ray rays[64 * 64];
-    const char *specs[] = {"cgrid", "cgrid,packet=2", "cgrid,packet=4", "cgrid,macro=0,mailbox=off,cull=off",
-                           "cgrid,lambda=2,macro=3", "cgrid,tri=wald"};
+    const char *specs[] = {"cgrid",
+                           "cgrid,packet=2",
+                           "cgrid,packet=4",
+                           "cgrid,macro=0,mailbox=off,cull=off",
+                           "cgrid,lambda=2,macro=3",
+                           "cgrid,tri=wald"};
     const uint32_t widths[] = {2, 4, 8, 16};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++)
         for (size_t si = 0; si < COUNT_OF(specs); si++) {
@@ -188,7 +197,8 @@ TEST(test_mixed_sign_axis_parallel_and_inside_packets) {
     for (int i = 0; i < 4096; i++) {
         prt_ray *r = &rays[i];
         int pk = i / 64, j = i % 64;
-        for (int k = 0; k < 3; k++) r->org[k] = lo[k] + (hi[k] - lo[k]) * (0.3f + 0.4f * (float)((pk * 7 + k * 3) % 11) / 10.0f);
+        for (int k = 0; k < 3; k++)
+            r->org[k] = lo[k] + (hi[k] - lo[k]) * (0.3f + 0.4f * (float)((pk * 7 + k * 3) % 11) / 10.0f);
         r->dir[0] = (j % 2 ? 1.0f : -1.0f) * (j % 8 == 0 ? 0.0f : 1.0f);
         r->dir[1] = 0.2f * (RND() - 0.5f) + (j % 8 == 0 ? 1.0f : 0.0f);
         r->dir[2] = 0.2f * (RND() - 0.5f);
@@ -204,7 +214,8 @@ TEST(test_mixed_sign_axis_parallel_and_inside_packets) {
                 int pk = i / 64, j = i % 64;
                 for (int k = 0; k < 3; k++) {
                     r->org[k] = lo[k] + (hi[k] - lo[k]) * (0.05f + 0.9f * (float)((pk % 4) * 8 + j % 8) / 32.0f);
-                    if (k == (axis + 2) % 3) r->org[k] = lo[k] + (hi[k] - lo[k]) * (0.05f + 0.9f * (float)((pk / 4) * 8 + j / 8) / 32.0f);
+                    if (k == (axis + 2) % 3)
+                        r->org[k] = lo[k] + (hi[k] - lo[k]) * (0.05f + 0.9f * (float)((pk / 4) * 8 + j / 8) / 32.0f);
                     r->dir[k] = k == axis ? (float)sg : 0.0f;
                 }
                 r->org[axis] = sg > 0 ? lo[axis] - 0.5f : hi[axis] + 0.5f;
@@ -518,9 +529,10 @@ static void expect_thread_counts_agree(const prt_mesh *m, const float *moved, co
         len[k] = saved_body(a[k], &body[k]);
     }
     for (int k = 1; k < 4; k++)
-        CHECK_MSG(len[k] == len[0] && len[0] > 256 && body[k] && body[0] && !memcmp(body[0] + 256, body[k] + 256, len[0] - 256),
-                  "%s: the file of %d threads (%zu bytes) differs from one thread's (%zu bytes)", what, counts[k], len[k],
-                  len[0]);
+        CHECK_MSG(len[k] == len[0] && len[0] > 256 && body[k] && body[0] &&
+                      !memcmp(body[0] + 256, body[k] + 256, len[0] - 256),
+                  "%s: the file of %d threads (%zu bytes) differs from one thread's (%zu bytes)", what, counts[k],
+                  len[k], len[0]);
     for (int k = 0; k < 4; k++) prt_accel_free(a[k]), free(body[k]);
 }
 
@@ -528,7 +540,7 @@ TEST(test_parallel_build_equals_single_thread_build) {
     /* A deformed grid (refs spread over many z slices), the same grid flat (every
      * reference in one z slice: one thread's slab holds all), and a soup with degenerate
      * triangles, each over several build threads. */
-    prt_mesh *m = mesh_grid(250); /* 125k triangles */
+    prt_mesh *m = mesh_grid(250);                  /* 125k triangles */
     CHECK(m->triangle_count > 3 * CG_BUILD_GRAIN); /* so up to 4 threads build it */
     prt_mesh *moved = mesh_transformed(m, 1.0f, 0.0f);
     deform(m, 0.9f, moved->vertices);

@@ -113,8 +113,14 @@ static void expect_tally(const tally *t, const char *what) {
 
 TEST(test_shadow_packets_equal_single_rays_on_generated_scenes) {
     prt_mesh *meshes[] = {floor_and_soup(), mesh_random_soup(3000, 5)};
-    const char *specs[] = {"cgrid",          "cgrid,spread=0", "cgrid,spread=1",        "cgrid,packet=4",
-                           "cgrid,packet=2", "cgrid,lambda=2", "cgrid,mailbox=off,cull=off,macro=0", "cgrid,tri=wald"};
+    const char *specs[] = {"cgrid",
+                           "cgrid,spread=0",
+                           "cgrid,spread=1",
+                           "cgrid,packet=4",
+                           "cgrid,packet=2",
+                           "cgrid,lambda=2",
+                           "cgrid,mailbox=off,cull=off,macro=0",
+                           "cgrid,tri=wald"};
     /* Lights above, low and to the side, below, and inside the grid. */
     const float lights[][3] = {{0.3f, 3.0f, 0.4f}, {-2.0f, 0.6f, 0.5f}, {0.5f, -2.5f, 1.5f}, {0.5f, 0.35f, 0.5f}};
     const float eyes[][3] = {{0.5f, 1.6f, -1.4f}, {1.9f, 0.9f, 1.6f}};
@@ -213,9 +219,9 @@ TEST(test_splitting_spread_packets_visits_fewer_cells) {
     const cg_counters cw = prt__cgrid_counters_get();
     CHECK(!memcmp(o1, o2, sizeof o1));
     for (int i = 0; i < 64; i++) CHECK(o1[i] == prt_occluded1(split, &rays[i]));
-    CHECK_MSG(cs.packets >= 2 && cw.packets == 1 && cs.cells < cw.cells, "split: %llu packets %llu cells; whole: %llu, %llu",
-              (unsigned long long)cs.packets, (unsigned long long)cs.cells, (unsigned long long)cw.packets,
-              (unsigned long long)cw.cells);
+    CHECK_MSG(cs.packets >= 2 && cw.packets == 1 && cs.cells < cw.cells,
+              "split: %llu packets %llu cells; whole: %llu, %llu", (unsigned long long)cs.packets,
+              (unsigned long long)cs.cells, (unsigned long long)cw.packets, (unsigned long long)cw.cells);
     prt_accel_free(split);
     prt_accel_free(whole);
     prt_mesh_free(m);

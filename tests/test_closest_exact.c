@@ -10,8 +10,10 @@
 #include "support/meshes.h"
 #include "support/repr.h"
 
-static const char *g_specs[] = {"wide8:idx8-soa4", "wide8:idx8-soa4,collapse=fill", "wide8:float3-soa8",
-                                "wide8:float3", "wide8:idx32", "aabb:float3", "quad:idx8-soa4"};
+static const char *g_specs[] = {"wide8:idx8-soa4",   "wide8:idx8-soa4,collapse=fill",
+                                "wide8:float3-soa8", "wide8:float3",
+                                "wide8:idx32",       "aabb:float3",
+                                "quad:idx8-soa4"};
 
 /* The answer over every triangle, as prt_closest_points states it. */
 static prt_closest brute_force(const prt_mesh *m, const float *p) {
@@ -77,7 +79,9 @@ TEST(test_closest_points_equal_double_brute_force_on_grid_ties) {
     enum { N = 7 * 7 * 7 };
     static float pts[3 * N];
     /* Integer and half-integer points in and around the cube: many equally near triangles. */
-    for (int i = 0; i < N; i++) pts[3 * i] = -1 + 1.0f * (i % 7), pts[3 * i + 1] = -0.5f + 1.0f * (i / 7 % 7), pts[3 * i + 2] = -1 + 1.0f * (i / 49);
+    for (int i = 0; i < N; i++)
+        pts[3 * i] = -1 + 1.0f * (i % 7), pts[3 * i + 1] = -0.5f + 1.0f * (i / 7 % 7),
+                pts[3 * i + 2] = -1 + 1.0f * (i / 49);
     check_exact(cube, pts, N, "grid cube");
     prt_mesh_free(cube);
 }

@@ -23,7 +23,9 @@ typedef struct job {
     size_t wrong[4]; /* answers that differ, per kind */
 } job;
 
-static bool same_hit(const prt_hit *a, const prt_hit *b) { return a->prim == b->prim && (a->prim == PRT_INVALID || a->t == b->t); }
+static bool same_hit(const prt_hit *a, const prt_hit *b) {
+    return a->prim == b->prim && (a->prim == PRT_INVALID || a->t == b->t);
+}
 
 static void single(job *j, size_t lo, size_t hi) {
     for (size_t i = lo; i < hi; i++) {
@@ -91,7 +93,8 @@ static void lods(job *j, size_t lo, size_t hi) {
             prt_intersect_lod(j->a, &one, 0.0f, &lh);
             j->wrong[3] += !lod_ok(j, &lh, i + k);
             /* A missing exact hit means nothing blocks the ray, voxel or not. */
-            if (j->want[i + k].prim == PRT_INVALID && !j->lod_may_stop) j->wrong[3] += prt_occluded_lod(j->a, &j->rays[i + k], 0.0f);
+            if (j->want[i + k].prim == PRT_INVALID && !j->lod_may_stop)
+                j->wrong[3] += prt_occluded_lod(j->a, &j->rays[i + k], 0.0f);
         }
         memcpy(r, j->rays + i, sizeof r);
         prt_intersect_lod_packet(j->a, r, h, 16, 0.0f);
@@ -136,8 +139,8 @@ static void *worker(void *arg) {
 }
 
 /* One round: THREADS threads at once; returns the wrong answers. */
-static size_t round_of(const prt_accel *a, const prt_ray *rays, const prt_hit *want, bool lod_may_stop, const char *what,
-                       int round, void *(*fn)(void *)) {
+static size_t round_of(const prt_accel *a, const prt_ray *rays, const prt_hit *want, bool lod_may_stop,
+                       const char *what, int round, void *(*fn)(void *)) {
     job jobs[THREADS];
     pthread_t t[THREADS];
     for (int i = 0; i < THREADS; i++) {
@@ -207,8 +210,8 @@ TEST(test_threads_share_an_ooc_accel_whose_cache_evicts) {
     prt_stats st;
     prt_accel_stats(a, &st);
     /* About 160 blocks raw: the cache holds two fifths of the file. */
-    CHECK_MSG(st.bytes_tree + st.bytes_geometry > 2 * 64u * 65536u, "the file (%zu bytes raw) must be over twice the cache",
-              st.bytes_tree + st.bytes_geometry);
+    CHECK_MSG(st.bytes_tree + st.bytes_geometry > 2 * 64u * 65536u,
+              "the file (%zu bytes raw) must be over twice the cache", st.bytes_tree + st.bytes_geometry);
     float lo[3], hi[3];
     prt_accel_bounds(a, lo, hi);
     /* Rays from around the bounds through them (rays_random needs a mesh: a box stands in). */
@@ -255,7 +258,8 @@ TEST(test_threads_share_a_cgrid_updated_between_frames) {
     for (int r = 0; r < ROUNDS; r++) {
         /* Frame r: the sphere squashed and moved a little more. */
         for (size_t i = 0; i < m->vertex_count; i++)
-            for (int k = 0; k < 3; k++) v[3 * i + k] = m->vertices[3 * i + k] * (k == 1 ? 1.0f - 0.1f * (float)r : 1.0f) + 0.02f * (float)r;
+            for (int k = 0; k < 3; k++)
+                v[3 * i + k] = m->vertices[3 * i + k] * (k == 1 ? 1.0f - 0.1f * (float)r : 1.0f) + 0.02f * (float)r;
         CHECK_OK(prt_accel_update(a, v));
         prt_hit *want = reference(a, rays);
         CHECK(hits_of(want) > RAYS / 8);

@@ -59,7 +59,8 @@ TEST(test_full_disk_fails_cleanly_and_keeps_the_previous_file) {
             bool ran = write_limited(k, path, LIMIT, &o);
             CHECK_MSG(ran, "%s: the writer crashed", k->name);
             CHECK_MSG(o.status == PRT_ERROR_IO, "%s: status %s (%s)", k->name, prt_status_string(o.status), o.message);
-            CHECK_MSG(strstr(o.message, path) != NULL, "%s: the message does not name %s: %s", k->name, path, o.message);
+            CHECK_MSG(strstr(o.message, path) != NULL, "%s: the message does not name %s: %s", k->name, path,
+                      o.message);
             if (with_previous) {
                 CHECK_MSG(file_equals(path, previous, sizeof previous - 1), "%s: the previous file changed", k->name);
                 CHECK_MSG(dir_others(dir, name) == 0, "%s: temporaries left behind", k->name);

@@ -28,8 +28,7 @@ static void edge_census(const prt_mesh *m, size_t *repeated, size_t *boundary) {
     size_t n = 3 * m->triangle_count;
     edge *e = malloc(n * sizeof *e);
     for (size_t t = 0; t < m->triangle_count; t++)
-        for (int k = 0; k < 3; k++)
-            e[3 * t + k] = (edge){m->triangles[3 * t + k], m->triangles[3 * t + (k + 1) % 3]};
+        for (int k = 0; k < 3; k++) e[3 * t + k] = (edge){m->triangles[3 * t + k], m->triangles[3 * t + (k + 1) % 3]};
     qsort(e, n, sizeof *e, cmp_edge);
     *repeated = *boundary = 0;
     for (size_t i = 0; i < n; i++) {
@@ -77,22 +76,19 @@ static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
            !memcmp(a->triangles, b->triangles, 3 * a->triangle_count * sizeof(uint32_t));
 }
 
-static double ratio(const prt_mesh *m, size_t want) {
-    return (double)m->triangle_count / (double)want;
-}
+static double ratio(const prt_mesh *m, size_t want) { return (double)m->triangle_count / (double)want; }
 
 TEST(test_gen_kinds_names_every_generator) {
     const char *k = prt_gen_kinds();
-    CHECK(strstr(k, "sphere") && strstr(k, "terrain") && strstr(k, "mandelbulb") &&
-          strstr(k, "cad") && strstr(k, "level"));
+    CHECK(strstr(k, "sphere") && strstr(k, "terrain") && strstr(k, "mandelbulb") && strstr(k, "cad") &&
+          strstr(k, "level"));
 }
 
 TEST(test_gen_unknown_kind_is_an_argument_error_listing_the_kinds) {
     prt_mesh *m = (prt_mesh *)1;
     CHECK(prt_mesh_generate("teapot", 1000, 1, &m) == PRT_ERROR_ARGUMENT);
     CHECK(m == NULL);
-    CHECK(strstr(prt_last_error(), "teapot") &&
-          strstr(prt_last_error(), "sphere terrain mandelbulb"));
+    CHECK(strstr(prt_last_error(), "teapot") && strstr(prt_last_error(), "sphere terrain mandelbulb"));
     CHECK(prt_mesh_generate(NULL, 1000, 1, &m) == PRT_ERROR_ARGUMENT);
     CHECK(prt_mesh_generate("sphere", 1000, 1, NULL) == PRT_ERROR_ARGUMENT);
 }
@@ -122,8 +118,7 @@ TEST(test_sphere_count_is_12_k_squared_nearest_the_request) {
         CHECK_MSG(d <= fabs((double)(12 * kb * kb) - (double)want[i]) &&
                       d <= fabs((double)(12 * ka * ka) - (double)want[i]),
                   "k = %zu is not the nearest for %zu", k, want[i]);
-        if (want[i] >= 1000)
-            CHECK_MSG(fabs(ratio(m, want[i]) - 1) < 0.1, "%zu for %zu", m->triangle_count, want[i]);
+        if (want[i] >= 1000) CHECK_MSG(fabs(ratio(m, want[i]) - 1) < 0.1, "%zu for %zu", m->triangle_count, want[i]);
         prt_mesh_free(m);
     }
 }
@@ -134,8 +129,7 @@ TEST(test_sphere_is_closed_with_consistent_winding) {
     if (!m) return;
     size_t repeated, boundary;
     edge_census(m, &repeated, &boundary);
-    CHECK_MSG(repeated == 0 && boundary == 0, "%zu repeated, %zu boundary directed edges", repeated,
-              boundary);
+    CHECK_MSG(repeated == 0 && boundary == 0, "%zu repeated, %zu boundary directed edges", repeated, boundary);
     /* Euler characteristic 2 (a sphere) with E = 3F/2 for a closed triangle mesh. */
     CHECK((long)m->vertex_count - (long)(3 * m->triangle_count / 2) + (long)m->triangle_count == 2);
     CHECK_OK(prt_mesh_validate(m));
@@ -150,8 +144,7 @@ TEST(test_sphere_faces_outward_on_the_unit_sphere) {
     size_t off = 0, inward = 0;
     for (size_t v = 0; v < m->vertex_count; v++) {
         const float *p = m->vertices + 3 * v;
-        off +=
-            fabs(sqrt((double)p[0] * p[0] + (double)p[1] * p[1] + (double)p[2] * p[2]) - 1) > 1e-6;
+        off += fabs(sqrt((double)p[0] * p[0] + (double)p[1] * p[1] + (double)p[2] * p[2]) - 1) > 1e-6;
     }
     for (size_t t = 0; t < m->triangle_count; t++) {
         double n[3], c[3];
@@ -203,10 +196,8 @@ TEST(test_terrain_seed_selects_the_heights) {
     if (!a || !b || !c) return;
     CHECK(same_mesh(a, c));
     size_t differ = 0;
-    for (size_t v = 0; v < a->vertex_count; v++)
-        differ += a->vertices[3 * v + 1] != b->vertices[3 * v + 1];
-    CHECK_MSG(differ > a->vertex_count / 2, "only %zu of %zu heights differ", differ,
-              a->vertex_count);
+    for (size_t v = 0; v < a->vertex_count; v++) differ += a->vertices[3 * v + 1] != b->vertices[3 * v + 1];
+    CHECK_MSG(differ > a->vertex_count / 2, "only %zu of %zu heights differ", differ, a->vertex_count);
     prt_mesh_free(a);
     prt_mesh_free(b);
     prt_mesh_free(c);
@@ -220,16 +211,15 @@ TEST(test_mandelbulb_is_closed_outward_and_near_the_request) {
     CHECK_OK(prt_mesh_validate(m));
     size_t repeated, boundary;
     edge_census(m, &repeated, &boundary);
-    CHECK_MSG(repeated == 0 && boundary == 0, "%zu repeated, %zu boundary directed edges", repeated,
-              boundary);
+    CHECK_MSG(repeated == 0 && boundary == 0, "%zu repeated, %zu boundary directed edges", repeated, boundary);
     /* Shared vertices: a closed mesh has about half as many vertices as triangles. */
     CHECK_MSG(m->vertex_count < m->triangle_count, "%zu vertices", m->vertex_count);
     CHECK(all_within(m, -1.2f, 1.2f));
     double vol = signed_volume(m);
     CHECK_MSG(vol > 0.5 && vol < 4.0, "volume %g (negative: inward winding)", vol);
     size_t degenerate = prt_mesh_count_degenerate(m);
-    printf("     mandelbulb: %zu triangles, %zu vertices, %zu degenerate, volume %.3f\n",
-           m->triangle_count, m->vertex_count, degenerate, vol);
+    printf("     mandelbulb: %zu triangles, %zu vertices, %zu degenerate, volume %.3f\n", m->triangle_count,
+           m->vertex_count, degenerate, vol);
     CHECK_MSG(degenerate * 1000 <= m->triangle_count, "%zu degenerate triangles", degenerate);
     prt_mesh_free(m);
 }
@@ -240,8 +230,7 @@ TEST(test_mandelbulb_counts_track_the_request) {
         prt_mesh *m;
         CHECK_OK(prt_mesh_generate("mandelbulb", want[i], 1, &m));
         if (!m) continue;
-        CHECK_MSG(fabs(ratio(m, want[i]) - 1) < 0.1, "%zu triangles for %zu", m->triangle_count,
-                  want[i]);
+        CHECK_MSG(fabs(ratio(m, want[i]) - 1) < 0.1, "%zu triangles for %zu", m->triangle_count, want[i]);
         prt_mesh_free(m);
     }
 }
@@ -252,8 +241,7 @@ TEST(test_mandelbulb_tiny_request_is_still_a_closed_surface) {
     if (!m) return;
     size_t repeated, boundary;
     edge_census(m, &repeated, &boundary);
-    CHECK_MSG(m->triangle_count >= 4 && m->triangle_count < 100, "%zu triangles",
-              m->triangle_count);
+    CHECK_MSG(m->triangle_count >= 4 && m->triangle_count < 100, "%zu triangles", m->triangle_count);
     CHECK(repeated == 0 && boundary == 0);
     CHECK(signed_volume(m) > 0);
     prt_mesh_free(m);
@@ -265,15 +253,13 @@ TEST(test_cad_count_is_exact_and_parts_stay_in_the_cube) {
         prt_mesh *m;
         CHECK_OK(prt_mesh_generate("cad", want[i], 3, &m));
         if (!m) continue;
-        CHECK_MSG(m->triangle_count == want[i], "%zu triangles for %zu", m->triangle_count,
-                  want[i]);
+        CHECK_MSG(m->triangle_count == want[i], "%zu triangles for %zu", m->triangle_count, want[i]);
         CHECK_OK(prt_mesh_validate(m));
         CHECK(prt_mesh_count_degenerate(m) == 0);
         CHECK(all_within(m, -1.00001f, 1.00001f));
         size_t unused = m->vertex_count;
         uint8_t *seen = calloc(m->vertex_count, 1);
-        for (size_t k = 0; k < 3 * m->triangle_count; k++)
-            unused -= !seen[m->triangles[k]], seen[m->triangles[k]] = 1;
+        for (size_t k = 0; k < 3 * m->triangle_count; k++) unused -= !seen[m->triangles[k]], seen[m->triangles[k]] = 1;
         CHECK_MSG(unused == 0, "%zu vertices unused", unused);
         free(seen);
         prt_mesh_free(m);
@@ -307,8 +293,7 @@ TEST(test_generators_are_deterministic_for_any_thread_count) {
         CHECK_OK(prt_mesh_generate(kinds[i], 60000, 42, &b));
         CHECK_OK(prt_mesh_generate(kinds[i], 60000, 42, &c));
         omp_set_num_threads(threads);
-        if (a && b && c)
-            CHECK_MSG(same_mesh(a, b) && same_mesh(b, c), "%s differs between runs", kinds[i]);
+        if (a && b && c) CHECK_MSG(same_mesh(a, b) && same_mesh(b, c), "%s differs between runs", kinds[i]);
         prt_mesh_free(a);
         prt_mesh_free(b);
         prt_mesh_free(c);
@@ -336,7 +321,8 @@ TEST(test_canyon_and_torus_are_displaced_grids) {
                 CHECK_MSG(boundary == 0, "torus: %zu border edges", boundary);
                 CHECK_MSG(signed_volume(m) > 0, "torus: volume %g", signed_volume(m));
             } else { /* up-facing: the first triangle's normal has a positive y */
-                const float *a = &m->vertices[3 * (size_t)m->triangles[0]], *b = &m->vertices[3 * (size_t)m->triangles[1]],
+                const float *a = &m->vertices[3 * (size_t)m->triangles[0]],
+                            *b = &m->vertices[3 * (size_t)m->triangles[1]],
                             *c = &m->vertices[3 * (size_t)m->triangles[2]];
                 const double ny = (double)(c[0] - a[0]) * (b[2] - a[2]) - (double)(b[0] - a[0]) * (c[2] - a[2]);
                 CHECK_MSG(ny > 0, "canyon: first triangle faces down (%g)", ny);
@@ -361,7 +347,8 @@ TEST(test_level_count_is_close_and_rocks_sit_on_the_ground) {
         float lo[3], hi[3];
         prt_mesh_bounds(m, lo, hi);
         /* Ground about [-10, 10] x [-1.5, 1.5] x [-10, 10]; blocks and rocks stand on it. */
-        CHECK(lo[0] >= -10.5f && hi[0] <= 10.5f && lo[2] >= -10.6f && hi[2] <= 10.6f && lo[1] >= -2.5f && hi[1] <= 5.0f);
+        CHECK(lo[0] >= -10.5f && hi[0] <= 10.5f && lo[2] >= -10.6f && hi[2] <= 10.6f && lo[1] >= -2.5f &&
+              hi[1] <= 5.0f);
         CHECK(hi[1] - lo[1] > 1.0f && hi[0] - lo[0] > 15.0f);
         prt_mesh_free(m);
     }
@@ -392,7 +379,10 @@ TEST(test_toys_move_rigidly_over_the_floor) {
     prt_mesh_bounds(m, lo, hi);
     prt_mesh *f;
     CHECK_OK(prt_mesh_create(m->vertex_count, m->triangle_count, &f));
-    if (!f) { prt_mesh_free(m); return; }
+    if (!f) {
+        prt_mesh_free(m);
+        return;
+    }
     memcpy(f->triangles, m->triangles, 12 * m->triangle_count);
     gen_toys_frame(m, 9, 0.0f, f->vertices);
     CHECK(same_mesh(m, f));
@@ -405,14 +395,17 @@ TEST(test_toys_move_rigidly_over_the_floor) {
             double l0 = edge_length(m->vertices, a, b), l1 = edge_length(f->vertices, a, b);
             worst = fmax(worst, fabs(l1 - l0) / l0);
         }
-        for (size_t v = 0; v < 3 * m->vertex_count; v++) moved = fmax(moved, fabs((double)f->vertices[v] - m->vertices[v]));
+        for (size_t v = 0; v < 3 * m->vertex_count; v++)
+            moved = fmax(moved, fabs((double)f->vertices[v] - m->vertices[v]));
         CHECK_MSG(worst < 1e-4, "t=%g: an edge changed length by %g", times[i], worst);
         CHECK_MSG(moved > 0.1, "t=%g: nothing moved", times[i]);
-        CHECK_MSG(fabs(signed_volume(f) / vol0 - 1) < 1e-3, "t=%g: volume %g against %g", times[i], signed_volume(f), vol0);
+        CHECK_MSG(fabs(signed_volume(f) / vol0 - 1) < 1e-3, "t=%g: volume %g against %g", times[i], signed_volume(f),
+                  vol0);
         float l[3], h[3];
         prt_mesh_bounds(f, l, h);
         CHECK_MSG(l[1] >= 0.0f && l[0] >= lo[0] && l[2] >= lo[2] && h[0] <= hi[0] && h[2] <= hi[2],
-                  "t=%g: a toy leaves the floor: (%g %g %g) - (%g %g %g)", times[i], l[0], l[1], l[2], h[0], h[1], h[2]);
+                  "t=%g: a toy leaves the floor: (%g %g %g) - (%g %g %g)", times[i], l[0], l[1], l[2], h[0], h[1],
+                  h[2]);
     }
     /* Whole laps and steps: the last frame is the first again, so sequences loop. */
     gen_toys_frame(m, 9, 1.0f, f->vertices);

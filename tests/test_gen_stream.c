@@ -23,8 +23,7 @@ typedef struct collected {
 
 static prt_status collect(void *user, const float *tris, size_t count, uint64_t first_id) {
     collected *c = user;
-    if (c->stop_after && c->calls == (size_t)c->stop_after)
-        return prt__fail(PRT_ERROR_IO, "test sink: stop");
+    if (c->stop_after && c->calls == (size_t)c->stop_after) return prt__fail(PRT_ERROR_IO, "test sink: stop");
     c->calls++;
     if (first_id != c->n || count == 0) c->ids_ok = false;
     if (count > c->max_batch) c->max_batch = count;
@@ -37,17 +36,14 @@ static prt_status collect(void *user, const float *tris, size_t count, uint64_t 
     return PRT_OK;
 }
 
-static int cmp_tri(const void *a, const void *b) {
-    return memcmp(a, b, 9 * sizeof(float));
-}
+static int cmp_tri(const void *a, const void *b) { return memcmp(a, b, 9 * sizeof(float)); }
 
 /* The mesh as 9 floats a triangle. */
 static float *soup_of(const prt_mesh *m) {
     float *s = malloc(m->triangle_count * 9 * sizeof(float));
     for (size_t t = 0; t < m->triangle_count; t++)
         for (int k = 0; k < 3; k++)
-            memcpy(s + 9 * t + 3 * k, m->vertices + 3 * (size_t)m->triangles[3 * t + k],
-                   3 * sizeof(float));
+            memcpy(s + 9 * t + 3 * k, m->vertices + 3 * (size_t)m->triangles[3 * t + k], 3 * sizeof(float));
     return s;
 }
 
@@ -71,8 +67,7 @@ static void same_triangles_as_the_mesh(size_t want) {
         float *s = soup_of(m);
         qsort(s, c.n, 9 * sizeof(float), cmp_tri);
         qsort(c.tris, c.n, 9 * sizeof(float), cmp_tri);
-        CHECK_MSG(!memcmp(s, c.tris, c.n * 9 * sizeof(float)), "%zu triangles: the sets differ",
-                  c.n);
+        CHECK_MSG(!memcmp(s, c.tris, c.n * 9 * sizeof(float)), "%zu triangles: the sets differ", c.n);
         free(s);
     }
     free(c.tris);
@@ -174,8 +169,7 @@ TEST(test_mandelbulb_save_ply_writes_the_bytes_of_the_in_memory_mesh) {
 TEST(test_mandelbulb_save_ply_fails_cleanly) {
     size_t before, after;
     prt_memory_usage(&before, NULL);
-    prt_status st =
-        gen_mandelbulb_save_ply(1000, 1, 0, PRT_BINARY_DIR "/no/such/dir/b.ply", NULL, NULL);
+    prt_status st = gen_mandelbulb_save_ply(1000, 1, 0, PRT_BINARY_DIR "/no/such/dir/b.ply", NULL, NULL);
     CHECK_MSG(st == PRT_ERROR_IO, "%s", prt_status_string(st));
     CHECK(strstr(prt_last_error(), "no/such/dir/b.ply") != NULL);
     const char *path = PRT_BINARY_DIR "/test_gen_stream_limit.ply";

@@ -9,8 +9,9 @@
 #include "support/reference.h"
 #include "support/repr.h"
 
-static const char *const g_specs[] = {"quad:idx16", "wide8:idx16", "aabb:idx16,leaf=3",     "skd:idx16",
-                                      "quad:idx16-soa4", "wide8:idx16-soa4", "aabb:idx16-soa4,leaf=5", "quad-half:idx16-soa4"};
+static const char *const g_specs[] = {
+    "quad:idx16",      "wide8:idx16",      "aabb:idx16,leaf=3",      "skd:idx16",
+    "quad:idx16-soa4", "wide8:idx16-soa4", "aabb:idx16-soa4,leaf=5", "quad-half:idx16-soa4"};
 
 static bool same_hit(prt_hit a, prt_hit b) { return a.prim == b.prim && a.t == b.t && a.u == b.u && a.v == b.v; }
 
@@ -40,8 +41,9 @@ TEST(test_idx16_hits_are_idx32_soa4_hits_and_the_brute_force_triangles) {
                 hits += got.prim != PRT_INVALID;
                 if (edge[r] > 1e-4 || exact[r].prim == PRT_INVALID) wrong += got.prim != exact[r].prim;
             }
-            CHECK_MSG(differ == 0 && wrong == 0 && hits > 400, "mesh %zu %s: %zu differ from idx32-soa4, %zu from the brute force (%zu hits)",
-                      i, g_specs[s], differ, wrong, hits);
+            CHECK_MSG(differ == 0 && wrong == 0 && hits > 400,
+                      "mesh %zu %s: %zu differ from idx32-soa4, %zu from the brute force (%zu hits)", i, g_specs[s],
+                      differ, wrong, hits);
             prt_accel_free(a);
         }
         prt_accel_free(ref);
@@ -65,8 +67,8 @@ TEST(test_idx16_geometry_is_six_bytes_per_triangle_plus_the_heads) {
         prt_stats st;
         prt_accel_stats(a, &st);
         size_t lo = 6 * T + 4 * st.leaves + 12 * (V + 1) + 4 * T, hi = lo + pad_per_leaf[s] * st.leaves;
-        CHECK_MSG(st.bytes_geometry >= lo && st.bytes_geometry <= hi, "%s: %zu bytes of geometry, the format says %zu..%zu",
-                  specs[s], (size_t)st.bytes_geometry, lo, hi);
+        CHECK_MSG(st.bytes_geometry >= lo && st.bytes_geometry <= hi,
+                  "%s: %zu bytes of geometry, the format says %zu..%zu", specs[s], (size_t)st.bytes_geometry, lo, hi);
         printf("     %s: %.2f B/tri of geometry\n", specs[s], (double)st.bytes_geometry / (double)T);
         prt_accel_free(a);
     }
@@ -76,7 +78,7 @@ TEST(test_idx16_geometry_is_six_bytes_per_triangle_plus_the_heads) {
 /* 65535 vertices and the NaN padding vertex fill the 16-bit range; one more does not fit. */
 TEST(test_idx16_more_than_65535_vertices_is_a_limit) {
     prt_mesh *big = mesh_random_soup(70000 / 3 + 1, 5); /* 70002 vertices */
-    prt_mesh *fits = mesh_random_soup(65535 / 3, 6);   /* 65535 vertices */
+    prt_mesh *fits = mesh_random_soup(65535 / 3, 6);    /* 65535 vertices */
     CHECK(big && big->vertex_count > 65535 && fits && fits->vertex_count == 65535);
     const char *codecs[] = {"quad:idx16", "quad:idx16-soa4"};
     for (size_t s = 0; big && fits && s < COUNT_OF(codecs); s++) {

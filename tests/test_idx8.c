@@ -22,7 +22,8 @@ static prt_mesh *fan(uint32_t n) {
         m->vertices[3 * (i + 1) + 0] = cosf(a), m->vertices[3 * (i + 1) + 1] = 0.1f * sinf(3 * a),
                                   m->vertices[3 * (i + 1) + 2] = sinf(a);
     }
-    for (uint32_t i = 0; i < n; i++) m->triangles[3 * i] = 0, m->triangles[3 * i + 1] = i + 1, m->triangles[3 * i + 2] = i + 2;
+    for (uint32_t i = 0; i < n; i++)
+        m->triangles[3 * i] = 0, m->triangles[3 * i + 1] = i + 1, m->triangles[3 * i + 2] = i + 2;
     return m;
 }
 

@@ -10,10 +10,8 @@
 
 /* Build spec with PRT_ISA set to isa (NULL: unset). */
 static prt_status build_for(const prt_mesh *m, const char *spec, const char *isa, prt_accel **a) {
-    if (isa)
-        setenv("PRT_ISA", isa, 1);
-    else
-        unsetenv("PRT_ISA");
+    if (isa) setenv("PRT_ISA", isa, 1);
+    else unsetenv("PRT_ISA");
     *a = NULL;
     prt_status s = prt_build(m, spec, NULL, a);
     unsetenv("PRT_ISA");
@@ -21,8 +19,7 @@ static prt_status build_for(const prt_mesh *m, const char *spec, const char *isa
 }
 
 /* Whether the streams of a and b give the same hits bit for bit. */
-static size_t stream_differences(const prt_accel *a, const prt_accel *b, const prt_ray *rays,
-                                 size_t n) {
+static size_t stream_differences(const prt_accel *a, const prt_accel *b, const prt_ray *rays, size_t n) {
     prt_ray *ra = malloc(n * sizeof *ra), *rb = malloc(n * sizeof *rb);
     prt_hit *ha = malloc(n * sizeof *ha), *hb = malloc(n * sizeof *hb);
     memcpy(ra, rays, n * sizeof *ra), memcpy(rb, rays, n * sizeof *rb);
@@ -31,8 +28,7 @@ static size_t stream_differences(const prt_accel *a, const prt_accel *b, const p
     size_t differ = 0;
     for (size_t i = 0; i < n; i++)
         differ += ha[i].prim != hb[i].prim ||
-                  (ha[i].prim != PRT_INVALID &&
-                   (ha[i].t != hb[i].t || ha[i].u != hb[i].u || ha[i].v != hb[i].v));
+                  (ha[i].prim != PRT_INVALID && (ha[i].t != hb[i].t || ha[i].u != hb[i].u || ha[i].v != hb[i].v));
     free(ra), free(rb), free(ha), free(hb);
     return differ;
 }
@@ -57,8 +53,7 @@ TEST(test_every_isa_answers_as_the_base_one_for_every_wide8_codec) {
                 char what[96];
                 snprintf(what, sizeof what, "%s, %s mesh", spec, mi ? "far" : "near");
                 const size_t hits = repr_same_hits(base, wide, rays, 2000, what);
-                CHECK_MSG(hits > 200, "%s: only %zu hits: the comparison sees too little", what,
-                          hits);
+                CHECK_MSG(hits > 200, "%s: only %zu hits: the comparison sees too little", what, hits);
                 const size_t differ = stream_differences(base, wide, rays, 2000);
                 CHECK_MSG(differ == 0, "%s: streams: %zu rays differ", what, differ);
             }

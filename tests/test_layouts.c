@@ -53,13 +53,13 @@ TEST(test_half_rounding_goes_in_the_asked_direction) {
         {-1e6f, -INFINITY, -65504.0},
         {INFINITY, INFINITY, INFINITY},
         {-INFINITY, -INFINITY, -INFINITY},
-        {0x1p-14f, 0x1p-14, 0x1p-14},                 /* smallest normal */
+        {0x1p-14f, 0x1p-14, 0x1p-14},                      /* smallest normal */
         {0x1p-14f + 0x1p-25f, 0x1p-14, 0x1p-14 + 0x1p-24}, /* between normals at the bottom */
-        {3 * 0x1p-25f, 0x1p-24, 0x1p-23},             /* between subnormals */
-        {1e-8f, 0.0, 0x1p-24},                        /* below the smallest subnormal */
+        {3 * 0x1p-25f, 0x1p-24, 0x1p-23},                  /* between subnormals */
+        {1e-8f, 0.0, 0x1p-24},                             /* below the smallest subnormal */
         {-1e-8f, -0x1p-24, 0.0},
         {0.0f, 0.0, 0.0},
-        {2049.0f, 2048.0, 2050.0},                    /* halves are 2 apart above 2048 */
+        {2049.0f, 2048.0, 2050.0}, /* halves are 2 apart above 2048 */
     };
     for (size_t i = 0; i < COUNT_OF(cases); i++) {
         double down = qh_half_to_float(qh_half_round(cases[i].x, false));
@@ -156,7 +156,7 @@ TEST(test_quantized_child_boxes_contain_their_triangles) {
     const struct {
         const prt_mesh *m;
         const char *name;
-    } cases[] = {{soup, "unit soup"},        {same, "same centroid"},       {far, "soup at 1e6"},
+    } cases[] = {{soup, "unit soup"},          {same, "same centroid"},           {far, "soup at 1e6"},
                  {tiny, "soup at 1e-4 scale"}, {tiny_far, "small soup far away"}, {flat, "flat soup"},
                  {huge, "soup at 1e5 scale"},  {micro, "soup at 1e-6 scale"}};
     for (size_t q = 0; q < COUNT_OF(quantized); q++)
@@ -173,7 +173,8 @@ TEST(test_quantized_child_boxes_contain_their_triangles) {
  * kernel family, on meshes whose magnitude stresses quantized boxes. */
 TEST(test_far_and_tiny_meshes_hit_as_brute_force) {
     prt_mesh *soup = mesh_random_soup(2000, 11);
-    prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 1e6f), mesh_transformed(soup, 1e-4f, 0.0f), mesh_transformed(soup, 1e-2f, -1e3f)};
+    prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 1e6f), mesh_transformed(soup, 1e-4f, 0.0f),
+                          mesh_transformed(soup, 1e-2f, -1e3f)};
     const char *layouts[] = {"quad-half", "aabb-compressed", "aabb-pns", "skd"};
     const char *codecs[] = {"float3", "float3-soa4", "float3-soa8", "idx32-soa4"};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
@@ -195,9 +196,9 @@ TEST(test_far_and_tiny_meshes_hit_as_brute_force) {
                     prt_hit got;
                     prt_intersect1(a, &r, &got);
                     compared++;
-                    bool same_hit = got.prim == want[i].prim ||
-                                    (got.prim != PRT_INVALID && want[i].prim != PRT_INVALID &&
-                                     fabsf(got.t - want[i].t) <= 1e-6f * fabsf(want[i].t));
+                    bool same_hit =
+                        got.prim == want[i].prim || (got.prim != PRT_INVALID && want[i].prim != PRT_INVALID &&
+                                                     fabsf(got.t - want[i].t) <= 1e-6f * fabsf(want[i].t));
                     wrong += !same_hit;
                     wrong += prt_occluded1(a, &rays[i]) != (want[i].prim != PRT_INVALID);
                 }
@@ -228,7 +229,11 @@ TEST(test_aabb_pns_reports_subtrees_beyond_its_offset_bits) {
     bvh_build_params bp = {.split = BVH_SPLIT_SAH, .max_leaf = 1, .block = 1, .threads = 1};
     bvh_tree tree;
     CHECK_OK(bvh_build(p, m->triangle_count, &bp, &tree));
-    const bvh_codec huge = {.name = "huge", .description = "", .block = 1, .align = 4, .leaf_bytes = huge_leaf_bytes,
+    const bvh_codec huge = {.name = "huge",
+                            .description = "",
+                            .block = 1,
+                            .align = 4,
+                            .leaf_bytes = huge_leaf_bytes,
                             .encode = huge_encode};
     bvh_blob blob;
     prt_status s = bvh_aabb_encode(&tree, &huge, m, AABB_PNS, &blob);

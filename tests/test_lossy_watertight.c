@@ -13,8 +13,9 @@
 
 static const char *const g_layouts[] = {"aabb", "aabb-split", "aabb-pns", "aabb-compressed",
                                         "quad", "quad-half",  "skd",      "wide8"};
-static const char *const g_codecs[] = {"bitpack",           "bitpack-soa4",       "idx8-bitpack-soa4", "idx16-bitpack-soa4",
-                                       "idx32-bitpack-soa4", "strip-bitpack",     "strip"};
+static const char *const g_codecs[] = {
+    "bitpack",       "bitpack-soa4", "idx8-bitpack-soa4", "idx16-bitpack-soa4", "idx32-bitpack-soa4",
+    "strip-bitpack", "strip"};
 
 /* Rays aimed at every vertex, the midpoint and a random point of every edge of m. */
 static float *edge_targets(const prt_mesh *m, size_t *n, uint64_t seed) {
@@ -131,7 +132,8 @@ TEST(test_lossy_codecs_stay_watertight_after_refit) {
     prt_mesh *sphere = NULL;
     CHECK_OK(prt_mesh_generate("sphere", 500, 1, &sphere));
     if (!sphere) return;
-    const char *specs[] = {"quad:bitpack-soa4,update=refit", "wide8:bitpack,update=refit", "skd:bitpack-soa4,update=refit"};
+    const char *specs[] = {"quad:bitpack-soa4,update=refit", "wide8:bitpack,update=refit",
+                           "skd:bitpack-soa4,update=refit"};
     for (size_t s = 0; s < COUNT_OF(specs); s++) {
         prt_accel *a = NULL;
         CHECK_OK(prt_build(sphere, specs[s], NULL, &a));

@@ -108,11 +108,12 @@ TEST(test_lossygrid_error_bound_holds_for_every_decoded_vertex) {
                     CHECK(boxes[s].lo[0] <= gv.w[0][j][i] && gv.w[0][j][i] <= boxes[s].hi[0]);
                 }
         }
-        CHECK_MSG(worst <= stated && stated > 0, "%s: a vertex decodes %.3g away, the stated error is %.3g", g_encs[enc], worst,
-                  stated);
+        CHECK_MSG(worst <= stated && stated > 0, "%s: a vertex decodes %.3g away, the stated error is %.3g",
+                  g_encs[enc], worst, stated);
         /* The paper's encodings keep displacements to about 3.5% (fix: 0.4% of a grid's
          * largest); on this terrain that is well under 1e-3 of the diagonal. */
-        CHECK_MSG(stated < 1e-3 * diag, "%s: vertex error %.3g is %.2g of the diagonal", g_encs[enc], stated, stated / diag);
+        CHECK_MSG(stated < 1e-3 * diag, "%s: vertex error %.3g is %.2g of the diagonal", g_encs[enc], stated,
+                  stated / diag);
         free(recs), free(boxes);
         lg_extraction_free(&ex);
         prt_accel_free(a);
@@ -150,7 +151,8 @@ TEST(test_lossygrid_hits_within_the_bound_on_grids_and_soups) {
  * break it into smaller grids and loose triangles; everything hittable is still hit. */
 TEST(test_lossygrid_survives_degenerate_triangles) {
     prt_mesh *g = mesh_grid(20);
-    for (size_t t = 5; t < g->triangle_count; t += 37) g->triangles[3 * t + 1] = g->triangles[3 * t]; /* repeated index */
+    for (size_t t = 5; t < g->triangle_count; t += 37)
+        g->triangles[3 * t + 1] = g->triangles[3 * t]; /* repeated index */
     CHECK(wrong_hits(g, "lossygrid", 3000, 5) == 0);
     prt_accel *a;
     CHECK_OK(prt_build(g, "lossygrid", NULL, &a));
@@ -200,17 +202,20 @@ TEST(test_lossygrid_seams_between_sub_grids_are_watertight) {
                     for (int mid = 0; mid < 2; mid++) {
                         const int i2 = mid && (j == 0 || j == ry) && i < rx ? i + 1 : i;
                         const int j2 = mid && (i == 0 || i == rx) && j < ry && i2 == i ? j + 1 : j;
-                        const float x = 0.5f * (gv.w[0][j][i] + gv.w[0][j2][i2]), z = 0.5f * (gv.w[2][j][i] + gv.w[2][j2][i2]);
+                        const float x = 0.5f * (gv.w[0][j][i] + gv.w[0][j2][i2]),
+                                    z = 0.5f * (gv.w[2][j][i] + gv.w[2][j2][i2]);
                         if (x < 0.02f || x > 0.98f || z < 0.02f || z > 0.98f) continue;
                         prt_ray r = {{x, 2.0f, z}, 0.0f, {0.0f, -1.0f, 0.0f}, INFINITY};
                         prt_hit h;
                         prt_intersect1(a, &r, &h);
-                        misses += h.prim == PRT_INVALID || !prt_occluded1(a, &(prt_ray){{x, 2.0f, z}, 0.0f, {0.0f, -1.0f, 0.0f}, INFINITY});
+                        misses += h.prim == PRT_INVALID ||
+                                  !prt_occluded1(a, &(prt_ray){{x, 2.0f, z}, 0.0f, {0.0f, -1.0f, 0.0f}, INFINITY});
                         rays++;
                     }
                 }
         }
-        CHECK_MSG(rays > 1000 && misses == 0, "%s: %zu of %zu rays through sub-grid seams missed", g_encs[e], misses, rays);
+        CHECK_MSG(rays > 1000 && misses == 0, "%s: %zu of %zu rays through sub-grid seams missed", g_encs[e], misses,
+                  rays);
         free(recs), free(boxes);
         lg_extraction_free(&ex);
         prt_accel_free(a);
@@ -238,8 +243,8 @@ TEST(test_lossygrid_barycentrics_are_in_the_mesh_triangles_order) {
         const uint32_t *t = &m->triangles[3 * (size_t)h.prim];
         double d2 = 0;
         for (int k = 0; k < 3; k++) {
-            const double p = (1.0 - h.u - h.v) * m->vertices[3 * (size_t)t[0] + k] + h.u * m->vertices[3 * (size_t)t[1] + k] +
-                             h.v * m->vertices[3 * (size_t)t[2] + k];
+            const double p = (1.0 - h.u - h.v) * m->vertices[3 * (size_t)t[0] + k] +
+                             h.u * m->vertices[3 * (size_t)t[1] + k] + h.v * m->vertices[3 * (size_t)t[2] + k];
             d2 += pow(p - ((double)rays[i].org[k] + (double)h.t * rays[i].dir[k]), 2);
         }
         far += sqrt(d2) > tol;
@@ -438,7 +443,8 @@ TEST(test_lossygrid_packets_equal_single_rays) {
             if (!a) continue;
             float lo[3], hi[3];
             prt_mesh_bounds(meshes[mi], lo, hi);
-            const float views[2][3] = {{lo[0] - 1.0f, hi[1] + 1.5f, lo[2] - 2.0f}, {hi[0] + 2.0f, hi[1] + 0.3f, hi[2] + 1.0f}};
+            const float views[2][3] = {{lo[0] - 1.0f, hi[1] + 1.5f, lo[2] - 2.0f},
+                                       {hi[0] + 2.0f, hi[1] + 0.3f, hi[2] + 1.0f}};
             const uint32_t shapes[][2] = {{8, 64}, {4, 16}, {16, 256}, {3, 9}, {5, 35}, {8, 8}};
             uint64_t seed = 99;
             for (size_t v = 0; v < 2; v++)
@@ -451,7 +457,8 @@ TEST(test_lossygrid_packets_equal_single_rays) {
                         for (uint32_t i = 0; i < n; i++) {
                             seed = seed * 6364136223846793005ull + 1442695040888963407ull;
                             if (tile == 3) /* incoherent: random directions */
-                                for (int k = 0; k < 3; k++) rays[i].dir[k] = (float)((seed >> (20 * k + 4)) & 1023) / 512.0f - 1.0f;
+                                for (int k = 0; k < 3; k++)
+                                    rays[i].dir[k] = (float)((seed >> (20 * k + 4)) & 1023) / 512.0f - 1.0f;
                             if (tile == 5 && i % 3 == 0) rays[i].tfar = 0.5f * (float)(seed >> 40 & 255) / 64.0f;
                             if (tile == 7 && i % 5 == 1) rays[i].dir[0] = NAN;
                             if (tile == 8 && i % 4 == 2) rays[i].tnear = 2.0f, rays[i].tfar = 1.0f;
@@ -470,16 +477,19 @@ TEST(test_lossygrid_packets_equal_single_rays) {
                         prt_intersect_packet(a, &p);
                         for (uint32_t i = 0; i < n; i++) {
                             prt_intersect1(a, &single[i], &sh1[i]);
-                            differ += memcmp(&ph[i], &sh1[i], sizeof ph[i]) != 0 || memcmp(&rays[i].tfar, &single[i].tfar, 4) != 0;
+                            differ += memcmp(&ph[i], &sh1[i], sizeof ph[i]) != 0 ||
+                                      memcmp(&rays[i].tfar, &single[i].tfar, 4) != 0;
                             hits += sh1[i].prim != PRT_INVALID;
                         }
                         prt_ray shadow[256];
                         for (uint32_t i = 0; i < n; i++) {
-                            const float t = sh1[i].prim != PRT_INVALID ? 0.999f * sh1[i].t : 1.0f, light[3] = {0.3f, 3.0f, -0.2f};
+                            const float t = sh1[i].prim != PRT_INVALID ? 0.999f * sh1[i].t : 1.0f,
+                                        light[3] = {0.3f, 3.0f, -0.2f};
                             float len = 0;
                             for (int k = 0; k < 3; k++) {
                                 shadow[i].org[k] = single[i].org[k] + t * single[i].dir[k];
-                                shadow[i].dir[k] = light[k] - shadow[i].org[k], len += shadow[i].dir[k] * shadow[i].dir[k];
+                                shadow[i].dir[k] = light[k] - shadow[i].org[k],
+                                len += shadow[i].dir[k] * shadow[i].dir[k];
                             }
                             shadow[i].tnear = 0, shadow[i].tfar = 1.0f;
                             if (tile == 7 && i % 5 == 1) shadow[i].dir[1] = NAN;
@@ -498,7 +508,8 @@ TEST(test_lossygrid_packets_equal_single_rays) {
     CHECK_MSG(differ == 0, "%zu of %zu packet rays answered differently from single rays", differ, rays_total);
     CHECK_MSG(hits > rays_total / 4, "only %zu of %zu rays hit: the views miss the models", hits, rays_total);
     CHECK_MSG(odiffer == 0, "%zu any-hit packet answers differ from single rays", odiffer);
-    CHECK_MSG(blocked > rays_total / 20, "only %zu of %zu shadow rays blocked: the test sees no shadow", blocked, rays_total);
+    CHECK_MSG(blocked > rays_total / 20, "only %zu of %zu shadow rays blocked: the test sees no shadow", blocked,
+              rays_total);
     for (size_t mi = 0; mi < 4; mi++) prt_mesh_free(meshes[mi]);
     free(order);
 }
@@ -550,7 +561,8 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
                 const uint32_t t = run_tri;
                 const float b1 = r[1] * 0.5f, b2 = r[2] * 0.5f;
                 for (int k = 0; k < 3; k++) {
-                    const float *v0 = &m->vertices[3 * m->triangles[3 * t]], *v1 = &m->vertices[3 * m->triangles[3 * t + 1]],
+                    const float *v0 = &m->vertices[3 * m->triangles[3 * t]],
+                                *v1 = &m->vertices[3 * m->triangles[3 * t + 1]],
                                 *v2 = &m->vertices[3 * m->triangles[3 * t + 2]];
                     ray.org[k] = v0[k] + b1 * (v1[k] - v0[k]) + b2 * (v2[k] - v0[k]);
                     ray.dir[k] = 2.0f * r[3 + k] - 1.0f;
@@ -585,7 +597,8 @@ TEST(test_lossygrid_single_ray_walk_equals_the_template) {
             memset(shits, 0xAB, N * sizeof *shits);
             lg_trace_stream(blob.data, &sh, srays, shits, N);
             for (uint32_t i = 0; i < N; i++)
-                sdiffer += memcmp(&shits[i], &want[i], sizeof want[i]) != 0 || memcmp(&srays[i], &want_rays[i], sizeof srays[i]) != 0;
+                sdiffer += memcmp(&shits[i], &want[i], sizeof want[i]) != 0 ||
+                           memcmp(&srays[i], &want_rays[i], sizeof srays[i]) != 0;
             prt__free(blob.data), prt__free(order);
         }
     }

@@ -36,8 +36,7 @@ TEST(test_collada_instances_keep_their_transforms_and_ids) {
         sum[id] += area(m, t);
         for (int k = 0; k < 3; k++) { /* instance 0 at the origin, instance 1 moved by x + 10 */
             const float *p = m->vertices + 3 * (size_t)m->triangles[3 * t + k];
-            CHECK(p[0] >= 10.0f * (float)id && p[0] <= 10.0f * (float)id + 1 && p[1] >= 0 &&
-                  p[1] <= 1 && p[2] == 0);
+            CHECK(p[0] >= 10.0f * (float)id && p[0] <= 10.0f * (float)id + 1 && p[1] >= 0 && p[1] <= 1 && p[2] == 0);
         }
     }
     CHECK_MSG(fabs(sum[0] - 1) < 1e-6 && fabs(sum[1] - 1) < 1e-6, "areas %g %g", sum[0], sum[1]);
@@ -50,8 +49,7 @@ TEST(test_truncated_collada_is_refused_naming_the_file) {
     CHECK(st != PRT_OK && m == NULL);
     CHECK(strstr(prt_last_error(), "assimp_truncated_collada.dae") != NULL);
     if (st == PRT_ERROR_UNSUPPORTED) SKIP("built without Assimp");
-    CHECK_MSG(st == PRT_ERROR_FORMAT && strstr(prt_last_error(), "Assimp:"), "%s",
-              prt_last_error());
+    CHECK_MSG(st == PRT_ERROR_FORMAT && strstr(prt_last_error(), "Assimp:"), "%s", prt_last_error());
 }
 
 int main(void) {

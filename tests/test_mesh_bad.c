@@ -35,8 +35,7 @@ static unsigned char *read_file(const char *path, size_t *size) {
 }
 
 /* Load from memory, expect `status`, a message naming the input and every fragment. */
-static void expect_failure(const void *data, size_t size, prt_status status, const char *frag1,
-                           const char *frag2) {
+static void expect_failure(const void *data, size_t size, prt_status status, const char *frag1, const char *frag2) {
     size_t before = allocated();
     prt_mesh *m = (prt_mesh *)1;
     prt_status st = prt_mesh_load_memory(data, size, "input.bin", &m);
@@ -44,14 +43,11 @@ static void expect_failure(const void *data, size_t size, prt_status status, con
     CHECK(m == NULL);
     CHECK(allocated() == before);
     CHECK_MSG(strstr(prt_last_error(), "input.bin") != NULL, "message: %s", prt_last_error());
-    CHECK_MSG(!frag1 || strstr(prt_last_error(), frag1), "message lacks '%s': %s", frag1,
-              prt_last_error());
-    CHECK_MSG(!frag2 || strstr(prt_last_error(), frag2), "message lacks '%s': %s", frag2,
-              prt_last_error());
+    CHECK_MSG(!frag1 || strstr(prt_last_error(), frag1), "message lacks '%s': %s", frag1, prt_last_error());
+    CHECK_MSG(!frag2 || strstr(prt_last_error(), frag2), "message lacks '%s': %s", frag2, prt_last_error());
 }
 
-static void expect_text_failure(const char *text, prt_status status, const char *frag1,
-                                const char *frag2) {
+static void expect_text_failure(const char *text, prt_status status, const char *frag1, const char *frag2) {
     expect_failure(text, strlen(text), status, frag1, frag2);
 }
 
@@ -69,8 +65,8 @@ TEST(test_every_file_in_the_bad_corpus_fails_naming_the_file) {
         prt_status st = prt_mesh_load(path, &m);
         CHECK_MSG(st != PRT_OK, "%s loaded", e->d_name);
         CHECK_MSG(m == NULL, "%s: *out not cleared", e->d_name);
-        CHECK_MSG(strstr(prt_last_error(), path) != NULL,
-                  "%s: message does not name the file: '%s'", e->d_name, prt_last_error());
+        CHECK_MSG(strstr(prt_last_error(), path) != NULL, "%s: message does not name the file: '%s'", e->d_name,
+                  prt_last_error());
         CHECK_MSG(allocated() == before, "%s: %zu bytes leaked", e->d_name, allocated() - before);
         if (st == PRT_OK) prt_mesh_free(m);
         files++;
@@ -87,9 +83,8 @@ TEST(test_every_mesh_in_the_good_corpus_loads) {
         /* Other loaders keep their own files here too (.prt ...): meshes only. */
         const char *ext = strchr(e->d_name, '.');
         if (e->d_name[0] == '.' || !ext ||
-            !(!strcmp(ext, ".ply") || !strcmp(ext, ".obj") || !strcmp(ext, ".ply.gz") ||
-              !strcmp(ext, ".obj.gz") || !strcmp(ext, ".stl") || !strcmp(ext, ".off") ||
-              !strcmp(ext, ".gltf") || !strcmp(ext, ".glb")))
+            !(!strcmp(ext, ".ply") || !strcmp(ext, ".obj") || !strcmp(ext, ".ply.gz") || !strcmp(ext, ".obj.gz") ||
+              !strcmp(ext, ".stl") || !strcmp(ext, ".off") || !strcmp(ext, ".gltf") || !strcmp(ext, ".glb")))
             continue;
         char path[1024];
         snprintf(path, sizeof path, "%s/%s", GOOD, e->d_name);
@@ -119,70 +114,56 @@ TEST(test_missing_file_is_an_io_error_naming_the_path) {
     CHECK(strstr(prt_last_error(), "directory") != NULL);
 }
 
-TEST(test_empty_input_is_a_format_error) {
-    expect_failure("", 0, PRT_ERROR_FORMAT, "empty", NULL);
-}
+TEST(test_empty_input_is_a_format_error) { expect_failure("", 0, PRT_ERROR_FORMAT, "empty", NULL); }
 
 TEST(test_neither_ply_nor_obj_is_a_format_error) {
-    static const unsigned char png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n',
-                                        0,    0,   0,   13,  'I',  'H',  'D',  'R'};
+    static const unsigned char png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R'};
     expect_failure(png, sizeof png, PRT_ERROR_FORMAT, "not a PLY, OBJ, STL, OFF or glTF file", NULL);
     expect_text_failure("{\"json\": true}\n", PRT_ERROR_FORMAT, "not a PLY, OBJ, STL, OFF or glTF file", NULL);
 }
 
-#define PLY_HEAD(nv, nf)                                                                           \
-    "ply\nformat ascii 1.0\nelement vertex " nv                                                    \
-    "\nproperty float x\nproperty float y\nproperty float z\n"                                     \
+#define PLY_HEAD(nv, nf)                                                                                   \
+    "ply\nformat ascii 1.0\nelement vertex " nv "\nproperty float x\nproperty float y\nproperty float z\n" \
     "element face " nf "\nproperty list uchar int vertex_indices\nend_header\n"
 
 TEST(test_ply_errors_name_the_line_and_the_value) {
-    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", PRT_ERROR_MESH,
-                        "line 13", "vertex 3");
-    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", PRT_ERROR_MESH,
-                        "line 13", "-1");
-    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n", PRT_ERROR_MESH,
-                        "line 11", "inf");
-    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", PRT_ERROR_MESH,
-                        "line 13", "2 vertices");
-    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0x 0\n0 1 0\n3 0 1 2\n", PRT_ERROR_FORMAT,
-                        "line 11", "0x");
-    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n",
-                        PRT_ERROR_FORMAT, "line 14", "counts");
+    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", PRT_ERROR_MESH, "line 13", "vertex 3");
+    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", PRT_ERROR_MESH, "line 13", "-1");
+    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n", PRT_ERROR_MESH, "line 11", "inf");
+    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", PRT_ERROR_MESH, "line 13", "2 vertices");
+    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0x 0\n0 1 0\n3 0 1 2\n", PRT_ERROR_FORMAT, "line 11", "0x");
+    expect_text_failure(PLY_HEAD("3", "1") "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n", PRT_ERROR_FORMAT, "line 14",
+                        "counts");
 }
 
 TEST(test_ply_header_errors_name_the_offending_word) {
-    expect_text_failure("ply\nformat ascii 1.0\nelement vertex 3\nproperty float16 x\n",
-                        PRT_ERROR_FORMAT, "line 4", "float16");
-    expect_text_failure("ply\nformat binary_middle_endian 1.0\n", PRT_ERROR_FORMAT, "line 2",
-                        "binary_middle_endian");
-    expect_text_failure(
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-        "element face 0\nproperty list uchar int vertex_indices\nend_header\n",
-        PRT_ERROR_FORMAT, "'z'", NULL);
+    expect_text_failure("ply\nformat ascii 1.0\nelement vertex 3\nproperty float16 x\n", PRT_ERROR_FORMAT, "line 4",
+                        "float16");
+    expect_text_failure("ply\nformat binary_middle_endian 1.0\n", PRT_ERROR_FORMAT, "line 2", "binary_middle_endian");
+    expect_text_failure("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                        "element face 0\nproperty list uchar int vertex_indices\nend_header\n",
+                        PRT_ERROR_FORMAT, "'z'", NULL);
 }
 
 /* A triangle whose vertices carry the properties `props` (after x y z), each vertex row
  * ending in `vals`, and a face row ending in `fvals` for the face properties `fprops`. */
-#define PLY_COLOR(props, vals, fprops, fvals)                                                      \
-    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"                \
-    "property float z\n" props "element face 1\nproperty list uchar int vertex_indices\n" fprops   \
+#define PLY_COLOR(props, vals, fprops, fvals)                                                    \
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"              \
+    "property float z\n" props "element face 1\nproperty list uchar int vertex_indices\n" fprops \
     "end_header\n0 0 0" vals "\n1 0 0" vals "\n0 1 0" vals "\n3 0 1 2" fvals "\n"
 
 TEST(test_malformed_colour_properties_are_named) {
-    expect_text_failure(PLY_COLOR("property uchar red\nproperty uchar green\n", " 1 2", "", ""),
-                        PRT_ERROR_FORMAT, "vertex element has a colour channel 'red' but no 'blue'",
-                        "red, green and blue");
-    expect_text_failure(PLY_COLOR("", "", "property uchar blue\nproperty uchar alpha\n", " 1 2"),
-                        PRT_ERROR_FORMAT, "face element has a colour channel 'blue' but no 'red'",
-                        NULL);
+    expect_text_failure(PLY_COLOR("property uchar red\nproperty uchar green\n", " 1 2", "", ""), PRT_ERROR_FORMAT,
+                        "vertex element has a colour channel 'red' but no 'blue'", "red, green and blue");
+    expect_text_failure(PLY_COLOR("", "", "property uchar blue\nproperty uchar alpha\n", " 1 2"), PRT_ERROR_FORMAT,
+                        "face element has a colour channel 'blue' but no 'red'", NULL);
     expect_text_failure(PLY_COLOR("", "", "property float alpha\n", " 1"), PRT_ERROR_FORMAT,
                         "face element has a colour channel 'alpha'", NULL);
     expect_text_failure(PLY_COLOR("property list uchar uchar red\nproperty uchar green\n"
                                   "property uchar blue\n",
                                   " 1 1 2 3", "", ""),
                         PRT_ERROR_FORMAT, "line 7", "colour 'red' is a list");
-    expect_text_failure(PLY_COLOR("property uchar red\nproperty short green\nproperty uchar blue\n",
-                                  " 1 2 3", "", ""),
+    expect_text_failure(PLY_COLOR("property uchar red\nproperty short green\nproperty uchar blue\n", " 1 2 3", "", ""),
                         PRT_ERROR_FORMAT, "line 8", "colour 'green' of type short");
     expect_text_failure(PLY_COLOR("", "",
                                   "property uint diffuse_red\nproperty uchar diffuse_green\n"
@@ -199,8 +180,7 @@ TEST(test_colour_values_out_of_range_or_not_numbers_are_named) {
     const char *rgb = "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     char text[1024];
     snprintf(text, sizeof text, PLY_COLOR("%s", " 1 256 3", "", ""), rgb);
-    expect_text_failure(text, PRT_ERROR_FORMAT, "line 13",
-                        "colour value 256 outside the range of uchar");
+    expect_text_failure(text, PRT_ERROR_FORMAT, "line 13", "colour value 256 outside the range of uchar");
     snprintf(text, sizeof text, PLY_COLOR("%s", " 1 -1 3", "", ""), rgb);
     expect_text_failure(text, PRT_ERROR_FORMAT, "colour value -1", NULL);
     snprintf(text, sizeof text, PLY_COLOR("%s", " 1 0.5 3", "", ""), rgb);
@@ -221,18 +201,16 @@ TEST(test_colour_values_out_of_range_or_not_numbers_are_named) {
     if (nan) expect_failure(nan, n, PRT_ERROR_FORMAT, "vertex 1 has a non-finite colour", "byte ");
     free(nan);
     /* OBJ colours that are not finite, when every vertex has colours. */
-    expect_text_failure("v 0 0 0 1 0 0\nv 1 0 0 0 inf 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
-                        PRT_ERROR_FORMAT, "line 2", "vertex 2 has a non-finite colour");
+    expect_text_failure("v 0 0 0 1 0 0\nv 1 0 0 0 inf 0\nv 0 1 0 0 0 1\nf 1 2 3\n", PRT_ERROR_FORMAT, "line 2",
+                        "vertex 2 has a non-finite colour");
 }
 
 /* The binary quad of tests/data/good: 4 float vertices and one `list uchar int` 4-gon. */
-static unsigned char *binary_quad(size_t *n) {
-    return read_file(GOOD "/quad_binary_le.ply", n);
-}
+static unsigned char *binary_quad(size_t *n) { return read_file(GOOD "/quad_binary_le.ply", n); }
 
 /* material_index: past 16 bits or negative (ascii and binary), a float or a list. */
 TEST(test_material_index_out_of_range_or_of_a_wrong_type_is_named) {
-#define PLY_MAT(type, value)                                                                       \
+#define PLY_MAT(type, value)                                                                          \
     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n" \
     "element face 1\nproperty list uchar int vertex_indices\nproperty " type " material_index\n"      \
     "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 " value "\n"
@@ -274,8 +252,7 @@ TEST(test_every_prefix_of_a_binary_file_fails) {
         memcpy(p, q, k);
         prt_mesh *m = NULL;
         size_t before = allocated();
-        CHECK_MSG(prt_mesh_load_memory(p, k, "prefix", &m) != PRT_OK, "prefix of %zu bytes loaded",
-                  k);
+        CHECK_MSG(prt_mesh_load_memory(p, k, "prefix", &m) != PRT_OK, "prefix of %zu bytes loaded", k);
         CHECK(allocated() == before);
         prt_mesh_free(m);
         free(p);
@@ -289,8 +266,7 @@ TEST(test_every_prefix_of_a_gzip_file_fails) {
     CHECK(q != NULL);
     for (size_t k = 0; q && k < n; k++) {
         prt_mesh *m = NULL;
-        CHECK_MSG(prt_mesh_load_memory(q, k, "prefix.gz", &m) != PRT_OK,
-                  "prefix of %zu bytes loaded", k);
+        CHECK_MSG(prt_mesh_load_memory(q, k, "prefix.gz", &m) != PRT_OK, "prefix of %zu bytes loaded", k);
         prt_mesh_free(m);
     }
     free(q);
@@ -299,8 +275,7 @@ TEST(test_every_prefix_of_a_gzip_file_fails) {
 TEST(test_every_single_byte_change_loads_or_fails_cleanly) {
     /* Not every change is an error (a coordinate may change), but none may crash, leak
      * or return a mesh that does not validate. */
-    const char *files[] = {GOOD "/quad_binary_le.ply", GOOD "/all_types_be.ply",
-                           GOOD "/quad_ascii.ply"};
+    const char *files[] = {GOOD "/quad_binary_le.ply", GOOD "/all_types_be.ply", GOOD "/quad_ascii.ply"};
     for (size_t f = 0; f < 3; f++) {
         size_t n;
         unsigned char *q = read_file(files[f], &n);
@@ -310,10 +285,8 @@ TEST(test_every_single_byte_change_loads_or_fails_cleanly) {
                 q[k] ^= (unsigned char)(1u << bit);
                 size_t before = allocated();
                 prt_mesh *m = NULL;
-                if (prt_mesh_load_memory(q, n, "flipped", &m) == PRT_OK)
-                    CHECK(prt_mesh_validate(m) == PRT_OK);
-                else
-                    CHECK(strstr(prt_last_error(), "flipped") != NULL);
+                if (prt_mesh_load_memory(q, n, "flipped", &m) == PRT_OK) CHECK(prt_mesh_validate(m) == PRT_OK);
+                else CHECK(strstr(prt_last_error(), "flipped") != NULL);
                 prt_mesh_free(m);
                 CHECK(allocated() == before);
                 q[k] ^= (unsigned char)(1u << bit);
@@ -335,10 +308,9 @@ TEST(test_huge_declared_count_in_a_tiny_file_fails_fast_without_allocating) {
     CHECK_MSG(seconds < 0.5, "took %.3f s", seconds);
 
     /* The same in binary, with a huge face list count. */
-    const char *bin =
-        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
-        "y\n"
-        "property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n";
+    const char *bin = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
+                      "y\n"
+                      "property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n";
     unsigned char buf[256];
     size_t len = strlen(bin);
     memcpy(buf, bin, len);
@@ -377,11 +349,10 @@ static unsigned char *gzip_zeros(const char *header, size_t zeros, size_t *out_s
 TEST(test_huge_declared_count_in_gzip_allocates_only_what_arrives) {
     /* gzip hides the data size, so arrays grow with the data instead: 1 MB of zeros
      * claiming 4 billion vertices must cost megabytes, not 48 GB. */
-    const char *head =
-        "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
-        "property float y\nproperty float z\nelement face 1\nproperty list uchar int "
-        "vertex_indices\n"
-        "end_header\n";
+    const char *head = "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                       "property float y\nproperty float z\nelement face 1\nproperty list uchar int "
+                       "vertex_indices\n"
+                       "end_header\n";
     size_t n;
     unsigned char *gz = gzip_zeros(head, 1 << 20, &n);
     size_t base = allocated();
@@ -393,11 +364,10 @@ TEST(test_huge_declared_count_in_gzip_allocates_only_what_arrives) {
 
 TEST(test_gzip_bomb_is_refused) {
     /* 80 MB of zeros deflate to ~80 KB: past the reader's 256:1 ratio guard. */
-    const char *head =
-        "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
-        "property float y\nproperty float z\nelement face 1\nproperty list uchar int "
-        "vertex_indices\n"
-        "end_header\n";
+    const char *head = "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                       "property float y\nproperty float z\nelement face 1\nproperty list uchar int "
+                       "vertex_indices\n"
+                       "end_header\n";
     size_t n;
     unsigned char *gz = gzip_zeros(head, (size_t)80 << 20, &n);
     size_t base = allocated();

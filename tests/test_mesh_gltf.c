@@ -16,8 +16,7 @@ static prt_mesh *load_quad(const char *path, const uint32_t tris[6]) {
     prt_mesh *m = NULL;
     CHECK_OK(prt_mesh_load(path, &m));
     if (!m) return NULL;
-    CHECK_MSG(m->vertex_count == 4 && m->triangle_count == 2, "%s: %zu %zu", path, m->vertex_count,
-              m->triangle_count);
+    CHECK_MSG(m->vertex_count == 4 && m->triangle_count == 2, "%s: %zu %zu", path, m->vertex_count, m->triangle_count);
     if (m->vertex_count == 4) CHECK(!memcmp(m->vertices, k_quad_v, sizeof k_quad_v));
     if (m->triangle_count == 2) CHECK_MSG(!memcmp(m->triangles, tris, 24), "%s", path);
     CHECK(m->materials == NULL); /* one instance: no geometry ids */
@@ -26,8 +25,7 @@ static prt_mesh *load_quad(const char *path, const uint32_t tris[6]) {
 
 TEST(test_quad_in_every_buffer_layout) {
     static const uint32_t list[6] = {0, 1, 2, 0, 2, 3};
-    const char *files[] = {"quad.gltf", "quad.glb", "quad_ushort_indices.glb",
-                           "quad_external.gltf"};
+    const char *files[] = {"quad.gltf", "quad.glb", "quad_ushort_indices.glb", "quad_external.gltf"};
     for (size_t i = 0; i < COUNT_OF(files); i++) {
         char path[512];
         snprintf(path, sizeof path, GOOD "%s", files[i]);
@@ -55,9 +53,7 @@ TEST(test_mirroring_transform_reverses_the_winding) {
     prt_mesh_free(m);
 }
 
-static bool near(float a, float b) {
-    return fabsf(a - b) < 1e-6f;
-}
+static bool near(float a, float b) { return fabsf(a - b) < 1e-6f; }
 
 TEST(test_instances_are_flattened_with_transforms_ids_and_base_colours) {
     prt_mesh *m = NULL;
@@ -117,15 +113,14 @@ TEST(test_external_buffers_need_a_file_path) {
 static unsigned char *glb_of(const prt_mesh *m, size_t *size) {
     size_t vb = 12 * m->vertex_count, ib = 12 * m->triangle_count;
     char json[1024];
-    int jn = snprintf(
-        json, sizeof json,
-        "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
-        "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},"
-        "\"indices\":1}]}],\"buffers\":[{\"byteLength\":%zu}],\"bufferViews\":["
-        "{\"buffer\":0,\"byteLength\":%zu},{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}],"
-        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":%zu,\"type\":\"VEC3\"},"
-        "{\"bufferView\":1,\"componentType\":5125,\"count\":%zu,\"type\":\"SCALAR\"}]}",
-        vb + ib, vb, vb, ib, m->vertex_count, 3 * m->triangle_count);
+    int jn = snprintf(json, sizeof json,
+                      "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+                      "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                      "\"indices\":1}]}],\"buffers\":[{\"byteLength\":%zu}],\"bufferViews\":["
+                      "{\"buffer\":0,\"byteLength\":%zu},{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}],"
+                      "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":%zu,\"type\":\"VEC3\"},"
+                      "{\"bufferView\":1,\"componentType\":5125,\"count\":%zu,\"type\":\"SCALAR\"}]}",
+                      vb + ib, vb, vb, ib, m->vertex_count, 3 * m->triangle_count);
     while (jn % 4) json[jn++] = ' ';
     *size = 12 + 8 + (size_t)jn + 8 + vb + ib;
     unsigned char *g = malloc(*size);
@@ -171,12 +166,9 @@ TEST(test_sphere_from_glb_is_hit_as_from_ply_and_streams) {
 }
 
 static const bad_file_case k_bad_gltf[] = {
-    {"gltf_accessor_outside_buffer_view.gltf", PRT_ERROR_FORMAT,
-     "accessor 0 (5 elements of 12 bytes"},
-    {"gltf_accessor_offset_past_buffer_view.gltf", PRT_ERROR_FORMAT,
-     "reaches past its buffer view 1"},
-    {"gltf_buffer_view_outside_buffer.gltf", PRT_ERROR_FORMAT,
-     "buffer view 1 (bytes 48..+400) lies outside buffer 0"},
+    {"gltf_accessor_outside_buffer_view.gltf", PRT_ERROR_FORMAT, "accessor 0 (5 elements of 12 bytes"},
+    {"gltf_accessor_offset_past_buffer_view.gltf", PRT_ERROR_FORMAT, "reaches past its buffer view 1"},
+    {"gltf_buffer_view_outside_buffer.gltf", PRT_ERROR_FORMAT, "buffer view 1 (bytes 48..+400) lies outside buffer 0"},
     {"gltf_index_out_of_range.gltf", PRT_ERROR_MESH, "index 2 is 4, but POSITION has 4 vertices"},
     {"gltf_index_count_not_multiple_of_3.gltf", PRT_ERROR_FORMAT, "not a multiple of 3"},
     {"gltf_nan_position.gltf", PRT_ERROR_MESH, "non-finite"},
@@ -198,9 +190,7 @@ static const bad_file_case k_bad_gltf[] = {
     {"gltf_triangles_over_zero_positions.gltf", PRT_ERROR_MESH, "of 0 vertices"},
 };
 
-TEST(test_every_bad_gltf_is_refused_naming_the_problem) {
-    expect_bad_files(k_bad_gltf, COUNT_OF(k_bad_gltf));
-}
+TEST(test_every_bad_gltf_is_refused_naming_the_problem) { expect_bad_files(k_bad_gltf, COUNT_OF(k_bad_gltf)); }
 
 TEST(test_json_nesting_and_syntax_errors_are_format_errors) {
     char deep[400];
@@ -211,15 +201,12 @@ TEST(test_json_nesting_and_syntax_errors_are_format_errors) {
     prt_mesh *m = NULL;
     CHECK(prt_mesh_load_memory(doc, (size_t)n, "deep.gltf", &m) == PRT_ERROR_FORMAT);
     CHECK(strstr(prt_last_error(), "64 levels"));
-    const char *bad[] = {"{\"asset\":{\"version\":\"2.0\"},}",
-                         "{\"asset\":{\"version\":\"2.0\"}} x",
-                         "{\"asset\":{\"version\":\"2.0\" \"a\":1}}",
-                         "{\"asset\":{\"version\":\"2.\\q\"}}",
-                         "{\"asset\":{\"version\":\"2.0\"},\"a\":01}",
-                         "{\"asset\":{\"version\":\"2.0\"},\"a\":[1,]}"};
+    const char *bad[] = {"{\"asset\":{\"version\":\"2.0\"},}",         "{\"asset\":{\"version\":\"2.0\"}} x",
+                         "{\"asset\":{\"version\":\"2.0\" \"a\":1}}",  "{\"asset\":{\"version\":\"2.\\q\"}}",
+                         "{\"asset\":{\"version\":\"2.0\"},\"a\":01}", "{\"asset\":{\"version\":\"2.0\"},\"a\":[1,]}"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
-        CHECK_MSG(prt_mesh_load_memory(bad[i], strlen(bad[i]), "bad.gltf", &m) == PRT_ERROR_FORMAT,
-                  "%s: %s", bad[i], prt_last_error());
+        CHECK_MSG(prt_mesh_load_memory(bad[i], strlen(bad[i]), "bad.gltf", &m) == PRT_ERROR_FORMAT, "%s: %s", bad[i],
+                  prt_last_error());
         CHECK(strstr(prt_last_error(), "JSON byte"));
     }
 }

@@ -13,8 +13,7 @@ static const float QUAD_V[12] = {0.5f, -1, 2, 1.5f, -1, 2.25f, 1.5f, 1, 2.5f, 0.
 static const uint32_t QUAD_T[6] = {0, 1, 2, 0, 2, 3};
 
 static int same_mesh(const prt_mesh *m, const float *v, size_t nv, const uint32_t *t, size_t nt) {
-    return m && m->vertex_count == nv && m->triangle_count == nt &&
-           !memcmp(m->vertices, v, nv * 3 * sizeof *v) &&
+    return m && m->vertex_count == nv && m->triangle_count == nt && !memcmp(m->vertices, v, nv * 3 * sizeof *v) &&
            !memcmp(m->triangles, t, nt * 3 * sizeof *t);
 }
 
@@ -32,11 +31,8 @@ static void check_error(const char *text, prt_status status, const char *frag1, 
     CHECK_MSG(st == status, "got %s (%s)", prt_status_string(st), prt_last_error());
     CHECK(m == NULL);
     CHECK_MSG(strstr(prt_last_error(), "bad.obj") != NULL, "message: %s", prt_last_error());
-    CHECK_MSG(strstr(prt_last_error(), frag1) != NULL, "message lacks '%s': %s", frag1,
-              prt_last_error());
-    if (frag2)
-        CHECK_MSG(strstr(prt_last_error(), frag2) != NULL, "message lacks '%s': %s", frag2,
-                  prt_last_error());
+    CHECK_MSG(strstr(prt_last_error(), frag1) != NULL, "message lacks '%s': %s", frag1, prt_last_error());
+    if (frag2) CHECK_MSG(strstr(prt_last_error(), frag2) != NULL, "message lacks '%s': %s", frag2, prt_last_error());
 }
 
 #define QUAD_VERTICES "v 0.5 -1 2\nv 1.5 -1 2.25\nv 1.5 1 2.5\nv 0.5 1 2.75\n"
@@ -46,17 +42,11 @@ TEST(test_quad_obj_ignores_every_statement_but_v_and_f) {
     check_quad_file(GOOD "quad.obj");
 }
 
-TEST(test_crlf_line_endings) {
-    check_quad_file(GOOD "quad_crlf.obj");
-}
+TEST(test_crlf_line_endings) { check_quad_file(GOOD "quad_crlf.obj"); }
 
-TEST(test_gzip_compressed_obj) {
-    check_quad_file(GOOD "quad.obj.gz");
-}
+TEST(test_gzip_compressed_obj) { check_quad_file(GOOD "quad.obj.gz"); }
 
-TEST(test_negative_indices_count_back_from_the_last_vertex) {
-    check_quad_file(GOOD "quad_negative.obj");
-}
+TEST(test_negative_indices_count_back_from_the_last_vertex) { check_quad_file(GOOD "quad_negative.obj"); }
 
 TEST(test_extra_vertex_values_are_ignored) {
     check_quad_file(GOOD "vertex_colors.obj");
@@ -115,8 +105,7 @@ TEST(test_hexagon_fans_around_its_first_vertex) {
 }
 
 TEST(test_utf8_byte_order_mark_is_skipped) {
-    const char *obj =
-        "\xEF\xBB\xBFv 0.5 -1 2\nv 1.5 -1 2.25\nv 1.5 1 2.5\nv 0.5 1 2.75\nf 1 2 3 4\n";
+    const char *obj = "\xEF\xBB\xBFv 0.5 -1 2\nv 1.5 -1 2.25\nv 1.5 1 2.5\nv 0.5 1 2.75\nf 1 2 3 4\n";
     prt_mesh *m = NULL;
     CHECK_OK(prt_mesh_load_memory(obj, strlen(obj), "bom.obj", &m));
     CHECK(same_mesh(m, QUAD_V, 4, QUAD_T, 2));
@@ -134,17 +123,14 @@ TEST(test_relative_indices_are_relative_to_the_face_position) {
 }
 
 TEST(test_malformed_number_names_its_line) {
-    check_error("# header\n" QUAD_VERTICES "v 1 2,5 3\nf 1 2 3\n", PRT_ERROR_FORMAT, "line 6",
-                "2,5");
+    check_error("# header\n" QUAD_VERTICES "v 1 2,5 3\nf 1 2 3\n", PRT_ERROR_FORMAT, "line 6", "2,5");
 }
 
 TEST(test_index_past_the_vertices_names_line_and_index) {
     check_error(QUAD_VERTICES "f 1 2 3\nf 1 2 7\n", PRT_ERROR_MESH, "line 6", "7");
 }
 
-TEST(test_index_zero_is_an_error) {
-    check_error(QUAD_VERTICES "f 0 1 2\n", PRT_ERROR_MESH, "line 5", "index 0");
-}
+TEST(test_index_zero_is_an_error) { check_error(QUAD_VERTICES "f 0 1 2\n", PRT_ERROR_MESH, "line 5", "index 0"); }
 
 TEST(test_relative_index_before_the_first_vertex_is_an_error) {
     check_error(QUAD_VERTICES "f -1 -2 -5\n", PRT_ERROR_MESH, "line 5", "-5");
@@ -164,9 +150,7 @@ TEST(test_nan_and_inf_coordinates_are_errors) {
     check_error("v 0 0 0\nv 1 0 0\nv 0 1 1e39\nf 1 2 3\n", PRT_ERROR_MESH, "line 3", "1e39");
 }
 
-TEST(test_vertices_without_faces_is_an_error) {
-    check_error(QUAD_VERTICES, PRT_ERROR_MESH, "no triangles", NULL);
-}
+TEST(test_vertices_without_faces_is_an_error) { check_error(QUAD_VERTICES, PRT_ERROR_MESH, "no triangles", NULL); }
 
 TEST(test_gzip_obj_spanning_many_windows_equals_plain) {
     /* ~10 MB of text: lines straddle the gzip reader's 4 MiB window refills. */
@@ -175,13 +159,11 @@ TEST(test_gzip_obj_spanning_many_windows_equals_plain) {
     char *text = malloc(cap);
     for (size_t y = 0; y <= n; y++)
         for (size_t x = 0; x <= n; x++)
-            len += (size_t)sprintf(text + len, "v %zu.25 %zu.5 -%zu.125\r\nvt 0.5 0.5\r\n", x, y,
-                                   (x + y) % 17);
+            len += (size_t)sprintf(text + len, "v %zu.25 %zu.5 -%zu.125\r\nvt 0.5 0.5\r\n", x, y, (x + y) % 17);
     for (size_t y = 0; y < n; y++)
         for (size_t x = 0; x < n; x++) {
             size_t a = y * (n + 1) + x + 1;
-            len += (size_t)sprintf(text + len, "f %zu/1 %zu/1 %zu/1 %zu/1\r\n", a, a + 1, a + n + 2,
-                                   a + n + 1);
+            len += (size_t)sprintf(text + len, "f %zu/1 %zu/1 %zu/1 %zu/1\r\n", a, a + 1, a + n + 2, a + n + 1);
         }
     z_stream z;
     memset(&z, 0, sizeof z);
@@ -203,12 +185,9 @@ TEST(test_gzip_obj_spanning_many_windows_equals_plain) {
         CHECK(plain->vertices[3 * i] == 17.25f && plain->vertices[3 * i + 1] == 33.5f &&
               plain->vertices[3 * i + 2] == -(float)((17 + 33) % 17) - 0.125f);
         const uint32_t *t = plain->triangles + 2 * 3 * (y * n + x);
-        CHECK(t[0] == i && t[1] == i + 1 && t[2] == i + n + 2 && t[3] == i && t[4] == i + n + 2 &&
-              t[5] == i + n + 1);
+        CHECK(t[0] == i && t[1] == i + 1 && t[2] == i + n + 2 && t[3] == i && t[4] == i + n + 2 && t[5] == i + n + 1);
     }
-    CHECK(m && plain &&
-          same_mesh(m, plain->vertices, plain->vertex_count, plain->triangles,
-                    plain->triangle_count));
+    CHECK(m && plain && same_mesh(m, plain->vertices, plain->vertex_count, plain->triangles, plain->triangle_count));
     prt_mesh_free(plain);
     prt_mesh_free(m);
     free(gz);
@@ -235,21 +214,11 @@ TEST(test_number_parser_agrees_with_strtof) {
             snprintf(buf, sizeof buf, (i / 6) % 2 ? "%.9g" : "%g", (double)f);
             break;
         }
-        case 1:
-            snprintf(buf, sizeof buf, "%.17g", (double)(r % 2000000) / 1000.0 - 1000.0);
-            break;
-        case 2:
-            snprintf(buf, sizeof buf, "%u.%0*u", r % 1000, 1 + (int)(r % 9), r % 1000000000u);
-            break;
-        case 3:
-            snprintf(buf, sizeof buf, "-%u.%ue%d", r % 100, r % 10000000, (int)(r % 90) - 45);
-            break;
-        case 4:
-            snprintf(buf, sizeof buf, "%u%u", r, (uint32_t)state);
-            break; /* up to 20 digits */
-        default:
-            snprintf(buf, sizeof buf, "0.%07u%u", r % 10000000u, (uint32_t)state % 100000u);
-            break;
+        case 1: snprintf(buf, sizeof buf, "%.17g", (double)(r % 2000000) / 1000.0 - 1000.0); break;
+        case 2: snprintf(buf, sizeof buf, "%u.%0*u", r % 1000, 1 + (int)(r % 9), r % 1000000000u); break;
+        case 3: snprintf(buf, sizeof buf, "-%u.%ue%d", r % 100, r % 10000000, (int)(r % 90) - 45); break;
+        case 4: snprintf(buf, sizeof buf, "%u%u", r, (uint32_t)state); break; /* up to 20 digits */
+        default: snprintf(buf, sizeof buf, "0.%07u%u", r % 10000000u, (uint32_t)state % 100000u); break;
         }
         float got = 0, want = strtof(buf, NULL);
         bool ok = mesh_parse_float(&s, buf, strlen(buf), &got);
@@ -258,21 +227,14 @@ TEST(test_number_parser_agrees_with_strtof) {
             CHECK_MSG(0, "'%s': parsed %a (ok=%d), strtof %a", buf, (double)got, ok, (double)want);
         }
     }
-    static const char *edge[] = {"3.4028234663852886e38",
-                                 "3.4028235e38",
-                                 "1.17549435e-38",
-                                 "1e-45",
-                                 "7e-46",
-                                 "-0",
-                                 "1e-50",
-                                 "00000.5e1"};
+    static const char *edge[] = {
+        "3.4028234663852886e38", "3.4028235e38", "1.17549435e-38", "1e-45", "7e-46", "-0", "1e-50", "00000.5e1"};
     for (size_t i = 0; i < sizeof edge / sizeof *edge; i++) {
         float got = 0, want = strtof(edge[i], NULL);
         CHECK_MSG(mesh_parse_float(&s, edge[i], strlen(edge[i]), &got) && !memcmp(&got, &want, 4),
                   "'%s': parsed %a, strtof %a", edge[i], (double)got, (double)want);
     }
-    static const char *bad[] = {"",   "-",    ".",   "1..2", "1e", "1e+",
-                                "0x", "1.0f", "--1", "1 2",  "e5"};
+    static const char *bad[] = {"", "-", ".", "1..2", "1e", "1e+", "0x", "1.0f", "--1", "1 2", "e5"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         float f;
         CHECK_MSG(!mesh_parse_float(&s, bad[i], strlen(bad[i]), &f), "accepted '%s'", bad[i]);

@@ -28,9 +28,7 @@ TEST(test_off_quad_of_two_triangles) {
     prt_mesh_free(m);
 }
 
-TEST(test_off_quad_polygon_is_fanned) {
-    prt_mesh_free(check_quad_file(GOOD "quad_polygon.off"));
-}
+TEST(test_off_quad_polygon_is_fanned) { prt_mesh_free(check_quad_file(GOOD "quad_polygon.off")); }
 
 TEST(test_off_comments_and_counts_inside_the_keyword) {
     prt_mesh_free(check_quad_file(GOOD "quad_comments_counts_in_keyword.off"));
@@ -68,21 +66,17 @@ TEST(test_off_round_trip_gives_back_the_same_arrays) {
         CHECK(!memcmp(m->vertices, g->vertices, 12 * g->vertex_count));
         CHECK(!memcmp(m->triangles, g->triangles, 12 * g->triangle_count));
         CHECK(m->vertex_colors && !memcmp(m->vertex_colors, g->vertex_colors, 3 * g->vertex_count));
-        CHECK(m->triangle_colors &&
-              !memcmp(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
+        CHECK(m->triangle_colors && !memcmp(m->triangle_colors, g->triangle_colors, 3 * g->triangle_count));
     }
     prt_mesh_free(m);
     remove(path);
     prt_mesh_free(g);
 }
 
-TEST(test_sphere_from_off_is_hit_as_from_ply) {
-    check_hits_as_from_ply(prt_mesh_save_off, "s.off", "aabb:idx32");
-}
+TEST(test_sphere_from_off_is_hit_as_from_ply) { check_hits_as_from_ply(prt_mesh_save_off, "s.off", "aabb:idx32"); }
 
 static const bad_file_case k_bad_off[] = {
-    {"off_index_out_of_range.off", PRT_ERROR_MESH,
-     "face 0 references vertex 4, but the file has 4 vertices"},
+    {"off_index_out_of_range.off", PRT_ERROR_MESH, "face 0 references vertex 4, but the file has 4 vertices"},
     {"off_negative_index.off", PRT_ERROR_MESH, "references vertex -1"},
     {"off_lying_face_count.off", PRT_ERROR_FORMAT, "truncated"},
     {"off_lying_vertex_count.off", PRT_ERROR_FORMAT, "truncated"},
@@ -99,9 +93,7 @@ static const bad_file_case k_bad_off[] = {
     {"off_colour_300.off", PRT_ERROR_FORMAT, "'300'"},
 };
 
-TEST(test_every_bad_off_is_refused_naming_the_problem) {
-    expect_bad_files(k_bad_off, COUNT_OF(k_bad_off));
-}
+TEST(test_every_bad_off_is_refused_naming_the_problem) { expect_bad_files(k_bad_off, COUNT_OF(k_bad_off)); }
 
 TEST(test_huge_off_counts_allocate_nothing_big) {
     /* The size check comes before any allocation: 4 billion faces in 40 bytes. */

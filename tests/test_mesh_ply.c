@@ -15,8 +15,7 @@ static const float QUAD_V[12] = {0.5f, -1, 2, 1.5f, -1, 2.25f, 1.5f, 1, 2.5f, 0.
 static const uint32_t QUAD_T[6] = {0, 1, 2, 0, 2, 3};
 
 static int same_mesh(const prt_mesh *m, const float *v, size_t nv, const uint32_t *t, size_t nt) {
-    return m && m->vertex_count == nv && m->triangle_count == nt &&
-           !memcmp(m->vertices, v, nv * 3 * sizeof *v) &&
+    return m && m->vertex_count == nv && m->triangle_count == nt && !memcmp(m->vertices, v, nv * 3 * sizeof *v) &&
            !memcmp(m->triangles, t, nt * 3 * sizeof *t);
 }
 
@@ -67,37 +66,23 @@ TEST(test_ascii_quad_fans_into_two_triangles_and_skips_other_elements) {
     check_quad_file(GOOD "quad_ascii.ply");
 }
 
-TEST(test_binary_little_endian_quad) {
-    check_quad_file(GOOD "quad_binary_le.ply");
-}
+TEST(test_binary_little_endian_quad) { check_quad_file(GOOD "quad_binary_le.ply"); }
 
 TEST(test_binary_big_endian_double_coordinates_and_ushort_indices) {
     check_quad_file(GOOD "quad_binary_be_double_ushort.ply");
 }
 
-TEST(test_gzip_compressed_binary_quad) {
-    check_quad_file(GOOD "quad_binary_le.ply.gz");
-}
+TEST(test_gzip_compressed_binary_quad) { check_quad_file(GOOD "quad_binary_le.ply.gz"); }
 
-TEST(test_gzip_of_two_concatenated_members_is_one_stream) {
-    check_quad_file(GOOD "quad_two_members.ply.gz");
-}
+TEST(test_gzip_of_two_concatenated_members_is_one_stream) { check_quad_file(GOOD "quad_two_members.ply.gz"); }
 
-TEST(test_ascii_with_crlf_line_endings) {
-    check_quad_file(GOOD "quad_crlf.ply");
-}
+TEST(test_ascii_with_crlf_line_endings) { check_quad_file(GOOD "quad_crlf.ply"); }
 
-TEST(test_vertex_index_list_name_and_sized_type_aliases) {
-    check_quad_file(GOOD "quad_vertex_index.ply");
-}
+TEST(test_vertex_index_list_name_and_sized_type_aliases) { check_quad_file(GOOD "quad_vertex_index.ply"); }
 
-TEST(test_face_element_may_come_before_the_vertex_element) {
-    check_quad_file(GOOD "quad_face_first.ply");
-}
+TEST(test_face_element_may_come_before_the_vertex_element) { check_quad_file(GOOD "quad_face_first.ply"); }
 
-TEST(test_skipped_elements_and_vertex_lists_in_big_endian) {
-    check_quad_file(GOOD "quad_skip_elements_be.ply");
-}
+TEST(test_skipped_elements_and_vertex_lists_in_big_endian) { check_quad_file(GOOD "quad_skip_elements_be.ply"); }
 
 /* all_types_*.ply: x int8, y int32, z uint16 between properties of every other type, a
  * list on each vertex, faces as `list ushort uint` beside a scalar and a double list. */
@@ -109,13 +94,9 @@ static void check_all_types(const char *path) {
     prt_mesh_free(m);
 }
 
-TEST(test_integer_coordinates_and_every_property_type_little_endian) {
-    check_all_types(GOOD "all_types_le.ply");
-}
+TEST(test_integer_coordinates_and_every_property_type_little_endian) { check_all_types(GOOD "all_types_le.ply"); }
 
-TEST(test_integer_coordinates_and_every_property_type_big_endian) {
-    check_all_types(GOOD "all_types_be.ply");
-}
+TEST(test_integer_coordinates_and_every_property_type_big_endian) { check_all_types(GOOD "all_types_be.ply"); }
 
 TEST(test_polygons_fan_around_their_first_vertex) {
     static const float v[15] = {0, 0, 0, 1, 0, 0, 1.5f, 1, 0, 0.5f, 2, 0, -0.5f, 1, 0};
@@ -141,13 +122,12 @@ TEST(test_load_memory_gives_the_same_mesh_as_load) {
 TEST(test_ascii_coordinates_are_correctly_rounded_to_float) {
     /* 1 + 2^-24 lies halfway between 1 and the next float: ties go to even (1); a hair
      * above it rounds up. Rounding through double first would get the second wrong. */
-    const char *ply =
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
-        "1.000000059604644775390625 1.0000000596046447753906251 0.1\n"
-        "1.00000002e29 -1e-45 1E+2\n"
-        "-0 .5 5.\n"
-        "3 0 1 2\n";
+    const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                      "1.000000059604644775390625 1.0000000596046447753906251 0.1\n"
+                      "1.00000002e29 -1e-45 1E+2\n"
+                      "-0 .5 5.\n"
+                      "3 0 1 2\n";
     prt_mesh *m = NULL;
     CHECK_OK(prt_mesh_load_memory(ply, strlen(ply), "rounding", &m));
     if (!m) return;
@@ -170,8 +150,7 @@ static prt_mesh *make_grid(size_t n) {
     for (size_t y = 0; y <= n; y++)
         for (size_t x = 0; x <= n; x++) {
             float *v = m->vertices + 3 * (y * (n + 1) + x);
-            v[0] = (float)x * 0.25f, v[1] = (float)y * 0.5f,
-            v[2] = (float)((x * 7 + y * 3) % 11) - 5.0f;
+            v[0] = (float)x * 0.25f, v[1] = (float)y * 0.5f, v[2] = (float)((x * 7 + y * 3) % 11) - 5.0f;
         }
     for (size_t y = 0; y < n; y++)
         for (size_t x = 0; x < n; x++) {
@@ -220,18 +199,17 @@ TEST(test_ascii_spanning_many_read_windows_plain_and_gzip) {
     if (!g) return;
     size_t cap = 64 * (g->vertex_count + g->triangle_count) + 256, n = 0;
     char *text = malloc(cap);
-    n += (size_t)sprintf(
-        text + n,
-        "ply\r\nformat ascii 1.0\r\nelement vertex %zu\r\nproperty float x\r\nproperty float y\r\n"
-        "property float z\r\nelement face %zu\r\nproperty list uchar int vertex_indices\r\n"
-        "end_header\r\n",
-        g->vertex_count, g->triangle_count);
+    n += (size_t)sprintf(text + n,
+                         "ply\r\nformat ascii 1.0\r\nelement vertex %zu\r\nproperty float x\r\nproperty float y\r\n"
+                         "property float z\r\nelement face %zu\r\nproperty list uchar int vertex_indices\r\n"
+                         "end_header\r\n",
+                         g->vertex_count, g->triangle_count);
     for (size_t i = 0; i < g->vertex_count; i++)
-        n += (size_t)sprintf(text + n, "%.9g %.9g %.9g\r\n", g->vertices[3 * i],
-                             g->vertices[3 * i + 1], g->vertices[3 * i + 2]);
+        n += (size_t)sprintf(text + n, "%.9g %.9g %.9g\r\n", g->vertices[3 * i], g->vertices[3 * i + 1],
+                             g->vertices[3 * i + 2]);
     for (size_t i = 0; i < g->triangle_count; i++)
-        n += (size_t)sprintf(text + n, "3 %u %u %u\r\n", g->triangles[3 * i],
-                             g->triangles[3 * i + 1], g->triangles[3 * i + 2]);
+        n += (size_t)sprintf(text + n, "3 %u %u %u\r\n", g->triangles[3 * i], g->triangles[3 * i + 1],
+                             g->triangles[3 * i + 2]);
     size_t zn;
     unsigned char *z = gzip_bytes(text, n, &zn);
     prt_mesh *plain = NULL, *m = NULL, *fromfile = NULL;
@@ -330,10 +308,8 @@ TEST(test_saved_file_is_binary_le_float_xyz_and_uchar_int_lists) {
     CHECK(end != NULL);
     if (data && end) {
         size_t body = (size_t)(end + strlen("end_header\n") - (const char *)data);
-        CHECK(strstr((const char *)data,
-                     "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"));
-        CHECK(
-            strstr((const char *)data, "element face 2\nproperty list uchar int vertex_indices\n"));
+        CHECK(strstr((const char *)data, "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"));
+        CHECK(strstr((const char *)data, "element face 2\nproperty list uchar int vertex_indices\n"));
         static const unsigned char face1[13] = {3, 0, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0};
         CHECK(n == body + 74 && !memcmp(data + body + 48 + 13, face1, 13)); /* the second face */
         float x0;
@@ -347,9 +323,7 @@ TEST(test_saved_file_is_binary_le_float_xyz_and_uchar_int_lists) {
 
 /* ---- colours ---------------------------------------------------------------------- */
 
-static bool same_bytes(const uint8_t *got, const uint8_t *want, size_t n) {
-    return got && !memcmp(got, want, n);
-}
+static bool same_bytes(const uint8_t *got, const uint8_t *want, size_t n) { return got && !memcmp(got, want, n); }
 
 /* The quad's vertex colours in every file below, as the files' values map to bytes by
  * hand: uchar as written, ushort v -> round(v * 255 / 65535), float f -> round(f * 255)
@@ -365,9 +339,9 @@ static void check_vertex_colors(const char *path, const uint8_t *want) {
     if (m && m->vertex_colors)
         for (int i = 0; i < 4; i++)
             if (memcmp(m->vertex_colors + 3 * i, want + 3 * i, 3))
-                fprintf(stderr, "    vertex %d: %d %d %d, want %d %d %d\n", i,
-                        m->vertex_colors[3 * i], m->vertex_colors[3 * i + 1],
-                        m->vertex_colors[3 * i + 2], want[3 * i], want[3 * i + 1], want[3 * i + 2]);
+                fprintf(stderr, "    vertex %d: %d %d %d, want %d %d %d\n", i, m->vertex_colors[3 * i],
+                        m->vertex_colors[3 * i + 1], m->vertex_colors[3 * i + 2], want[3 * i], want[3 * i + 1],
+                        want[3 * i + 2]);
     prt_mesh_free(m);
 }
 
@@ -398,9 +372,7 @@ static void check_face_colors(const char *path) {
     prt_mesh_free(m);
 }
 
-TEST(test_face_colours_ascii_after_the_index_list) {
-    check_face_colors(GOOD "face_colors_ascii.ply");
-}
+TEST(test_face_colours_ascii_after_the_index_list) { check_face_colors(GOOD "face_colors_ascii.ply"); }
 
 TEST(test_face_colours_binary_before_the_index_list_float_with_alpha) {
     check_face_colors(GOOD "face_colors_float_binary_le.ply");
@@ -517,8 +489,7 @@ TEST(test_vertex_and_face_colours_survive_save_load_and_gzip) {
     if (!g) return;
     CHECK_OK(prt_mesh_add_colors(g, true, true));
     for (size_t i = 0; i < 3 * g->vertex_count; i++) g->vertex_colors[i] = (uint8_t)(i * 7 + i / 5);
-    for (size_t i = 0; i < 3 * g->triangle_count; i++)
-        g->triangle_colors[i] = (uint8_t)(i * 13 + 1);
+    for (size_t i = 0; i < 3 * g->triangle_count; i++) g->triangle_colors[i] = (uint8_t)(i * 13 + 1);
     const char *path = PRT_BINARY_DIR "/test_mesh_ply_colors.ply";
     CHECK_OK(prt_mesh_save_ply(g, path));
     size_t n;

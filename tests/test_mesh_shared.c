@@ -11,9 +11,7 @@
 #define KITCHEN20 DATA "/bart_kitchen/kitchen_020.ply.gz"
 
 /* README.md prints bounds with 6 significant digits: allow 5 units in the 6th. */
-static int near(float got, double want) {
-    return fabs(got - want) <= 5e-6 * fmax(fabs(want), 1e-3);
-}
+static int near(float got, double want) { return fabs(got - want) <= 5e-6 * fmax(fabs(want), 1e-3); }
 
 static int check_bounds(const prt_mesh *m, const double lo[3], const double hi[3]) {
     float l[3], h[3];
@@ -22,8 +20,7 @@ static int check_bounds(const prt_mesh *m, const double lo[3], const double hi[3
     for (int k = 0; k < 3; k++) {
         ok &= near(l[k], lo[k]) && near(h[k], hi[k]);
         if (!near(l[k], lo[k]) || !near(h[k], hi[k]))
-            fprintf(stderr, "  axis %d: got [%.9g, %.9g], README says [%g, %g]\n", k, l[k], h[k],
-                    lo[k], hi[k]);
+            fprintf(stderr, "  axis %d: got [%.9g, %.9g], README says [%g, %g]\n", k, l[k], h[k], lo[k], hi[k]);
     }
     return ok;
 }
@@ -35,8 +32,7 @@ TEST(test_bunny_has_the_readme_counts_and_bounds) {
     if (!m) return;
     CHECK(m->triangle_count == 69451);
     CHECK(m->vertex_count == 34834);
-    static const double lo[3] = {-0.0946899, 0.0329874, -0.0618736},
-                        hi[3] = {0.0610091, 0.187321, 0.0587997};
+    static const double lo[3] = {-0.0946899, 0.0329874, -0.0618736}, hi[3] = {0.0610091, 0.187321, 0.0587997};
     CHECK(check_bounds(m, lo, hi));
     prt_mesh_free(m);
 }
@@ -55,8 +51,7 @@ TEST(test_bart_kitchen_frame_from_gzip_has_the_readme_counts_and_bounds) {
 
 TEST(test_bart_frames_share_one_face_list) {
     /* README: within a scene only vertex positions change between frames. */
-    if (access(KITCHEN0, R_OK) != 0 || access(KITCHEN20, R_OK) != 0)
-        SKIP("BART kitchen frames not found");
+    if (access(KITCHEN0, R_OK) != 0 || access(KITCHEN20, R_OK) != 0) SKIP("BART kitchen frames not found");
     prt_mesh *a = NULL, *b = NULL;
     CHECK_OK(prt_mesh_load(KITCHEN0, &a));
     CHECK_OK(prt_mesh_load(KITCHEN20, &b));

@@ -24,21 +24,15 @@ static void check_quad_file(const char *path) {
     prt_mesh_free(m);
 }
 
-TEST(test_binary_stl_quad_welds_to_four_vertices) {
-    check_quad_file(GOOD "quad_binary.stl");
-}
+TEST(test_binary_stl_quad_welds_to_four_vertices) { check_quad_file(GOOD "quad_binary.stl"); }
 
 TEST(test_binary_stl_whose_header_starts_with_solid_is_binary) {
     check_quad_file(GOOD "quad_binary_header_says_solid.stl");
 }
 
-TEST(test_ascii_stl_quad) {
-    check_quad_file(GOOD "quad_ascii.stl");
-}
+TEST(test_ascii_stl_quad) { check_quad_file(GOOD "quad_ascii.stl"); }
 
-TEST(test_ascii_stl_in_capitals_with_crlf) {
-    check_quad_file(GOOD "quad_ascii_crlf_uppercase.stl");
-}
+TEST(test_ascii_stl_in_capitals_with_crlf) { check_quad_file(GOOD "quad_ascii_crlf_uppercase.stl"); }
 
 /* Binary STL bytes for n triangles of 9 floats each. */
 static unsigned char *stl_bytes(const float *tris, uint32_t n, size_t *size) {
@@ -124,14 +118,12 @@ TEST(test_sphere_from_stl_is_hit_as_from_ply) {
 }
 
 static const bad_file_case k_bad_stl[] = {
-    {"stl_lying_count_binary.stl", PRT_ERROR_FORMAT,
-     "announces 5 triangles (334 bytes), but the file has 184"},
+    {"stl_lying_count_binary.stl", PRT_ERROR_FORMAT, "announces 5 triangles (334 bytes), but the file has 184"},
     {"stl_lying_low_count_binary.stl", PRT_ERROR_FORMAT, "data after the last triangle"},
     {"stl_huge_count_tiny_file.stl", PRT_ERROR_FORMAT, "4294967295 triangles"},
     {"stl_truncated_header.stl", PRT_ERROR_FORMAT, "84-byte header"},
     {"stl_zero_triangles.stl", PRT_ERROR_MESH, "no triangles"},
-    {"stl_nan_vertex_binary.stl", PRT_ERROR_MESH,
-     "byte 120: triangle 0: corner 2 has a non-finite x"},
+    {"stl_nan_vertex_binary.stl", PRT_ERROR_MESH, "byte 120: triangle 0: corner 2 has a non-finite x"},
     {"stl_inf_vertex_binary.stl", PRT_ERROR_MESH, "corner 1 has a non-finite x"},
     {"stl_nan_vertex_ascii.stl", PRT_ERROR_MESH, "line 6: triangle 0: corner 2 has a non-finite y"},
     {"stl_ascii_truncated_in_facet.stl", PRT_ERROR_FORMAT, "truncated"},
@@ -144,9 +136,7 @@ static const bad_file_case k_bad_stl[] = {
     {"stl_ascii_missing_outer_loop.stl", PRT_ERROR_FORMAT, "expected 'outer loop'"},
 };
 
-TEST(test_every_bad_stl_is_refused_naming_the_problem) {
-    expect_bad_files(k_bad_stl, COUNT_OF(k_bad_stl));
-}
+TEST(test_every_bad_stl_is_refused_naming_the_problem) { expect_bad_files(k_bad_stl, COUNT_OF(k_bad_stl)); }
 
 TEST(test_truncated_gzipped_binary_stl_is_refused) {
     /* gzip hides the size: the count is checked against the data as it arrives. */

@@ -25,8 +25,7 @@ typedef struct collected {
 
 static prt_status collect(void *user, const float *tris, size_t count, uint64_t first_id) {
     collected *c = user;
-    if (c->stop_after && c->calls == (size_t)c->stop_after)
-        return prt__fail(PRT_ERROR_IO, "test sink: stop");
+    if (c->stop_after && c->calls == (size_t)c->stop_after) return prt__fail(PRT_ERROR_IO, "test sink: stop");
     c->calls++;
     if (first_id != c->n || count == 0) c->ids_ok = false;
     if (c->n + count > c->cap) {
@@ -49,50 +48,42 @@ static float *soup_of(const prt_mesh *m) {
     float *s = malloc(m->triangle_count * 9 * sizeof(float) + 1);
     for (size_t t = 0; t < m->triangle_count; t++)
         for (int k = 0; k < 3; k++)
-            memcpy(s + 9 * t + 3 * k, m->vertices + 3 * (size_t)m->triangles[3 * t + k],
-                   3 * sizeof(float));
+            memcpy(s + 9 * t + 3 * k, m->vertices + 3 * (size_t)m->triangles[3 * t + k], 3 * sizeof(float));
     return s;
 }
 
 /* Stream a file (data == NULL) or a buffer; the status, the triangles in *c. */
-static prt_status stream(const char *path, const void *data, size_t size, size_t budget,
-                         collected *c) {
+static prt_status stream(const char *path, const void *data, size_t size, size_t budget, collected *c) {
     memset(c, 0, sizeof *c);
     c->ids_ok = true;
     uint64_t n = UINT64_MAX;
     prt_status st = data ? mesh_ply_stream_memory(data, size, path, budget, collect, c, &n)
                          : mesh_ply_stream(path, budget, collect, c, &n);
-    CHECK_MSG(st != PRT_OK || n == c->n, "reported %llu, sink saw %zu", (unsigned long long)n,
-              c->n);
+    CHECK_MSG(st != PRT_OK || n == c->n, "reported %llu, sink saw %zu", (unsigned long long)n, c->n);
     CHECK(c->ids_ok);
     return st;
 }
 
 /* The stream of path (or data) with this budget is exactly `expected`. */
-static void check_stream_budget(const char *path, const void *data, size_t size,
-                                const float *expected, size_t count, size_t budget) {
+static void check_stream_budget(const char *path, const void *data, size_t size, const float *expected, size_t count,
+                                size_t budget) {
     size_t before = allocated();
     collected c;
     prt_status st = stream(path, data, size, budget, &c);
-    CHECK_MSG(st == PRT_OK, "%s, budget %zu: %s: %s", path, budget, prt_status_string(st),
-              prt_last_error());
+    CHECK_MSG(st == PRT_OK, "%s, budget %zu: %s: %s", path, budget, prt_status_string(st), prt_last_error());
     CHECK_MSG(c.n == count && (!count || !memcmp(c.tris, expected, count * 9 * sizeof(float))),
-              "%s, budget %zu: %zu triangles streamed, %zu expected, or they differ", path, budget,
-              c.n, count);
+              "%s, budget %zu: %zu triangles streamed, %zu expected, or they differ", path, budget, c.n, count);
     CHECK(allocated() == before);
     free(c.tris);
 }
 
 /* The same with the default budget and with every vertex in the temporary file. */
-static void check_stream(const char *path, const void *data, size_t size, const float *expected,
-                         size_t count) {
+static void check_stream(const char *path, const void *data, size_t size, const float *expected, size_t count) {
     check_stream_budget(path, data, size, expected, count, 0);
     check_stream_budget(path, data, size, expected, count, 1);
 }
 
-static bool is_mesh_file(const char *name) {
-    return strstr(name, ".ply") || strstr(name, ".obj");
-}
+static bool is_mesh_file(const char *name) { return strstr(name, ".ply") || strstr(name, ".obj"); }
 
 TEST(test_stream_gives_the_triangles_of_prt_mesh_load_on_every_good_file) {
     DIR *d = opendir(GOOD);
@@ -154,8 +145,7 @@ static buf write_ply(const prt_mesh *m, int kind) {
     buf b = {0};
     bool ascii = kind == W_ASCII, faces_first = kind == W_BE_FACES_FIRST;
     putf(&b, "ply\nformat %s 1.0\n", ascii ? "ascii" : "binary_big_endian");
-    const char *vh =
-                   "element vertex %zu\nproperty double x\nproperty double y\nproperty double z\n",
+    const char *vh = "element vertex %zu\nproperty double x\nproperty double y\nproperty double z\n",
                *fh = "element face %zu\nproperty list uchar uint vertex_indices\n";
     if (faces_first) putf(&b, fh, m->triangle_count);
     putf(&b, vh, m->vertex_count);
@@ -242,8 +232,7 @@ TEST(test_faces_before_vertices_are_held_within_a_quarter_of_the_budget) {
     size_t before = allocated();
     prt_status st = stream("faces first", b.p, b.n, (size_t)1 << 20, &c);
     CHECK_MSG(st == PRT_ERROR_UNSUPPORTED, "%s", prt_status_string(st));
-    CHECK(strstr(prt_last_error(), "faces first") &&
-          strstr(prt_last_error(), "before the vertices"));
+    CHECK(strstr(prt_last_error(), "faces first") && strstr(prt_last_error(), "before the vertices"));
     CHECK(c.n == 0);
     CHECK(allocated() == before);
     free(c.tris);
@@ -272,10 +261,9 @@ TEST(test_small_budget_keeps_the_vertices_off_the_heap) {
         peak[i] -= base;
         free(c.tris);
     }
-    printf("     peak heap: %zu bytes with the default budget, %zu with 4 MiB (%zu of vertices)\n",
-           peak[0], peak[1], vbytes);
-    CHECK_MSG(peak[0] > vbytes && peak[1] + vbytes * 8 / 10 < peak[0], "peaks %zu and %zu", peak[0],
-              peak[1]);
+    printf("     peak heap: %zu bytes with the default budget, %zu with 4 MiB (%zu of vertices)\n", peak[0], peak[1],
+           vbytes);
+    CHECK_MSG(peak[0] > vbytes && peak[1] + vbytes * 8 / 10 < peak[0], "peaks %zu and %zu", peak[0], peak[1]);
     remove(path);
     prt_mesh_free(m);
 }
@@ -293,13 +281,11 @@ TEST(test_every_bad_file_fails_naming_the_file) {
         collected c;
         prt_status st = stream(path, NULL, 0, 0, &c);
         CHECK_MSG(st != PRT_OK, "%s streamed", e->d_name);
-        CHECK_MSG(strstr(prt_last_error(), path) != NULL, "%s: message '%s'", e->d_name,
-                  prt_last_error());
+        CHECK_MSG(strstr(prt_last_error(), path) != NULL, "%s: message '%s'", e->d_name, prt_last_error());
         /* The same status as prt_mesh_load. */
         prt_mesh *m = NULL;
         prt_status ls = prt_mesh_load(path, &m);
-        CHECK_MSG(ls == st, "%s: load says %s, stream %s", e->d_name, prt_status_string(ls),
-                  prt_status_string(st));
+        CHECK_MSG(ls == st, "%s: load says %s, stream %s", e->d_name, prt_status_string(ls), prt_status_string(st));
         prt_mesh_free(m);
         CHECK_MSG(allocated() == before, "%s: %zu bytes leaked", e->d_name, allocated() - before);
         free(c.tris);
@@ -331,14 +317,12 @@ TEST(test_truncated_files_fail_cleanly_at_every_cut) {
             size_t before = allocated();
             collected c;
             prt_status st = stream("cut.ply", files[k]->p, n, cut % 2, &c);
-            CHECK_MSG(st == PRT_OK || strstr(prt_last_error(), "cut.ply"), "message: %s",
-                      prt_last_error());
+            CHECK_MSG(st == PRT_OK || strstr(prt_last_error(), "cut.ply"), "message: %s", prt_last_error());
             /* The outcome of prt_mesh_load; binary files can only fail (an ascii file cut
              * inside its last number, or before its last newline, is still a mesh). */
             prt_mesh *l = NULL;
             prt_status ls = prt_mesh_load_memory(files[k]->p, n, "cut.ply", &l);
-            CHECK_MSG(st == ls && (k == 2 || st != PRT_OK),
-                      "file %d cut at %zu of %zu: %s, load %s", k, n, files[k]->n,
+            CHECK_MSG(st == ls && (k == 2 || st != PRT_OK), "file %d cut at %zu of %zu: %s, load %s", k, n, files[k]->n,
                       prt_status_string(st), prt_status_string(ls));
             if (l && st == PRT_OK) {
                 float *s = soup_of(l);
@@ -368,8 +352,8 @@ TEST(test_sink_error_stops_the_reading) {
     c.stop_after = 2;
     size_t before = allocated();
     prt_status st = mesh_ply_stream(path, 0, collect, &c, NULL);
-    CHECK_MSG(st == PRT_ERROR_IO && strstr(prt_last_error(), "test sink"), "%s: %s",
-              prt_status_string(st), prt_last_error());
+    CHECK_MSG(st == PRT_ERROR_IO && strstr(prt_last_error(), "test sink"), "%s: %s", prt_status_string(st),
+              prt_last_error());
     CHECK(c.calls == 2);
     CHECK(allocated() == before);
     CHECK(mesh_ply_stream(path, 0, NULL, NULL, NULL) == PRT_ERROR_ARGUMENT);

@@ -121,9 +121,10 @@ TEST(test_flat_axis_aligned_scenes_from_inside) {
             prt_intersect1(ref, &r2, &h2);
             hits += h2.prim != PRT_INVALID;
             if (h1.t != h2.t && (h1.prim != PRT_INVALID || h2.prim != PRT_INVALID) &&
-                !(h1.prim != PRT_INVALID && h2.prim != PRT_INVALID && fabsf(h1.t - h2.t) <= 1e-6f * h2.t) && differ++ < 3)
-                fprintf(stderr, "  %s ray %d: ooc prim %u t %.9g, aabb:float3 prim %u t %.9g\n", kinds[k], i, h1.prim, h1.t,
-                        h2.prim, h2.t);
+                !(h1.prim != PRT_INVALID && h2.prim != PRT_INVALID && fabsf(h1.t - h2.t) <= 1e-6f * h2.t) &&
+                differ++ < 3)
+                fprintf(stderr, "  %s ray %d: ooc prim %u t %.9g, aabb:float3 prim %u t %.9g\n", kinds[k], i, h1.prim,
+                        h1.t, h2.prim, h2.t);
         }
         CHECK_MSG(differ == 0 && hits > 5000, "%s: %zu of 20000 rays differ (%zu hits)", kinds[k], differ, hits);
         prt_accel_free(a), prt_accel_free(ref), prt_mesh_free(m);
@@ -157,7 +158,8 @@ TEST(test_lod_queries_stop_at_voxels_that_contain_the_surface) {
         }
         if (got && lh.hit.prim == PRT_VOXEL_HIT) {
             voxels++;
-            double len = sqrt((double)lh.normal[0] * lh.normal[0] + (double)lh.normal[1] * lh.normal[1] + (double)lh.normal[2] * lh.normal[2]);
+            double len = sqrt((double)lh.normal[0] * lh.normal[0] + (double)lh.normal[1] * lh.normal[1] +
+                              (double)lh.normal[2] * lh.normal[2]);
             if (fabs(len - 1.0) > 1e-3 || !(lh.voxel_radius > 0.0f)) bad++;
         }
         prt_ray er = rays[i];
@@ -199,7 +201,8 @@ TEST(test_lod_packets_answer_as_single_rays) {
     prt_camera_default(lo, hi, &cam);
     prt_ray *rnd = rays_random(m, N, 5);
     const float errors[] = {0.0f, 1e-3f, 1e-2f, 1e9f};
-    size_t differ = 0, voxels = 0, differ_ref = 0, differ_short = 0, triangles = 0, occ_differ = 0, occ_count[2] = {0, 0};
+    size_t differ = 0, voxels = 0, differ_ref = 0, differ_short = 0, triangles = 0, occ_differ = 0,
+           occ_count[2] = {0, 0};
     prt_ray *cam_rays = malloc(N * sizeof *cam_rays);
     uint8_t *occ = malloc(N);
     const float light[3] = {hi[0] + (hi[0] - lo[0]), hi[1] + (hi[1] - lo[1]), lo[2] - 0.5f * (hi[2] - lo[2])};
@@ -218,9 +221,11 @@ TEST(test_lod_packets_answer_as_single_rays) {
                 float d[3], u[3] = {0, 1, 0}, f[3], rt[3];
                 for (int k = 0; k < 3; k++) f[k] = cam.target[k] - cam.eye[k];
                 rt[0] = f[1] * u[2] - f[2] * u[1], rt[1] = f[2] * u[0] - f[0] * u[2], rt[2] = f[0] * u[1] - f[1] * u[0];
-                float fl = sqrtf(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]), rl = sqrtf(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
+                float fl = sqrtf(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]),
+                      rl = sqrtf(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
                 for (int k = 0; k < 3; k++)
-                    d[k] = f[k] / fl + 0.36f * ((x + 0.5f) / 32.0f - 1.0f) * rt[k] / rl + 0.36f * (1.0f - (y + 0.5f) / 32.0f) * u[k];
+                    d[k] = f[k] / fl + 0.36f * ((x + 0.5f) / 32.0f - 1.0f) * rt[k] / rl +
+                           0.36f * (1.0f - (y + 0.5f) / 32.0f) * u[k];
                 rays[i] = (prt_ray){{cam.eye[0], cam.eye[1], cam.eye[2]}, 0.0f, {d[0], d[1], d[2]}, INFINITY};
             } else {
                 rays[i] = rnd[i];
@@ -257,19 +262,21 @@ TEST(test_lod_packets_answer_as_single_rays) {
                 const bool want = prt_occluded_lod(a, &rays[i], errors[e]);
                 occ_count[want]++;
                 if (occ[i] != want && occ_differ++ < 3)
-                    fprintf(stderr, "  set %d error %g ray %d: occluded alone %d, in a packet %d\n", set, (double)errors[e], i,
-                            want, occ[i]);
+                    fprintf(stderr, "  set %d error %g ray %d: occluded alone %d, in a packet %d\n", set,
+                            (double)errors[e], i, want, occ[i]);
             }
             for (int i = 0; i < N; i++) {
                 prt_ray q = rays[i];
                 prt_lod_hit hs;
                 prt_intersect_lod(a, &q, errors[e], &hs);
                 voxels += hs.hit.prim == PRT_VOXEL_HIT;
-                if (hs.hit.prim != hp[i].hit.prim || (hs.hit.prim != PRT_INVALID && (hs.hit.t != hp[i].hit.t ||
-                    memcmp(hs.normal, hp[i].normal, sizeof hs.normal)))) {
+                if (hs.hit.prim != hp[i].hit.prim ||
+                    (hs.hit.prim != PRT_INVALID &&
+                     (hs.hit.t != hp[i].hit.t || memcmp(hs.normal, hp[i].normal, sizeof hs.normal)))) {
                     if (differ++ < 3)
                         fprintf(stderr, "  set %d error %g ray %d: single prim %u t %.9g, packet prim %u t %.9g\n", set,
-                                (double)errors[e], i, hs.hit.prim, (double)hs.hit.t, hp[i].hit.prim, (double)hp[i].hit.t);
+                                (double)errors[e], i, hs.hit.prim, (double)hs.hit.t, hp[i].hit.prim,
+                                (double)hp[i].hit.t);
                 }
             }
         }
@@ -394,7 +401,8 @@ TEST(test_progressive_lod_render_converges_to_the_exact_image) {
     int maxd = 0;
     CHECK_OK(prt_image_compare(&img, &want, &maxd, NULL, &psnr, NULL));
     CHECK_OK(prt_image_compare(&first, &want, NULL, NULL, &psnr_first, NULL));
-    printf("     converged after %d frames, PSNR %.1f dB against the exact image (first frame %.1f dB), working set %.2f MB\n",
+    printf("     converged after %d frames, PSNR %.1f dB against the exact image (first frame %.1f dB), working set "
+           "%.2f MB\n",
            f + 1, psnr, psnr_first, (double)ci.working_set_bytes / 1e6);
     CHECK_MSG(psnr > 30.0, "LOD image PSNR %.1f dB against the exact one", psnr);
     CHECK_MSG(psnr_first < psnr - 5.0, "the first frame (nothing loaded) is as good as the last: %.1f dB", psnr_first);

@@ -3,10 +3,9 @@
  * support/repr.h, on two generated ones every layout x codec pair), shared out so that the suite's time does not grow
  * with the number of representations: representation k traces the rays i with
  * i % STRIDE == k % STRIDE, STRIDE = ceil(representations / PASSES), so every ray is
- * traced by about PASSES representations and each representation by thousands of rays. Where packrt and Embree disagree, the brute-force
- * double-precision reference decides: packrt must agree with it on every ray whose hit is
- * not within EDGE_EPS of a triangle edge (Embree is not watertight, so it may be the one
- * that is wrong there). */
+ * traced by about PASSES representations and each representation by thousands of rays. Where packrt and Embree
+ * disagree, the brute-force double-precision reference decides: packrt must agree with it on every ray whose hit is not
+ * within EDGE_EPS of a triangle edge (Embree is not watertight, so it may be the one that is wrong there). */
 #include "bench.h"
 #include "support/reference.h"
 #include "support/repr.h"
@@ -91,8 +90,8 @@ static void compare_mesh(const char *label, const prt_mesh *m, bool every) {
                 if (err > 0) { /* lossy: against Embree's answer, else the reference's, within the bound */
                     double edge;
                     if (!ref_lossy_acceptable(m, &sets[w].rays[i], &got[i], &ref[i], err, tol) &&
-                        !ref_lossy_acceptable(m, &sets[w].rays[i], &got[i], reference(m, &sets[w].rays[i], i, &mo, &edge),
-                                              err, tol) &&
+                        !ref_lossy_acceptable(m, &sets[w].rays[i], &got[i],
+                                              reference(m, &sets[w].rays[i], i, &mo, &edge), err, tol) &&
                         wrong++ < 3)
                         fprintf(stderr, "  %s %s %s ray %zu: packrt prim %u t %.9g outside the error bound %g\n", label,
                                 bench_workload_name(sets[w].kind), prt_repr_name(k), i, got[i].prim, (double)got[i].t,

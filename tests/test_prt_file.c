@@ -42,8 +42,8 @@ TEST(test_save_load_cast_is_bit_identical) {
         CHECK(strcmp(prt_accel_spec(a), prt_accel_spec(b)) == 0);
         prt_stats sa, sb;
         prt_accel_stats(a, &sa), prt_accel_stats(b, &sb);
-        CHECK(sa.bytes_tree == sb.bytes_tree && sa.bytes_geometry == sb.bytes_geometry && sa.triangles == sb.triangles &&
-              sa.nodes == sb.nodes && sa.depth == sb.depth);
+        CHECK(sa.bytes_tree == sb.bytes_tree && sa.bytes_geometry == sb.bytes_geometry &&
+              sa.triangles == sb.triangles && sa.nodes == sb.nodes && sa.depth == sb.depth);
         size_t diff = 0;
         for (size_t i = 0; i < n; i++) {
             prt_ray r1 = rays[i], r2 = rays[i];

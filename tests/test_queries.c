@@ -71,8 +71,9 @@ static agreement compare_with_reference(const prt_mesh *m, const char *spec, con
     }
     prt_accel_free(a);
     CHECK_MSG(g.compared > n / 2, "%s: only %zu of %zu rays were unambiguous", spec, g.compared, n);
-    CHECK_MSG(g.hitmiss == 0 && g.prim == 0 && g.t == 0, "%s: %zu rays compared, %zu hit/miss (lossy: outside the bound), %zu prim, %zu t disagreements",
-              spec, g.compared, g.hitmiss, g.prim, g.t);
+    CHECK_MSG(g.hitmiss == 0 && g.prim == 0 && g.t == 0,
+              "%s: %zu rays compared, %zu hit/miss (lossy: outside the bound), %zu prim, %zu t disagreements", spec,
+              g.compared, g.hitmiss, g.prim, g.t);
     return g;
 }
 
@@ -91,9 +92,12 @@ TEST(test_every_representation_matches_brute_force_on_random_soup) {
 }
 
 TEST(test_every_splitter_matches_brute_force) {
-    static const char *specs[] = {"aabb:float3,split=mean", "aabb:float3,split=longest,leaf=2",
-                                  "quad:float3-soa4,split=morton,leaf=16", "quad:float3-soa4,split=fixed,leaf=8",
-                                  "aabb:float3-soa4,split=fixed,leaf=1", "quad:float3,leaf=1"};
+    static const char *specs[] = {"aabb:float3,split=mean",
+                                  "aabb:float3,split=longest,leaf=2",
+                                  "quad:float3-soa4,split=morton,leaf=16",
+                                  "quad:float3-soa4,split=fixed,leaf=8",
+                                  "aabb:float3-soa4,split=fixed,leaf=1",
+                                  "quad:float3,leaf=1"};
     prt_mesh *m = mesh_random_soup(1500, 3);
     prt_ray *rays = rays_random(m, 3000, 4);
     reference ref = reference_of(m, rays, 3000);
@@ -143,8 +147,8 @@ TEST(test_stream_and_packet_equal_single_rays) {
             diff += memcmp(&r1[i], &r2[i], sizeof r1[i]) != 0;
             occ_diff += occ[i] != (h1[i].prim != PRT_INVALID);
         }
-        CHECK_MSG(diff == 0 && occ_diff == 0, "%s: %zu stream/packet and %zu occluded differences", prt_repr_name(k), diff,
-                  occ_diff);
+        CHECK_MSG(diff == 0 && occ_diff == 0, "%s: %zu stream/packet and %zu occluded differences", prt_repr_name(k),
+                  diff, occ_diff);
         free(r1), free(r2), free(r3), free(h1), free(h2), free(h3), free(occ);
         prt_accel_free(a);
     }
@@ -200,7 +204,7 @@ TEST(test_degenerate_triangles_are_never_hit) {
     /* A collinear triangle and one with a repeated index lie exactly on the ray's path. */
     prt_mesh *m;
     CHECK_OK(prt_mesh_create(6, 3, &m));
-    float v[18] = {-1, 0, 1, 0, 0, 1, 1, 0, 1, /* collinear along x at z = 1 */
+    float v[18] = {-1, 0,  1, 0, 0,  1, 1, 0, 1, /* collinear along x at z = 1 */
                    -1, -1, 3, 1, -1, 3, 0, 1, 3};
     uint32_t t[9] = {0, 1, 2, 3, 3, 4, 3, 4, 5};
     memcpy(m->vertices, v, sizeof v), memcpy(m->triangles, t, sizeof t);
@@ -234,12 +238,20 @@ TEST(test_all_degenerate_mesh_is_an_error) {
 
 TEST(test_bad_specs_are_rejected_with_a_reason) {
     prt_mesh *m = mesh_random_soup(10, 1);
-    static const char *bad[] = {"", "nosuch:float3", "aabb:nosuch", "aabb:float3,leaf=0", "aabb:float3,leaf=17",
-                                "aabb:float3,split=magic", "aabb:float3,colour=red", "aabb:float3,leaf", "aabb:float3,leaf=4,leaf=8"};
+    static const char *bad[] = {"",
+                                "nosuch:float3",
+                                "aabb:nosuch",
+                                "aabb:float3,leaf=0",
+                                "aabb:float3,leaf=17",
+                                "aabb:float3,split=magic",
+                                "aabb:float3,colour=red",
+                                "aabb:float3,leaf",
+                                "aabb:float3,leaf=4,leaf=8"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
         prt_accel *a = NULL;
         prt_status s = prt_build(m, bad[i], NULL, &a);
-        CHECK_MSG(s == PRT_ERROR_ARGUMENT && a == NULL && *prt_last_error(), "'%s' gave %s", bad[i], prt_status_string(s));
+        CHECK_MSG(s == PRT_ERROR_ARGUMENT && a == NULL && *prt_last_error(), "'%s' gave %s", bad[i],
+                  prt_status_string(s));
     }
     prt_accel *a;
     CHECK_OK(prt_build(m, "quad:float3-soa4,leaf=8", NULL, &a));
@@ -271,8 +283,8 @@ TEST(test_axis_aligned_ray_in_a_face_plane_hits) {
             prt_ray r = {{-5, 1, 0.3f}, 0, {1, y0, 0}, INFINITY};
             prt_hit h;
             prt_intersect1(a, &r, &h);
-            CHECK_MSG(h.prim != PRT_INVALID && repr_t_near(a, h.t, 4.0f), "%s, dir y %s0: prim %u t %g", prt_repr_name(k),
-                      sign ? "-" : "+", h.prim, (double)h.t);
+            CHECK_MSG(h.prim != PRT_INVALID && repr_t_near(a, h.t, 4.0f), "%s, dir y %s0: prim %u t %g",
+                      prt_repr_name(k), sign ? "-" : "+", h.prim, (double)h.t);
         }
         prt_accel_free(a);
     }
@@ -292,7 +304,8 @@ TEST(test_negative_tnear_finds_hits_behind_the_origin) {
         prt_ray r = {{0.3f, 0.2f, 5}, -INFINITY, {0, 0, 1}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);
-        CHECK_MSG(h.prim != PRT_INVALID && repr_t_near(a, h.t, -5.0f), "%s: prim %u t %g", prt_repr_name(k), h.prim, (double)h.t);
+        CHECK_MSG(h.prim != PRT_INVALID && repr_t_near(a, h.t, -5.0f), "%s: prim %u t %g", prt_repr_name(k), h.prim,
+                  (double)h.t);
         CHECK(prt_occluded1(a, &r));
         prt_accel_free(a);
     }
@@ -320,7 +333,8 @@ TEST(test_equal_t_ties_pick_the_smallest_triangle_id) {
         prt_intersect1(a, &r, &h);
         prt_intersect1(c, &rc, &hc);
         CHECK_MSG(h.prim == 0 && repr_t_near(a, h.t, 1.0f), "%s: copies: prim %u", prt_repr_name(k), h.prim);
-        CHECK_MSG(hc.prim == 0 && repr_t_near(c, hc.t, 4.0f), "%s: diagonal: prim %u t %g", prt_repr_name(k), hc.prim, (double)hc.t);
+        CHECK_MSG(hc.prim == 0 && repr_t_near(c, hc.t, 4.0f), "%s: diagonal: prim %u t %g", prt_repr_name(k), hc.prim,
+                  (double)hc.t);
         prt_accel_free(a), prt_accel_free(c);
     }
     prt_mesh_free(cube);
@@ -348,7 +362,9 @@ static void expect_brute_force_at_scale(float scale, bool unit_dirs) {
 
 /* Up to the coordinate limit every representation still answers as brute force (t near
  * 1e12 too), and down to the smallest extent. */
-TEST(test_meshes_at_the_coordinate_limit_match_brute_force) { expect_brute_force_at_scale(0.9f * PRT_MAX_COORDINATE, false); }
+TEST(test_meshes_at_the_coordinate_limit_match_brute_force) {
+    expect_brute_force_at_scale(0.9f * PRT_MAX_COORDINATE, false);
+}
 
 TEST(test_meshes_at_the_smallest_extent_match_brute_force) { expect_brute_force_at_scale(1.2f * PRT_MIN_EXTENT, true); }
 
@@ -392,8 +408,10 @@ TEST(test_ids_none_hits_map_through_the_triangle_order) {
          * raystrips trades its ids and turn bits for a 4-bit code a strip triangle (at most
          * 4 bytes a triangle less: exactly 4 on this soup of one-triangle strips). */
         const bool compact = !strncmp(spec, "lossygrid", 9), codes = !strncmp(spec, "raystrips", 9);
-        CHECK_MSG(compact ? sb.bytes_geometry < sa.bytes_geometry && sa.bytes_geometry < sb.bytes_geometry + 4 * sb.triangles_built
-                  : codes ? sb.bytes_geometry < sa.bytes_geometry && sa.bytes_geometry <= sb.bytes_geometry + 4 * sb.triangles_built
+        CHECK_MSG(compact ? sb.bytes_geometry < sa.bytes_geometry &&
+                                sa.bytes_geometry < sb.bytes_geometry + 4 * sb.triangles_built
+                  : codes ? sb.bytes_geometry < sa.bytes_geometry &&
+                                sa.bytes_geometry <= sb.bytes_geometry + 4 * sb.triangles_built
                           : sb.bytes_geometry + 4 * sb.triangles_built == sa.bytes_geometry,
                   "%s: %zu geometry bytes, %zu with ids", spec, sb.bytes_geometry, sa.bytes_geometry);
         size_t differ = 0;

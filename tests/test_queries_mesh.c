@@ -11,11 +11,30 @@
 
 /* Every layout with a lossless codec, every codec under wide8, and lossygrid. */
 static const char *g_specs[] = {
-    "aabb:float3", "aabb:idx32,order=bf", "aabb-split:float3-soa4", "aabb-pns:idx16", "aabb-compressed:float3-soa8",
-    "quad:idx32-soa4", "quad-half:float3", "skd:idx16-soa4", "wide8:float3-soa8", "wide8:idx8-soa4",
-    "wide8:idx8-soa4,collapse=fill", "wide8:float3", "wide8:float3-soa4", "wide8:idx32",
-    "wide8:idx16", "wide8:strip", "wide8:bitpack", "wide8:bitpack-soa4", "wide8:idx8-bitpack-soa4",
-    "wide8:idx16-bitpack-soa4", "wide8:idx32-bitpack-soa4", "wide8:strip-bitpack", "quad:strip", "lossygrid",
+    "aabb:float3",
+    "aabb:idx32,order=bf",
+    "aabb-split:float3-soa4",
+    "aabb-pns:idx16",
+    "aabb-compressed:float3-soa8",
+    "quad:idx32-soa4",
+    "quad-half:float3",
+    "skd:idx16-soa4",
+    "wide8:float3-soa8",
+    "wide8:idx8-soa4",
+    "wide8:idx8-soa4,collapse=fill",
+    "wide8:float3",
+    "wide8:float3-soa4",
+    "wide8:idx32",
+    "wide8:idx16",
+    "wide8:strip",
+    "wide8:bitpack",
+    "wide8:bitpack-soa4",
+    "wide8:idx8-bitpack-soa4",
+    "wide8:idx16-bitpack-soa4",
+    "wide8:idx32-bitpack-soa4",
+    "wide8:strip-bitpack",
+    "quad:strip",
+    "lossygrid",
     "lossygrid,enc=oct",
 };
 
@@ -27,7 +46,8 @@ static bool bf_hit(const prt_mesh *m, size_t k, const prt_ray *r, double *t_out,
     double p[3][3], e1[3], e2[3], o[3], d[3];
     for (int v = 0; v < 3; v++)
         for (int c = 0; c < 3; c++) p[v][c] = m->vertices[3 * (size_t)t[v] + c];
-    for (int c = 0; c < 3; c++) e1[c] = p[1][c] - p[0][c], e2[c] = p[2][c] - p[0][c], o[c] = r->org[c], d[c] = r->dir[c];
+    for (int c = 0; c < 3; c++)
+        e1[c] = p[1][c] - p[0][c], e2[c] = p[2][c] - p[0][c], o[c] = r->org[c], d[c] = r->dir[c];
     const double h[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]};
     const double det = e1[0] * h[0] + e1[1] * h[1] + e1[2] * h[2];
     if (det == 0) return false;
@@ -60,7 +80,8 @@ static double bf_sampled_d2(const prt_mesh *m, const float *p) {
     double best = INFINITY;
     for (size_t k = 0; k < m->triangle_count; k++) {
         const uint32_t *t = m->triangles + 3 * k;
-        const float *a = m->vertices + 3 * (size_t)t[0], *b = m->vertices + 3 * (size_t)t[1], *c = m->vertices + 3 * (size_t)t[2];
+        const float *a = m->vertices + 3 * (size_t)t[0], *b = m->vertices + 3 * (size_t)t[1],
+                    *c = m->vertices + 3 * (size_t)t[2];
         const int N = 24;
         for (int i = 0; i <= N; i++)
             for (int j = 0; i + j <= N; j++) {
@@ -104,14 +125,16 @@ static void check_closed_parity(const prt_mesh *m, const char *spec, const char 
                 target[c] = mid ? 0.5f * (p[c] + q[c]) : p[c];
                 org[c] = lo[c] - 1.0f - (hi[c] - lo[c]) * prt_rng_float(&rng);
             }
-            prt_ray r = {{org[0], org[1], org[2]}, 0, {target[0] - org[0], target[1] - org[1], target[2] - org[2]}, INFINITY};
+            prt_ray r = {
+                {org[0], org[1], org[2]}, 0, {target[0] - org[0], target[1] - org[1], target[2] - org[2]}, INFINITY};
             uint32_t n = 0;
             CHECK_OK(prt_intersect_all(a, &r, NULL, 0, &n));
             odd += n & 1, crossing += n >= 2, rays++;
         }
     }
-    CHECK_MSG(odd == 0 && crossing > rays / 2, "%s on %s: %zu of %zu rays through vertices and edges had an odd count, %zu crossed",
-              spec, what, odd, rays, crossing);
+    CHECK_MSG(odd == 0 && crossing > rays / 2,
+              "%s on %s: %zu of %zu rays through vertices and edges had an odd count, %zu crossed", spec, what, odd,
+              rays, crossing);
     prt_accel_free(a);
 }
 
@@ -194,7 +217,8 @@ TEST(test_crossings_match_brute_force_and_stream) {
             compared++;
             wrong += c != want;
         }
-        CHECK_MSG(wrong == 0 && unsorted == 0, "%s: %zu answers wrong, %zu lists out of order", g_specs[s], wrong, unsorted);
+        CHECK_MSG(wrong == 0 && unsorted == 0, "%s: %zu answers wrong, %zu lists out of order", g_specs[s], wrong,
+                  unsorted);
         CHECK_MSG(lossy || compared > n / 2, "%s: only %zu rays compared", g_specs[s], compared);
         free(all);
         prt_accel_free(a);
@@ -310,7 +334,8 @@ TEST(test_contains_and_winding_number_sphere_and_open_sphere) {
     while (n < N) {
         float p[3];
         double d = 0;
-        for (int k = 0; k < 3; k++) p[k] = c[k] + (float)(1.6 * R * (2 * prt_rng_float(&rng) - 1)), d += (p[k] - c[k]) * (double)(p[k] - c[k]);
+        for (int k = 0; k < 3; k++)
+            p[k] = c[k] + (float)(1.6 * R * (2 * prt_rng_float(&rng) - 1)), d += (p[k] - c[k]) * (double)(p[k] - c[k]);
         d = sqrt(d);
         /* The cube sphere's facets lie within a few % inside the sphere of radius R. */
         if (fabs(d - R) < 0.06 * R) continue;
@@ -328,7 +353,8 @@ TEST(test_contains_and_winding_number_sphere_and_open_sphere) {
             wrong += ((in[i] & PRT_INSIDE) != 0) != want[i] || (in[i] & PRT_BY_WINDING);
             wrong_w += fabsf(w[i] - (want[i] ? 1.0f : 0.0f)) > 1e-3f;
         }
-        CHECK_MSG(wrong == 0 && wrong_w == 0, "closed sphere: %zu containment, %zu winding answers wrong", wrong, wrong_w);
+        CHECK_MSG(wrong == 0 && wrong_w == 0, "closed sphere: %zu containment, %zu winding answers wrong", wrong,
+                  wrong_w);
         prt_accel_free(a);
     }
     /* Cut a hole: drop the triangles whose centroid is near the top. */

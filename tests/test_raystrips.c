@@ -58,8 +58,8 @@ static void expect_matches_reference(const prt_mesh *m, const char *spec, const 
         wrong += !ok;
         occ_wrong += prt_occluded1(a, &rays[i]) != (want.prim != PRT_INVALID);
     }
-    CHECK_MSG(compared > n / 2 && wrong == 0 && occ_wrong == 0, "%s: %zu rays compared, %zu closest and %zu any hits wrong",
-              spec, compared, wrong, occ_wrong);
+    CHECK_MSG(compared > n / 2 && wrong == 0 && occ_wrong == 0,
+              "%s: %zu rays compared, %zu closest and %zu any hits wrong", spec, compared, wrong, occ_wrong);
     prt_accel_free(a);
 }
 
@@ -141,7 +141,8 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
                 while (top) {
                     const visit v = todo[--top];
                     if (v.count <= a->fmt.leaf) continue;
-                    const uint32_t groups = rs_groups(v.count, a->fmt.leaf), lg = (groups + 1) / 2, nl = lg * a->fmt.leaf;
+                    const uint32_t groups = rs_groups(v.count, a->fmt.leaf), lg = (groups + 1) / 2,
+                                   nl = lg * a->fmt.leaf;
                     const uint32_t fl = st.flags[v.node], k = fl & 3;
                     const bool rev = fl & RS_FLAG_REVERSE;
                     float lo = INFINITY, hi = -INFINITY;
@@ -166,9 +167,10 @@ static size_t check_structure(const prt_mesh *m, const char *spec) {
     }
     size_t missing = 0;
     for (size_t t = 0; t < m->triangle_count; t++) missing += !seen[t] && !prt__mesh_triangle_degenerate(m, t);
-    CHECK_MSG(!bad_tri && !bad_plane && !twice && !missing && live == acc->triangles_built && strips == a->strip_count,
-              "%s: %zu wrong strip triangles, %zu planes that cut their half, %zu twice, %zu missing, %zu of %zu strips", spec,
-              bad_tri, bad_plane, twice, missing, strips, a->strip_count);
+    CHECK_MSG(
+        !bad_tri && !bad_plane && !twice && !missing && live == acc->triangles_built && strips == a->strip_count,
+        "%s: %zu wrong strip triangles, %zu planes that cut their half, %zu twice, %zu missing, %zu of %zu strips",
+        spec, bad_tri, bad_plane, twice, missing, strips, a->strip_count);
     /* An entry fits a leaf (255 units): longer strips are cut. */
     CHECK_MSG(max_n <= 255 * RS_UNIT / 4, "%s: a strip of %zu triangles", spec, max_n);
     free(seen);
@@ -192,8 +194,8 @@ TEST(test_connected_mesh_gives_long_strips_and_a_soup_single_triangles) {
         const size_t g = check_structure(grid, specs[i]), s = check_structure(soup, specs[i]);
         /* 3200 triangles in chunks of 128: a strip per chunk would be 25 long. */
         /* meshoptimizer strips for vertex caches (4 to 6 long here); ours aim for length. */
-        CHECK_MSG(g > 0 && grid->triangle_count / g >= (i ? 12u : 4u), "%s: %zu strips over %zu grid triangles", specs[i], g,
-                  grid->triangle_count);
+        CHECK_MSG(g > 0 && grid->triangle_count / g >= (i ? 12u : 4u), "%s: %zu strips over %zu grid triangles",
+                  specs[i], g, grid->triangle_count);
         CHECK_MSG(s == soup->triangle_count, "%s: %zu strips over %zu unconnected triangles", specs[i], s,
                   soup->triangle_count);
     }
@@ -218,7 +220,9 @@ TEST(test_rays_at_vertices_and_edge_midpoints_of_a_grid_all_hit) {
                 for (int j = 0; j < 2; j++) {
                     if (target[j][0] <= 0 || target[j][0] >= 1 || target[j][2] <= 0 || target[j][2] >= 1) continue;
                     const float o[3] = {target[j][0] + 0.3f, 2.0f, target[j][2] - 0.2f};
-                    prt_ray r = {{o[0], o[1], o[2]}, 0, {target[j][0] - o[0], target[j][1] - o[1], target[j][2] - o[2]},
+                    prt_ray r = {{o[0], o[1], o[2]},
+                                 0,
+                                 {target[j][0] - o[0], target[j][1] - o[1], target[j][2] - o[2]},
                                  INFINITY};
                     prt_hit h;
                     prt_ray r2 = r;
@@ -309,8 +313,8 @@ TEST(test_damaged_records_and_nodes_behind_the_checksums_are_errors) {
                     free(bad);
                 }
         }
-        CHECK_MSG(blob_len > 0 && rejected > tried / 3, "%s: %zu of %zu damaged images rejected",
-                  specs[sp], rejected, tried);
+        CHECK_MSG(blob_len > 0 && rejected > tried / 3, "%s: %zu of %zu damaged images rejected", specs[sp], rejected,
+                  tried);
         free(img);
     }
     prt_mesh_free(m);
@@ -361,12 +365,14 @@ TEST(test_packets_give_the_single_ray_hits) {
             const float tx = -0.1f + 1.2f * (float)x / res, tz = -0.1f + 1.2f * (float)y / res;
             rays[y * res + x] = (prt_ray){{0.5f, 1.5f, -0.8f}, 0, {tx - 0.5f, -1.5f, tz + 0.8f}, INFINITY};
         }
-    const uint32_t widths[][2] = {{2, 4}, {4, 16}, {8, 64}, {16, 256}, {12, 48}, {6, 36}, {4, 12}, {3, 9}, {1, 7}, {1, 16}};
+    const uint32_t widths[][2] = {{2, 4},  {4, 16}, {8, 64}, {16, 256}, {12, 48},
+                                  {6, 36}, {4, 12}, {3, 9},  {1, 7},    {1, 16}};
     for (size_t i = 0; i < COUNT_OF(g_packet_specs); i++) {
         prt_accel *a;
         if (!repr_build(m, g_packet_specs[i], &a)) continue;
         for (size_t w = 0; w < COUNT_OF(widths); w++) {
-            const size_t hits = expect_packets_match_single_rays(a, g_packet_specs[i], rays, n, widths[w][0], widths[w][1]);
+            const size_t hits =
+                expect_packets_match_single_rays(a, g_packet_specs[i], rays, n, widths[w][0], widths[w][1]);
             CHECK_MSG(hits > n / 2 && hits < n, "%s: %zu of %u rays hit", g_packet_specs[i], hits, n);
         }
         prt_accel_free(a);
@@ -417,10 +423,11 @@ TEST(test_ids_none_and_materials_give_the_default_hits) {
     prt_mesh *grid = mesh_grid(40), *soup = mesh_random_soup(800, 41);
     prt_mesh *meshes[] = {grid, soup};
     /* Each against the first spec of its row (the same strips with ids and no materials). */
-    const char *specs[][2] = {{"raystrips", "raystrips,ids=none"},
-                              {"raystrips", "raystrips,mat=u16"},
-                              {"raystrips", "raystrips,ids=none,mat=u16,packet=4x4"},
-                              {"raystrips,leaf=2,split=f32,strip=meshopt", "raystrips,leaf=2,split=f32,strip=meshopt,ids=none,mat=u16"}};
+    const char *specs[][2] = {
+        {"raystrips", "raystrips,ids=none"},
+        {"raystrips", "raystrips,mat=u16"},
+        {"raystrips", "raystrips,ids=none,mat=u16,packet=4x4"},
+        {"raystrips,leaf=2,split=f32,strip=meshopt", "raystrips,leaf=2,split=f32,strip=meshopt,ids=none,mat=u16"}};
     const uint32_t n = 2048;
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
         prt_mesh *m = meshes[mi];
@@ -459,8 +466,8 @@ TEST(test_ids_none_and_materials_give_the_default_hits) {
             const long extra = (long)st.bytes_geometry - (long)sref.bytes_geometry;
             const long mat_lo = mat ? 2 * (long)tri : 0, mat_hi = mat ? 4 * (long)tri : 0;
             const long id_lo = no_ids ? -4 * (long)tri : 0, id_hi = no_ids ? (mi == 0 ? -3 * (long)tri : -1) : 0;
-            CHECK_MSG(extra >= mat_lo + id_lo && extra <= mat_hi + id_hi, "%s: %ld geometry bytes more than the default",
-                      specs[i][1], extra);
+            CHECK_MSG(extra >= mat_lo + id_lo && extra <= mat_hi + id_hi,
+                      "%s: %ld geometry bytes more than the default", specs[i][1], extra);
             CHECK(!mat || strstr(st.detail, "materials") != NULL);
             const prt_accel *accels[] = {built, loaded};
             for (size_t ai = 0; ai < 2 && loaded; ai++)
@@ -482,7 +489,11 @@ TEST(test_ids_none_and_materials_give_the_default_hits) {
                                 h.geom != geom;
                     }
                     CHECK_MSG(diff == 0, "%s (%s, %s): %zu of %u hits differ from the default's", specs[i][1],
-                              ai ? "loaded" : "built", mode == 0 ? "single rays" : mode == 1 ? "4x4" : "runs", diff, n);
+                              ai ? "loaded" : "built",
+                              mode == 0   ? "single rays"
+                              : mode == 1 ? "4x4"
+                                          : "runs",
+                              diff, n);
                     free(r);
                 }
             prt_accel_free(built), prt_accel_free(loaded);
@@ -530,9 +541,9 @@ TEST(test_single_triangle_and_bad_options) {
         CHECK(h.prim == 0 && h.t == 1.0f && h.u == 0.25f && h.v == 0.5f);
         prt_accel_free(a);
     }
-    const char *bad[] = {"raystrips,leaf=3", "raystrips,leaf=16", "raystrips,chunk=2", "raystrips,split=f16",
-                         "raystrips,strip=stripe", "raystrips,ids=none", "raystrips,ids=some",
-                         "raystrips,mat=u8", "raystrips:float3"};
+    const char *bad[] = {"raystrips,leaf=3",    "raystrips,leaf=16",      "raystrips,chunk=2",
+                         "raystrips,split=f16", "raystrips,strip=stripe", "raystrips,ids=none",
+                         "raystrips,ids=some",  "raystrips,mat=u8",       "raystrips:float3"};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {
         a = NULL;
         CHECK_MSG(prt_build(m, bad[i], NULL, &a) == PRT_ERROR_ARGUMENT && a == NULL, "%s was accepted", bad[i]);

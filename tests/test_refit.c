@@ -19,9 +19,12 @@
  * index buffer, 8-bit windows remapped per build (seq_ids), under four layouts and two
  * builders. */
 static const char *const g_specs[] = {
-    "quad:float3-soa4,update=refit",          "aabb:float3,update=refit",
-    "wide8:idx8-soa4,update=refit",           "skd:idx32,update=refit",
-    "wide8:float3-soa8,update=refit,split=morton", "aabb-compressed:idx32-soa4,update=refit",
+    "quad:float3-soa4,update=refit",
+    "aabb:float3,update=refit",
+    "wide8:idx8-soa4,update=refit",
+    "skd:idx32,update=refit",
+    "wide8:float3-soa8,update=refit,split=morton",
+    "aabb-compressed:idx32-soa4,update=refit",
 };
 
 /* Closest and any hits of a against the reference on m (rays away from edges), and
@@ -50,8 +53,8 @@ static void expect_matches(const prt_mesh *m, prt_accel *a, prt_accel *b, const 
         occ_wrong += prt_occluded1(a, &rays[i]) != (want.prim != PRT_INVALID);
     }
     CHECK_MSG(compared > n / 2 && hits > n / 4 && wrong == 0 && occ_wrong == 0 && differ == 0,
-              "%s: %zu rays compared, %zu hits, %zu closest and %zu any hits wrong, %zu differ from a fresh build", what,
-              compared, hits, wrong, occ_wrong, differ);
+              "%s: %zu rays compared, %zu hits, %zu closest and %zu any hits wrong, %zu differ from a fresh build",
+              what, compared, hits, wrong, occ_wrong, differ);
     free(rays);
 }
 

@@ -36,8 +36,7 @@ static prt_mesh *scene_mesh(void) {
     return m;
 }
 
-static const prt_camera g_cam = {
-    {0.6f, 1.4f, 4.4f}, {0.0f, -0.3f, 0.0f}, {0.0f, 1.0f, 0.0f}, 45.0f};
+static const prt_camera g_cam = {{0.6f, 1.4f, 4.4f}, {0.0f, -0.3f, 0.0f}, {0.0f, 1.0f, 0.0f}, 45.0f};
 
 /* The camera ray of pixel (x, y) as docs/render.md defines it, written from the text. */
 static prt_ray camera_ray(const prt_camera *c, int x, int y) {
@@ -68,9 +67,7 @@ static int srgb8(double v) {
     return (int)(e * 255 + 0.5);
 }
 
-static int linear8(double v) {
-    return v <= 0 ? 0 : v >= 1 ? 255 : (int)(v * 255 + 0.5);
-}
+static int linear8(double v) { return v <= 0 ? 0 : v >= 1 ? 255 : (int)(v * 255 + 0.5); }
 
 /* An 8-bit sRGB colour value as linear reflectance (IEC 61966-2-1). */
 static double srgb_decode(int c) {
@@ -85,20 +82,16 @@ static void reference_albedo(const prt_mesh *m, uint32_t t, double u, double v, 
     for (int k = 0; k < 3; k++) {
         if (m->vertex_colors)
             out[k] = (1 - u - v) * srgb_decode(m->vertex_colors[3 * i[0] + k]) +
-                     u * srgb_decode(m->vertex_colors[3 * i[1] + k]) +
-                     v * srgb_decode(m->vertex_colors[3 * i[2] + k]);
-        else if (m->triangle_colors)
-            out[k] = srgb_decode(m->triangle_colors[3 * (size_t)t + k]);
-        else
-            out[k] = 0.72;
+                     u * srgb_decode(m->vertex_colors[3 * i[1] + k]) + v * srgb_decode(m->vertex_colors[3 * i[2] + k]);
+        else if (m->triangle_colors) out[k] = srgb_decode(m->triangle_colors[3 * (size_t)t + k]);
+        else out[k] = 0.72;
     }
 }
 
 /* Reference pixel of a mode without random choices, or -1 where the answer is ambiguous
  * (camera or shadow ray within 1e-4 of a triangle edge, in barycentric units). *hit says
  * whether the camera ray hit. */
-static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int rgb[3],
-                           bool *hit) {
+static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int rgb[3], bool *hit) {
     prt_ray r = camera_ray(&g_cam, x, y);
     double edge;
     prt_hit h = ref_intersect(m, &r, &edge);
@@ -106,8 +99,7 @@ static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int
     if (!*hit) return 0;
     if (edge < 1e-4) return -1;
     const uint32_t *t = &m->triangles[3 * (size_t)h.prim];
-    const float *a = &m->vertices[3 * t[0]], *b = &m->vertices[3 * t[1]],
-                *c = &m->vertices[3 * t[2]];
+    const float *a = &m->vertices[3 * t[0]], *b = &m->vertices[3 * t[1]], *c = &m->vertices[3 * t[2]];
     double e1[3], e2[3], n[3], p[3], nd = 0, nl = 0;
     for (int k = 0; k < 3; k++) e1[k] = (double)b[k] - a[k], e2[k] = (double)c[k] - a[k];
     n[0] = e1[1] * e2[2] - e1[2] * e2[1];
@@ -145,10 +137,7 @@ static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int
     for (int k = 0; k < 3; k++) l[k] /= dist, nl += n[k] * l[k];
     double lit = 0;
     if (nl > 0) {
-        prt_ray sr = {{(float)p[0], (float)p[1], (float)p[2]},
-                      0,
-                      {(float)l[0], (float)l[1], (float)l[2]},
-                      (float)dist};
+        prt_ray sr = {{(float)p[0], (float)p[1], (float)p[2]}, 0, {(float)l[0], (float)l[1], (float)l[2]}, (float)dist};
         int occ = ref_occluded(m, &sr, 1e-4);
         if (occ < 0) return -1;
         lit = occ ? 0 : nl;
@@ -161,9 +150,7 @@ static int reference_pixel(const prt_mesh *m, prt_shade shade, int x, int y, int
  * pixel shows the wrong triangle's or vertex's colour, or a wrong blend, plainly. */
 enum { COLORS_NONE, COLORS_TRIANGLE, COLORS_VERTEX };
 static void paint(prt_mesh *m, int colors) {
-    if (colors == COLORS_NONE ||
-        prt_mesh_add_colors(m, colors == COLORS_VERTEX, colors == COLORS_TRIANGLE))
-        return;
+    if (colors == COLORS_NONE || prt_mesh_add_colors(m, colors == COLORS_VERTEX, colors == COLORS_TRIANGLE)) return;
     if (colors == COLORS_VERTEX)
         for (size_t i = 0; i < 3 * m->vertex_count; i++)
             m->vertex_colors[i] = (uint8_t)(40 + (i * 2654435761u >> 7) % 216);
@@ -206,35 +193,26 @@ static void check_against_reference(prt_shade shade, int colors) {
             bool ok = true;
             for (int k = 0; k < 3; k++) ok = ok && abs(want[k] - got[k]) <= 2;
             if (!ok && wrong++ < 5)
-                fprintf(stderr, "    pixel %d,%d: got %d %d %d, reference %d %d %d\n", x, y, got[0],
-                        got[1], got[2], want[0], want[1], want[2]);
+                fprintf(stderr, "    pixel %d,%d: got %d %d %d, reference %d %d %d\n", x, y, got[0], got[1], got[2],
+                        want[0], want[1], want[2]);
         }
-    CHECK_MSG(wrong == 0, "%s: %zu of %zu hit pixels differ from the reference",
-              prt_shade_name(shade), wrong, hits);
+    CHECK_MSG(wrong == 0, "%s: %zu of %zu hit pixels differ from the reference", prt_shade_name(shade), wrong, hits);
     CHECK_MSG(hits > W * H / 4, "%s: only %zu pixels hit", prt_shade_name(shade), hits);
-    CHECK_MSG(ambiguous < W * H * 3 / 100, "%s: %zu ambiguous pixels", prt_shade_name(shade),
-              ambiguous);
-    CHECK_MSG(dark_misses == misses, "%s: %zu of %zu background pixels are not dark",
-              prt_shade_name(shade), misses - dark_misses, misses);
+    CHECK_MSG(ambiguous < W * H * 3 / 100, "%s: %zu ambiguous pixels", prt_shade_name(shade), ambiguous);
+    CHECK_MSG(dark_misses == misses, "%s: %zu of %zu background pixels are not dark", prt_shade_name(shade),
+              misses - dark_misses, misses);
     if (shade == PRT_SHADE_SHADOWS && colors == COLORS_NONE)
         CHECK_MSG(shadowed > 20, "only %zu pixels in shadow: no shadow tested", shadowed);
     if (colors != COLORS_NONE)
-        CHECK_MSG(colorful > hits / 2, "only %zu of %zu pixels coloured: colours not tested",
-                  colorful, hits);
+        CHECK_MSG(colorful > hits / 2, "only %zu of %zu pixels coloured: colours not tested", colorful, hits);
     prt_image_free(&img);
     prt_accel_free(a);
     prt_mesh_free(m);
 }
 
-TEST(test_normal_mode_matches_brute_force_image) {
-    check_against_reference(PRT_SHADE_NORMAL, COLORS_NONE);
-}
-TEST(test_diffuse_mode_matches_brute_force_image) {
-    check_against_reference(PRT_SHADE_DIFFUSE, COLORS_NONE);
-}
-TEST(test_shadows_mode_matches_brute_force_image) {
-    check_against_reference(PRT_SHADE_SHADOWS, COLORS_NONE);
-}
+TEST(test_normal_mode_matches_brute_force_image) { check_against_reference(PRT_SHADE_NORMAL, COLORS_NONE); }
+TEST(test_diffuse_mode_matches_brute_force_image) { check_against_reference(PRT_SHADE_DIFFUSE, COLORS_NONE); }
+TEST(test_shadows_mode_matches_brute_force_image) { check_against_reference(PRT_SHADE_SHADOWS, COLORS_NONE); }
 TEST(test_triangle_colours_match_brute_force_image) {
     check_against_reference(PRT_SHADE_DIFFUSE, COLORS_TRIANGLE);
     check_against_reference(PRT_SHADE_SHADOWS, COLORS_TRIANGLE);
@@ -244,15 +222,10 @@ TEST(test_vertex_colours_interpolate_as_brute_force_image) {
     check_against_reference(PRT_SHADE_SHADOWS, COLORS_VERTEX);
 }
 
-static prt_image render_with(const prt_accel *a, const prt_mesh *m, prt_shade shade, uint32_t spp,
-                             int threads, bool denoise) {
-    prt_render_options o = {.width = W,
-                            .height = H,
-                            .shade = shade,
-                            .spp = spp,
-                            .threads = threads,
-                            .seed = 7,
-                            .denoise = denoise};
+static prt_image render_with(const prt_accel *a, const prt_mesh *m, prt_shade shade, uint32_t spp, int threads,
+                             bool denoise) {
+    prt_render_options o = {
+        .width = W, .height = H, .shade = shade, .spp = spp, .threads = threads, .seed = 7, .denoise = denoise};
     prt_image img = {0};
     CHECK_OK(prt_render(a, m, &g_cam, &o, &img));
     return img;
@@ -277,8 +250,7 @@ TEST(test_every_representation_renders_the_same_image) {
         if (!a) continue;
         for (size_t k = 0; k < COUNT_OF(modes); k++) {
             prt_image img = render_with(a, m, modes[k], modes[k] >= PRT_SHADE_AO ? 4 : 1, 2, true);
-            if (r == 0)
-                first[k] = img;
+            if (r == 0) first[k] = img;
             else {
                 int largest = -1;
                 size_t differing = 0;
@@ -321,8 +293,7 @@ TEST(test_every_tile_is_rendered_at_any_size) {
         CHECK_OK(prt_render(a, m, &cam, &o, &img));
         size_t off = 0, n = (size_t)o.width * o.height;
         for (size_t i = 0; img.rgb && i < n; i++) off += memcmp(&img.rgb[3 * i], img.rgb, 3) != 0;
-        CHECK_MSG(img.rgb && img.rgb[2] > 200, "%ux%u: the plane's normal (0, 0, 1) should be blue", o.width,
-                  o.height);
+        CHECK_MSG(img.rgb && img.rgb[2] > 200, "%ux%u: the plane's normal (0, 0, 1) should be blue", o.width, o.height);
         CHECK_MSG(off == 0, "%ux%u: %zu of %zu pixels differ from the first", o.width, o.height, off, n);
         prt_image_free(&img);
     }
@@ -340,8 +311,7 @@ TEST(test_image_does_not_depend_on_thread_count) {
         prt_image one = render_with(a, m, modes[k], 4, 1, true);
         for (int t = 2; t <= 3; t++) {
             prt_image many = render_with(a, m, modes[k], 4, t, true);
-            CHECK_MSG(same_pixels(&one, &many), "%s: 1 and %d threads differ",
-                      prt_shade_name(modes[k]), t);
+            CHECK_MSG(same_pixels(&one, &many), "%s: 1 and %d threads differ", prt_shade_name(modes[k]), t);
             prt_image_free(&many);
         }
         /* The seed is what changes the noise: another seed, another image. */
@@ -378,18 +348,17 @@ TEST(test_coloured_gi_shows_the_colour_and_does_not_depend_on_threads) {
     for (int denoise = 0; denoise <= 1; denoise++) {
         prt_image one = render_with(a, m, PRT_SHADE_GI, 4, 1, denoise);
         prt_image many = render_with(a, m, PRT_SHADE_GI, 4, 3, denoise);
-        CHECK_MSG(same_pixels(&one, &many), "coloured gi (denoise %d): 1 and 3 threads differ",
-                  denoise);
+        CHECK_MSG(same_pixels(&one, &many), "coloured gi (denoise %d): 1 and 3 threads differ", denoise);
         for (size_t i = 0; denoise && i < (size_t)W * H && one.rgb; i++)
             for (int k = 0; k < 3; k++) red[k] += one.rgb[3 * i + k] / (double)(W * H);
         prt_image_free(&one);
         prt_image_free(&many);
     }
-    CHECK_MSG(fabs(grey[0] - grey[1]) < 10 && fabs(grey[0] - grey[2]) < 20,
-              "grey mesh: mean r %.1f g %.1f b %.1f", grey[0], grey[1], grey[2]);
-    CHECK_MSG(red[0] > red[1] + 40 && red[0] > red[2] + 40,
-              "red mesh: mean r %.1f g %.1f b %.1f (grey: %.1f %.1f %.1f)", red[0], red[1], red[2],
+    CHECK_MSG(fabs(grey[0] - grey[1]) < 10 && fabs(grey[0] - grey[2]) < 20, "grey mesh: mean r %.1f g %.1f b %.1f",
               grey[0], grey[1], grey[2]);
+    CHECK_MSG(red[0] > red[1] + 40 && red[0] > red[2] + 40,
+              "red mesh: mean r %.1f g %.1f b %.1f (grey: %.1f %.1f %.1f)", red[0], red[1], red[2], grey[0], grey[1],
+              grey[2]);
     prt_accel_free(a);
     prt_mesh_free(m);
 }
@@ -416,8 +385,7 @@ TEST(test_embree_accel_renders_what_packrt_renders) {
     CHECK(!memcmp(alo, elo, sizeof alo) && !memcmp(ahi, ehi, sizeof ahi));
     prt_stats st;
     prt_accel_stats(e, &st);
-    CHECK(!strcmp(prt_accel_spec(e), "embree") && st.bytes_tree > 0 &&
-          st.triangles == m->triangle_count);
+    CHECK(!strcmp(prt_accel_spec(e), "embree") && st.bytes_tree > 0 && st.triangles == m->triangle_count);
     CHECK(prt_accel_save(e, PRT_BINARY_DIR "/never.prt") == PRT_ERROR_UNSUPPORTED);
     const prt_shade modes[] = {PRT_SHADE_NORMAL, PRT_SHADE_SHADOWS, PRT_SHADE_AO, PRT_SHADE_GI};
     for (size_t k = 0; k < COUNT_OF(modes); k++) {
@@ -428,8 +396,8 @@ TEST(test_embree_accel_renders_what_packrt_renders) {
         int largest = -1;
         size_t differing = 0;
         CHECK_OK(prt_image_compare(&pi, &ei, &largest, &differing, NULL, NULL));
-        CHECK_MSG(differing <= (size_t)W * H / 100, "%s: %zu pixels differ (by up to %d)",
-                  prt_shade_name(modes[k]), differing, largest);
+        CHECK_MSG(differing <= (size_t)W * H / 100, "%s: %zu pixels differ (by up to %d)", prt_shade_name(modes[k]),
+                  differing, largest);
         CHECK(ei.rays >= (uint64_t)W * H * 2);
         prt_image_free(&pi);
         prt_image_free(&ei);
@@ -463,8 +431,7 @@ TEST(test_ao_is_open_on_a_convex_sphere_and_darker_near_contact) {
             hits++;
             open += img.rgb[3 * ((size_t)y * W + x)] == 255;
         }
-    CHECK_MSG(hits > 100 && open == hits, "%zu of %zu sphere pixels are not fully open",
-              hits - open, hits);
+    CHECK_MSG(hits > 100 && open == hits, "%zu of %zu sphere pixels are not fully open", hits - open, hits);
     prt_image_free(&img);
     prt_accel_free(a);
     prt_mesh_free(s);
@@ -476,8 +443,7 @@ TEST(test_ao_is_open_on_a_convex_sphere_and_darker_near_contact) {
      * against the ground far to the side. */
     double near = 0, far = 0;
     for (int y = 36; y < 40; y++)
-        for (int x = 0; x < 4; x++)
-            near += img.rgb[3 * (y * W + 30 + x)], far += img.rgb[3 * (y * W + 2 + x)];
+        for (int x = 0; x < 4; x++) near += img.rgb[3 * (y * W + 30 + x)], far += img.rgb[3 * (y * W + 2 + x)];
     CHECK_MSG(near < 0.8 * far, "ground by the contact %.0f, far away %.0f", near / 16, far / 16);
     prt_image_free(&img);
     prt_accel_free(a);
@@ -547,8 +513,7 @@ TEST(test_progress_reaches_one_and_buffer_is_reused) {
     prt_mesh *m = scene_mesh();
     prt_accel *a;
     CHECK_OK(prt_build(m, "aabb:float3", NULL, &a));
-    prt_render_options o = {
-        .width = W, .height = H, .shade = PRT_SHADE_DIFFUSE, .threads = 2, .progress = on_progress};
+    prt_render_options o = {.width = W, .height = H, .shade = PRT_SHADE_DIFFUSE, .threads = 2, .progress = on_progress};
     prt_image img = {0};
     CHECK_OK(prt_render(a, m, &g_cam, &o, &img));
     CHECK(g_progress_calls >= 1 && g_last_progress == 1.0f && !g_progress_backwards);
@@ -629,8 +594,7 @@ TEST(test_png_round_trip_keeps_every_pixel) {
     uint8_t *back = malloc(n);
     int expect_len = snprintf(header, sizeof header, "P6\n%d %d\n255\n", W, H);
     char got[32] = {0};
-    CHECK(f && fread(got, 1, (size_t)expect_len, f) == (size_t)expect_len &&
-          !memcmp(got, header, (size_t)expect_len));
+    CHECK(f && fread(got, 1, (size_t)expect_len, f) == (size_t)expect_len && !memcmp(got, header, (size_t)expect_len));
     CHECK(f && fread(back, 1, n, f) == n && !memcmp(back, img.rgb, n));
     if (f) fclose(f);
     remove(path);

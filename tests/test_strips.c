@@ -11,7 +11,8 @@
 
 #include <float.h>
 
-static const char *const g_layouts[] = {"aabb", "aabb-split", "aabb-pns", "aabb-compressed", "skd", "quad", "quad-half", "wide8"};
+static const char *const g_layouts[] = {"aabb", "aabb-split", "aabb-pns",  "aabb-compressed",
+                                        "skd",  "quad",       "quad-half", "wide8"};
 static const char *const g_codecs[] = {"strip", "strip-bitpack"};
 
 /* m with its triangles in a scrambled order and every third one's winding reversed, so
@@ -71,7 +72,8 @@ static double min_altitude(const prt_mesh *m, uint32_t prim, const prt_ray *r) {
     }
     c[0] = e[0][1] * e[1][2] - e[0][2] * e[1][1], c[1] = e[0][2] * e[1][0] - e[0][0] * e[1][2],
     c[2] = e[0][0] * e[1][1] - e[0][1] * e[1][0];
-    const double area2 = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), d = sqrt(r->dir[0] * r->dir[0] + r->dir[1] * r->dir[1] + r->dir[2] * r->dir[2]);
+    const double area2 = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+                 d = sqrt(r->dir[0] * r->dir[0] + r->dir[1] * r->dir[1] + r->dir[2] * r->dir[2]);
     const double cosine = fabs(c[0] * r->dir[0] + c[1] * r->dir[1] + c[2] * r->dir[2]) / (area2 * d);
     return area2 / longest * cosine; /* twice the area over the base */
 }
@@ -119,7 +121,8 @@ static void check_hits(const expected *e, const char *spec, const char *what) {
             const bool bad = fabs((double)got.u - want.u) > uv_tol || fabs((double)got.v - want.v) > uv_tol;
             wrong_uv += bad;
         }
-        if (e->edge[i] > 1e-3 || want.prim == PRT_INVALID) wrong += prt_occluded1(a, &e->rays[i]) != (want.prim != PRT_INVALID);
+        if (e->edge[i] > 1e-3 || want.prim == PRT_INVALID)
+            wrong += prt_occluded1(a, &e->rays[i]) != (want.prim != PRT_INVALID);
     }
     CHECK_MSG(wrong == 0, "%s, %s: %zu of %zu rays answered wrongly", what, spec, wrong, e->n);
     CHECK_MSG(wrong_uv == 0 && checked > e->n / 4, "%s, %s: u, v wrong in %zu of %zu unambiguous hits", what, spec,
@@ -172,7 +175,8 @@ TEST(test_strip_leaves_chain_connected_triangles) {
     const double grid32 = geometry_per_triangle(g, "wide8:strip,ids=none");
     const double grid8 = geometry_per_triangle(g, "wide8:strip-bitpack,ids=none");
     const double unwelded32 = geometry_per_triangle(u, "wide8:strip,ids=none");
-    CHECK_MSG(grid32 < 0.6 * soup32 && grid8 < 0.6 * soup8, "grid: %.2f and %.2f B/tri: triangles do not chain", grid32, grid8);
+    CHECK_MSG(grid32 < 0.6 * soup32 && grid8 < 0.6 * soup8, "grid: %.2f and %.2f B/tri: triangles do not chain", grid32,
+              grid8);
     CHECK_MSG(fabs(unwelded32 - grid32) < 1e-9, "unwelded grid: %.2f B/tri against %.2f welded", unwelded32, grid32);
     printf("     geometry: soup %.2f / %.2f B/tri, grid %.2f / %.2f B/tri (strip / strip-bitpack)\n", soup32, soup8,
            grid32, grid8);
@@ -217,11 +221,11 @@ TEST(test_strip_leaves_that_do_not_form_strips_do_not_load) {
     make_leaf(leaf, 0, good, 7);
     CHECK(strip_leaf_valid(leaf, 7, &sh));
     const uint32_t *bad[] = {
-        (const uint32_t[]){0, STRIP_START_V2, 0},                          /* no start */
-        (const uint32_t[]){STRIP_START_V1, 0, 0},                          /* continues after V1 */
-        (const uint32_t[]){STRIP_START_V2, STRIP_START_V1, 0},             /* V2 first */
+        (const uint32_t[]){0, STRIP_START_V2, 0},                              /* no start */
+        (const uint32_t[]){STRIP_START_V1, 0, 0},                              /* continues after V1 */
+        (const uint32_t[]){STRIP_START_V2, STRIP_START_V1, 0},                 /* V2 first */
         (const uint32_t[]){STRIP_START_V1, STRIP_START_V2, 0, STRIP_START_V1}, /* ends inside a start */
-        (const uint32_t[]){STRIP_START_V1, STRIP_START_V2},                /* no triangle */
+        (const uint32_t[]){STRIP_START_V1, STRIP_START_V2},                    /* no triangle */
     };
     const uint32_t lens[] = {3, 3, 3, 4, 2};
     for (size_t i = 0; i < COUNT_OF(bad); i++) {

@@ -82,8 +82,8 @@ static void check_conservative(const prt_mesh *m, int leaf, const char *what) {
     for (size_t t = 0; t < m->triangle_count; t++) once += w.seen[t] == 1;
     CHECK_MSG(w.violations == 0, "%s, leaf %d: %zu of %zu decoded planes cut into their subtree", what, leaf,
               w.violations, w.planes);
-    CHECK_MSG(tris == m->triangle_count && once == m->triangle_count, "%s: %zu triangles stored, %zu of %zu once",
-              what, tris, once, m->triangle_count);
+    CHECK_MSG(tris == m->triangle_count && once == m->triangle_count, "%s: %zu triangles stored, %zu of %zu once", what,
+              tris, once, m->triangle_count);
     free(w.seen);
     prt__free(blob.data);
     bvh_tree_free(&tree);
@@ -98,8 +98,8 @@ TEST(test_wide8_child_boxes_contain_their_triangles) {
     const struct {
         const prt_mesh *m;
         const char *name;
-    } cases[] = {{soup, "unit soup"}, {same, "same centroid"}, {far, "soup at 1e6"}, {tiny, "soup at 1e-4 scale"},
-                 {tiny_far, "small soup far away"}, {flat, "flat soup"}};
+    } cases[] = {{soup, "unit soup"},          {same, "same centroid"},           {far, "soup at 1e6"},
+                 {tiny, "soup at 1e-4 scale"}, {tiny_far, "small soup far away"}, {flat, "flat soup"}};
     for (size_t c = 0; c < COUNT_OF(cases); c++)
         for (int leaf = 1; leaf <= 16; leaf *= 4) check_conservative(cases[c].m, leaf, cases[c].name);
     prt_mesh_free(soup), prt_mesh_free(same), prt_mesh_free(far), prt_mesh_free(tiny), prt_mesh_free(tiny_far),
@@ -110,7 +110,8 @@ TEST(test_wide8_child_boxes_contain_their_triangles) {
  * kernel family, on meshes whose magnitude stresses the quantization grid. */
 TEST(test_wide8_far_and_tiny_meshes_hit_as_brute_force) {
     prt_mesh *soup = mesh_random_soup(2000, 11);
-    prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 1e6f), mesh_transformed(soup, 1e-4f, 0.0f), mesh_transformed(soup, 1e-2f, -1e3f)};
+    prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 1e6f), mesh_transformed(soup, 1e-4f, 0.0f),
+                          mesh_transformed(soup, 1e-2f, -1e3f)};
     const char *specs[] = {"wide8:float3", "wide8:float3-soa4", "wide8:float3-soa8", "wide8:idx32-soa4"};
     for (size_t mi = 0; mi < COUNT_OF(meshes); mi++) {
         prt_ray *rays = rays_random(meshes[mi], 2000, 3 + mi);
@@ -194,8 +195,8 @@ static float near_plane(prt_rng *g, const wide8_node *n, int k) {
 
 /* The folded box test of the traversal (wide8_fold_hit) hits every child box the exact
  * slab test hits, and never reports an entry past the exact one, on meshes near the
- * origin, far from it (where the kernels use the decoded planes instead) and tiny, for rays from inside, on and around each node's planes,
- * with zero, tiny and ordinary direction components. */
+ * origin, far from it (where the kernels use the decoded planes instead) and tiny, for rays from inside, on and around
+ * each node's planes, with zero, tiny and ordinary direction components. */
 TEST(test_wide8_folded_box_test_is_conservative) {
     prt_mesh *soup = mesh_random_soup(3000, 7);
     prt_mesh *meshes[] = {mesh_transformed(soup, 1.0f, 0.0f), mesh_transformed(soup, 1.0f, 1e6f),
@@ -218,7 +219,9 @@ TEST(test_wide8_folded_box_test_is_conservative) {
                 for (int k = 0; k < 3; k++) {
                     r.org[k] = near_plane(&g, n, k);
                     const uint32_t kind = prt_rng_u32(&g) % 8;
-                    r.dir[k] = kind == 0 ? 0.0f : kind == 1 ? (prt_rng_float(&g) - 0.5f) * 1e-6f : prt_rng_float(&g) - 0.5f;
+                    r.dir[k] = kind == 0   ? 0.0f
+                               : kind == 1 ? (prt_rng_float(&g) - 0.5f) * 1e-6f
+                                           : prt_rng_float(&g) - 0.5f;
                 }
                 if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[0] = 1.0f;
                 r.tnear = prt_rng_u32(&g) & 1 ? 0.0f : -INFINITY;

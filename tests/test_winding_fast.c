@@ -34,7 +34,8 @@ static void make_points(const prt_mesh *m, size_t n, uint64_t seed, float *p) {
         const float *v = m->vertices + 3 * (size_t)(prt_rng_u32(&rng) % m->vertex_count);
         for (int k = 0; k < 3; k++) {
             const float e = hi[k] - lo[k];
-            p[3 * i + k] = i % 2 ? lo[k] + e * (1.5f * prt_rng_float(&rng) - 0.25f) : v[k] + 0.02f * e * (2 * prt_rng_float(&rng) - 1);
+            p[3 * i + k] = i % 2 ? lo[k] + e * (1.5f * prt_rng_float(&rng) - 0.25f)
+                                 : v[k] + 0.02f * e * (2 * prt_rng_float(&rng) - 1);
         }
     }
 }
@@ -103,7 +104,8 @@ TEST(test_fast_winding_number_of_self_intersecting_mesh) {
     size_t fractional;
     check_against_exact(two, "two overlapping spheres", &fractional);
     /* Some points lie in both: winding number 2, inside. */
-    const float mid[3] = {0.5f * (lo[0] + hi[0]) + 0.3f * (hi[0] - lo[0]), 0.5f * (lo[1] + hi[1]), 0.5f * (lo[2] + hi[2])};
+    const float mid[3] = {0.5f * (lo[0] + hi[0]) + 0.3f * (hi[0] - lo[0]), 0.5f * (lo[1] + hi[1]),
+                          0.5f * (lo[2] + hi[2])};
     prt_accel *a;
     if (repr_build(two, "wide8:idx8-soa4", &a)) {
         float w;

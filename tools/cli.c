@@ -50,8 +50,8 @@ bool cli_is_prt_file(const char *path) {
     return (n >= 4 && !memcmp(head, PRT_FILE_MAGIC, 4)) || prt__registry_probe(head, n);
 }
 
-int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec,
-                   prt_mesh **mesh, prt_accel **accel) {
+int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec, prt_mesh **mesh,
+                   prt_accel **accel) {
     *accel = NULL;
     if (mesh) *mesh = NULL;
     prt_status s;

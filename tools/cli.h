@@ -33,8 +33,8 @@ bool cli_is_prt_file(const char *path);
 /* Load MESH or FILE.prt: a .prt file is loaded; a mesh is loaded and built with spec
  * (default_spec when spec is NULL). On success *accel is set; *mesh too when a mesh was
  * loaded (caller frees both). Returns 0 or an exit code after printing the error. */
-int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec,
-                   prt_mesh **mesh, prt_accel **accel);
+int cli_open_accel(const char *cmd, const char *path, const char *spec, const char *default_spec, prt_mesh **mesh,
+                   prt_accel **accel);
 
 /* packrt render's command line (tools/cmd_render.c), parsed by the same code for packrt render
  * and packrt-mpi (tools/mpi/). */

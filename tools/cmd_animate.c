@@ -29,33 +29,34 @@
 #define DEFAULT_SPEC "cgrid"
 
 static int usage(void) {
-    printf("usage: packrt animate DIR|SCENE [-r SPEC]... [-o frames/] [--bench] [--vs embree] [--json] [options]\n"
-           "\n"
-           "DIR: one mesh file per frame (.ply, .obj, .stl, .off, .glb, .gltf, in name order), all with the same faces\n"
-           "(the BART scenes in ../shared/data). SCENE: an animated generator: twist | marbles | toys.\n"
-           "Every frame, representations with prt_accel_update (the default, BVH specs with update=refit)\n"
-           "are updated in place, the others built again from scratch.\n"
-           "\n"
-           "  -r SPEC         representation (default " DEFAULT_SPEC "); repeat for several in the same run\n"
-           "  -o DIR          write frame_NNN.png per frame (diffuse shading) into DIR\n"
-           "  --bench         trace primary rays in N x N packets; print rebuild and trace ms per frame\n"
-           "                  and their medians over frames 1.. (frame 0 is the first build)\n"
-           "  --vs embree     --bench also with Embree rebuilt each frame (DYNAMIC, LOW), 4x4 rays in rtcIntersect16\n"
-           "  --json          --bench summary as one JSON object\n"
-           "  --shadows       --bench: also trace a shadow ray from every primary hit to a point light,\n"
-           "                  in the same packets (prt_occluded_packet; Embree: rtcOccluded16), timed apart\n"
-           "  --light x,y,z   the point light (implies --shadows; default: above the scene's bounds)\n"
-           "  --counters      --bench: also the work counters of representations that keep them (cells,\n"
-           "                  ray-triangle tests; an extra untimed single-thread pass per frame)\n"
-           "  --size WxH      image size (default 1024x1024)\n"
-           "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov (default 40); default: the\n"
-           "                  framing of the union of all frames' bounds that packrt bench uses\n"
-           "  --packet N      packet width for --bench: N x N rays (2, 4, 8, 16; default 8)\n"
-           "  --frames N      frames of a generated SCENE (default 21), or the first N of DIR\n"
-           "  --tris N        triangles of a generated SCENE (default 100k)\n"
-           "  --seed S        seed of a generated SCENE (default 1)\n"
-           "  --repeat N      trace each frame N times, keep the median (default 1)\n"
-           "  --threads N     threads (default all cores)\n");
+    printf(
+        "usage: packrt animate DIR|SCENE [-r SPEC]... [-o frames/] [--bench] [--vs embree] [--json] [options]\n"
+        "\n"
+        "DIR: one mesh file per frame (.ply, .obj, .stl, .off, .glb, .gltf, in name order), all with the same faces\n"
+        "(the BART scenes in ../shared/data). SCENE: an animated generator: twist | marbles | toys.\n"
+        "Every frame, representations with prt_accel_update (the default, BVH specs with update=refit)\n"
+        "are updated in place, the others built again from scratch.\n"
+        "\n"
+        "  -r SPEC         representation (default " DEFAULT_SPEC "); repeat for several in the same run\n"
+        "  -o DIR          write frame_NNN.png per frame (diffuse shading) into DIR\n"
+        "  --bench         trace primary rays in N x N packets; print rebuild and trace ms per frame\n"
+        "                  and their medians over frames 1.. (frame 0 is the first build)\n"
+        "  --vs embree     --bench also with Embree rebuilt each frame (DYNAMIC, LOW), 4x4 rays in rtcIntersect16\n"
+        "  --json          --bench summary as one JSON object\n"
+        "  --shadows       --bench: also trace a shadow ray from every primary hit to a point light,\n"
+        "                  in the same packets (prt_occluded_packet; Embree: rtcOccluded16), timed apart\n"
+        "  --light x,y,z   the point light (implies --shadows; default: above the scene's bounds)\n"
+        "  --counters      --bench: also the work counters of representations that keep them (cells,\n"
+        "                  ray-triangle tests; an extra untimed single-thread pass per frame)\n"
+        "  --size WxH      image size (default 1024x1024)\n"
+        "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov (default 40); default: the\n"
+        "                  framing of the union of all frames' bounds that packrt bench uses\n"
+        "  --packet N      packet width for --bench: N x N rays (2, 4, 8, 16; default 8)\n"
+        "  --frames N      frames of a generated SCENE (default 21), or the first N of DIR\n"
+        "  --tris N        triangles of a generated SCENE (default 100k)\n"
+        "  --seed S        seed of a generated SCENE (default 1)\n"
+        "  --repeat N      trace each frame N times, keep the median (default 1)\n"
+        "  --threads N     threads (default all cores)\n");
     return 0;
 }
 
@@ -63,10 +64,10 @@ static int usage(void) {
 
 typedef struct anim {
     char name[128];
-    prt_mesh *base;     /* frame 0 (faces of every frame) */
-    float **frames;     /* DIR: vertex arrays of every frame */
+    prt_mesh *base; /* frame 0 (faces of every frame) */
+    float **frames; /* DIR: vertex arrays of every frame */
     size_t nframes;
-    int kind;           /* 0: DIR, 1: twist, 2: marbles, 3: toys */
+    int kind; /* 0: DIR, 1: twist, 2: marbles, 3: toys */
     uint64_t seed;
 } anim;
 
@@ -140,7 +141,8 @@ static int load_dir(const char *dir, size_t max_frames, anim *a) {
             a->base = m;
         } else if (m->vertex_count != a->base->vertex_count || m->triangle_count != a->base->triangle_count ||
                    memcmp(m->triangles, a->base->triangles, 12 * m->triangle_count)) {
-            fprintf(stderr, "packrt animate: %s: its faces differ from the first frame's (an animation keeps them)\n", path);
+            fprintf(stderr, "packrt animate: %s: its faces differ from the first frame's (an animation keeps them)\n",
+                    path);
             prt_mesh_free(m);
             rc = 1;
             break;
@@ -167,11 +169,11 @@ static int load_dir(const char *dir, size_t max_frames, anim *a) {
 /* ---- tracing ----------------------------------------------------------------------- */
 
 typedef struct tracer {
-    const prt_accel *accel;              /* or NULL: embree */
+    const prt_accel *accel; /* or NULL: embree */
     const bench_embree_anim *embree;
-    uint32_t *prims;                     /* per pixel, for agreement */
-    float *t;                            /* per pixel: the primary hit distance (inf: miss) */
-    uint8_t *occluded;                   /* per pixel: the shadow ray is blocked */
+    uint32_t *prims;   /* per pixel, for agreement */
+    float *t;          /* per pixel: the primary hit distance (inf: miss) */
+    uint8_t *occluded; /* per pixel: the shadow ray is blocked */
 } tracer;
 
 /* Primary rays of the whole image in N x N packets (4 x 4 for Embree), OpenMP over packets. */
@@ -204,7 +206,8 @@ static double trace_image(const tracer *t, const render_camera *cam, uint32_t pa
 /* Shadow rays from the primary hits of trace_image to the light, in the same tiles: from
  * the hit point p toward the light, t in [1e-4, 1 - 1e-4] of the way (dir = light - p),
  * the pixels that missed left out of their tile's packet. */
-static double shadow_image(const tracer *t, const render_camera *cam, uint32_t packet, int threads, const float light[3]) {
+static double shadow_image(const tracer *t, const render_camera *cam, uint32_t packet, int threads,
+                           const float light[3]) {
     const uint32_t N = t->embree ? 4 : packet;
     const uint32_t tx = (cam->width + N - 1) / N, ty = (cam->height + N - 1) / N;
     double t0 = prt__now();
@@ -342,15 +345,14 @@ static int parse_valued(const char *a, const char *v, anim_args *g) {
     } else if (!strcmp(a, "--threads")) {
         if (!cli_parse_count(v, &n) || n > 1024) return cli_usage("animate", "--threads: a count");
         g->threads = (int)n;
-    } else
-        return cli_usage("animate", "unknown option '%s'", a);
+    } else return cli_usage("animate", "unknown option '%s'", a);
     return 0;
 }
 
 /* 0 when the arguments parse; -1 after --help; else the exit status (usage printed). */
 static int parse_args(int argc, char **argv, anim_args *g) {
-    *g = (anim_args){.repeat = 1, .W = 1024, .H = 1024, .packet = 8, .tris = 100000, .seed = 1,
-                     .camv = {0, 0, 0, 0, 0, 0, 40}};
+    *g = (anim_args){
+        .repeat = 1, .W = 1024, .H = 1024, .packet = 8, .tris = 100000, .seed = 1, .camv = {0, 0, 0, 0, 0, 0, 40}};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
@@ -458,7 +460,8 @@ static prt_status advance_series(series *r, const anim_args *g, int i, size_t f,
     double t0 = prt__now(), c0 = prt__thread_seconds();
     prt_status s;
     if (i >= g->nspecs) {
-        s = f == 0 ? bench_embree_anim_create(cur, g->threads, &r->embree) : bench_embree_anim_update(r->embree, cur->vertices);
+        s = f == 0 ? bench_embree_anim_create(cur, g->threads, &r->embree)
+                   : bench_embree_anim_update(r->embree, cur->vertices);
     } else if (f > 0 && r->updates) {
         s = prt_accel_update(r->accel, cur->vertices);
     } else {
@@ -531,7 +534,8 @@ static void bench_series(series *r, const series *first, int i, size_t f, const 
         r->compared += pixels;
     }
     if (!g->json) {
-        printf("frame %3zu  %-52s rebuild %8.2f ms  trace %8.2f ms", f, r->label, 1e3 * r->rebuild[f], 1e3 * r->trace[f]);
+        printf("frame %3zu  %-52s rebuild %8.2f ms  trace %8.2f ms", f, r->label, 1e3 * r->rebuild[f],
+               1e3 * r->trace[f]);
         if (g->shadows) printf("  shadow %8.2f ms", 1e3 * r->shadow[f]);
         printf("\n");
     }
@@ -539,8 +543,8 @@ static void bench_series(series *r, const series *first, int i, size_t f, const 
 
 /* -o DIR: series i's frame f rendered (diffuse) to DIR/frame_NNN.png (.ppm without libpng);
  * 0 or the exit status. */
-static int save_frame(const series *r, int i, size_t f, const prt_mesh *cur, const prt_camera *cam,
-                             const anim_args *g, prt_image *img) {
+static int save_frame(const series *r, int i, size_t f, const prt_mesh *cur, const prt_camera *cam, const anim_args *g,
+                      prt_image *img) {
     prt_render_options ro = {.width = g->W, .height = g->H, .shade = PRT_SHADE_DIFFUSE, .threads = g->threads};
     prt_status s = prt_render(r->accel, cur, cam, &ro, img);
     if (s) return cli_fail("animate", "render", s);
@@ -561,14 +565,16 @@ static void print_medians(const series *ser, int nser, const anim *an, const ani
     size_t first = an->nframes > 1 ? 1 : 0, n = an->nframes - first;
     const double ntri = (double)an->base->triangle_count;
     if (g->json) {
-        printf("{\"scene\": \"%s\", \"frames\": %zu, \"triangles\": %zu, \"width\": %u, \"height\": %u, \"packet\": %u, "
-               "\"threads\": %d, \"results\": [",
-               an->name, an->nframes, an->base->triangle_count, g->W, g->H, g->packet, g->threads);
+        printf(
+            "{\"scene\": \"%s\", \"frames\": %zu, \"triangles\": %zu, \"width\": %u, \"height\": %u, \"packet\": %u, "
+            "\"threads\": %d, \"results\": [",
+            an->name, an->nframes, an->base->triangle_count, g->W, g->H, g->packet, g->threads);
     } else {
         printf("\nmedians over frames %zu..%zu%s:\n%-52s %10s %10s %10s %8s %12s %12s", first, an->nframes - 1,
                g->counters ? " (counters: totals over the frames, one thread)" : "", "representation", "rebuild ms",
                "trace ms", "total ms", "fps", "build Mtri/s", "same prim %");
-        if (g->shadows) printf(" %10s %10s %8s %10s %10s", "shadow ms", "total+shd", "fps+shd", "shadowed %", "same shd %");
+        if (g->shadows)
+            printf(" %10s %10s %8s %10s %10s", "shadow ms", "total+shd", "fps+shd", "shadowed %", "same shd %");
         printf("\n");
     }
     for (int i = 0; i < nser; i++) {
@@ -599,7 +605,8 @@ static void print_medians(const series *ser, int nser, const anim *an, const ani
                    same_shd);
         if (g->threads == 1) printf("  cpu: rebuild %.2f trace %.2f ms", 1e3 * rbc, 1e3 * trc);
         if (g->threads == 1 && g->shadows) printf(" shadow %.2f ms", 1e3 * shc);
-        for (size_t k = 0; k < r->ncounts; k++) printf("  %s %.3fM", r->counts[k].name, (double)r->counts[k].value * 1e-6);
+        for (size_t k = 0; k < r->ncounts; k++)
+            printf("  %s %.3fM", r->counts[k].name, (double)r->counts[k].value * 1e-6);
         printf("\n");
     }
     if (g->json) printf("]}\n");
@@ -647,8 +654,8 @@ static int animate(const anim *an, anim_args *g) {
     for (int i = 0; i < nser; i++) series_init(&ser[i], g, an->nframes, i);
     if (g->bench && !g->json)
         printf("scene %s: %zu frames, %zu triangles, %zu vertices; %ux%u primary rays, %ux%u packets, %d threads\n",
-               an->name, an->nframes, an->base->triangle_count, an->base->vertex_count, g->W, g->H, g->packet, g->packet,
-               g->threads);
+               an->name, an->nframes, an->base->triangle_count, an->base->vertex_count, g->W, g->H, g->packet,
+               g->packet, g->threads);
     if (g->bench && !g->json && g->shadows)
         printf("shadow rays from every primary hit to the point light %g,%g,%g\n", (double)g->light[0],
                (double)g->light[1], (double)g->light[2]);

@@ -14,41 +14,40 @@
 #include <unistd.h>
 
 static void usage(FILE *f) {
-    fprintf(f,
-            "usage: packrt bench [MESH|FILE.prt] [options]\n"
-            "\n"
-            "Times every representation and Embree on the same rays (docs/benchmark.md explains\n"
-            "every column). Without MESH: a generated mandelbulb.\n"
-            "\n"
-            "  -r SPEC|all          representation to bench, repeatable (default: one of every family and\n"
-            "                       layout, printed on stderr; all: every name of `packrt list`)\n"
-            "  --workload W[,W]|all random, primary, shadow, diffuse (default: all)\n"
-            "  --vs embree|none     Embree side by side (default: embree when this build has it)\n"
-            "  --threads N          threads of the mt figures (default 0: all cores)\n"
-            "  --reps N             repetitions per figure, median (default 5, at least 5)\n"
-            "  --rounds N           rounds, each building every row afresh and measuring it, Embree and\n"
-            "                       the representations in turn; figures are medians of rounds, and a\n"
-            "                       spread over 10%% is marked (default 3)\n"
-            "  --plot FILE.svg      draw memory per triangle against time per ray, Pareto front joined\n"
-            "  --calibrate          measure auto's candidates (or the -r specs) and write their times over\n"
-            "                       Embree's into the cost table `auto` specs choose from (docs/auto.md)\n"
-            "  --costs FILE         the table --calibrate writes (default: $PRT_COSTS, else\n"
-            "                       ~/.cache/packrt/costs.tsv); rows for other specs and kinds are kept\n"
-            "  --rays N             random rays (default 64k; the 1024-ray figures use the first 1024)\n"
-            "  --size WxH           primary image (default 1024x1024)\n"
-            "  --seed S             workload seed (default 1)\n"
-            "  --offset X           shadow and diffuse rays start X mesh diagonals off the surface\n"
-            "                       (default 1e-4; lossy representations need twice their vertex error)\n"
-            "  --tris N             triangles of the generated default mesh (default 1M)\n"
-            "  --no-cold            skip the cold-cache figure (each sample flushes the caches)\n"
-            "  --flush-mb N         cache flush buffer in MiB (default: twice the last-level cache)\n"
-            "  --json               print the JSON object of docs/benchmark.md instead of the table\n"
-            "  --queries            closest points and containment instead (docs/results/queries.md): the -r\n"
-            "                       specs (default: four) against Embree's rtcPointQuery and trimesh's way\n"
-            "  --matrix             Rouwe's tables instead: every representation (or the -r ones) on\n"
-            "                       1024 random rays, one thread, warm and cold, bytes per triangle,\n"
-            "                       and the splitter, leaf-size and node-order tables, as markdown\n"
-            "  --cold-rays N        --matrix: rays of the flush-before-every-ray figure (default 64, 0: none)\n");
+    fprintf(f, "usage: packrt bench [MESH|FILE.prt] [options]\n"
+               "\n"
+               "Times every representation and Embree on the same rays (docs/benchmark.md explains\n"
+               "every column). Without MESH: a generated mandelbulb.\n"
+               "\n"
+               "  -r SPEC|all          representation to bench, repeatable (default: one of every family and\n"
+               "                       layout, printed on stderr; all: every name of `packrt list`)\n"
+               "  --workload W[,W]|all random, primary, shadow, diffuse (default: all)\n"
+               "  --vs embree|none     Embree side by side (default: embree when this build has it)\n"
+               "  --threads N          threads of the mt figures (default 0: all cores)\n"
+               "  --reps N             repetitions per figure, median (default 5, at least 5)\n"
+               "  --rounds N           rounds, each building every row afresh and measuring it, Embree and\n"
+               "                       the representations in turn; figures are medians of rounds, and a\n"
+               "                       spread over 10%% is marked (default 3)\n"
+               "  --plot FILE.svg      draw memory per triangle against time per ray, Pareto front joined\n"
+               "  --calibrate          measure auto's candidates (or the -r specs) and write their times over\n"
+               "                       Embree's into the cost table `auto` specs choose from (docs/auto.md)\n"
+               "  --costs FILE         the table --calibrate writes (default: $PRT_COSTS, else\n"
+               "                       ~/.cache/packrt/costs.tsv); rows for other specs and kinds are kept\n"
+               "  --rays N             random rays (default 64k; the 1024-ray figures use the first 1024)\n"
+               "  --size WxH           primary image (default 1024x1024)\n"
+               "  --seed S             workload seed (default 1)\n"
+               "  --offset X           shadow and diffuse rays start X mesh diagonals off the surface\n"
+               "                       (default 1e-4; lossy representations need twice their vertex error)\n"
+               "  --tris N             triangles of the generated default mesh (default 1M)\n"
+               "  --no-cold            skip the cold-cache figure (each sample flushes the caches)\n"
+               "  --flush-mb N         cache flush buffer in MiB (default: twice the last-level cache)\n"
+               "  --json               print the JSON object of docs/benchmark.md instead of the table\n"
+               "  --queries            closest points and containment instead (docs/results/queries.md): the -r\n"
+               "                       specs (default: four) against Embree's rtcPointQuery and trimesh's way\n"
+               "  --matrix             Rouwe's tables instead: every representation (or the -r ones) on\n"
+               "                       1024 random rays, one thread, warm and cold, bytes per triangle,\n"
+               "                       and the splitter, leaf-size and node-order tables, as markdown\n"
+               "  --cold-rays N        --matrix: rays of the flush-before-every-ray figure (default 64, 0: none)\n");
 }
 
 typedef struct bench_cli {
@@ -65,7 +64,7 @@ typedef struct bench_cli {
     bool json, cold, matrix, queries;
     size_t cold_rays;
     size_t flush_bytes;
-    double offset;    /* secondary ray origins off the surface, in mesh diagonals */
+    double offset;     /* secondary ray origins off the surface, in mesh diagonals */
     const char *plot;  /* --plot FILE.svg */
     bool calibrate;    /* write auto's cost table from the figures */
     const char *costs; /* --costs FILE: where (default: the user's table, docs/auto.md) */
@@ -133,7 +132,8 @@ static int parse_value(const char *a, const char *v, bench_cli *c) {
         c->costs = v;
     } else if (!strcmp(a, "--plot")) {
         size_t l = strlen(v);
-        if (l < 4 || strcmp(v + l - 4, ".svg")) return cli_usage("bench", "--plot writes SVG: give a FILE.svg, not '%s'", v);
+        if (l < 4 || strcmp(v + l - 4, ".svg"))
+            return cli_usage("bench", "--plot writes SVG: give a FILE.svg, not '%s'", v);
         c->plot = v;
     } else if (!strcmp(a, "--offset")) {
         char *end;
@@ -216,9 +216,8 @@ typedef struct bench_ref {
 
 /* Measure one backend into row; results go to ref when ref->name is still NULL, else are
  * compared with ref. */
-static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *wl,
-                        const bool on[BENCH_WORKLOAD_COUNT], double diagonal, bench_ref *ref,
-                        const prt_mesh *mesh, size_t triangles, bench_row *row) {
+static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *wl, const bool on[BENCH_WORKLOAD_COUNT],
+                        double diagonal, bench_ref *ref, const prt_mesh *mesh, size_t triangles, bench_row *row) {
     bench_options o = {c->reps, c->threads, c->flush_bytes, c->cold};
     prt_stats s;
     b->stats(b->self, &s);
@@ -253,9 +252,8 @@ static void measure_row(const bench_backend *b, const bench_cli *c, bench_rays *
 
 /* Primary hits for the secondary workloads: from Embree when it runs, else from the first
  * representation that builds (any correct accel gives the same rays up to edge cases). */
-static prt_status primary_hits(const bench_cli *c, bench_embree *em, const prt_mesh *m,
-                               const char *const *specs, size_t nspecs, const bench_rays *primary,
-                               prt_hit **hits) {
+static prt_status primary_hits(const bench_cli *c, bench_embree *em, const prt_mesh *m, const char *const *specs,
+                               size_t nspecs, const bench_rays *primary, prt_hit **hits) {
     if (em) {
         *hits = malloc(primary->count * sizeof **hits);
         prt_ray *copy = malloc(primary->count * sizeof *copy);
@@ -371,8 +369,10 @@ static const char **resolve_specs(bench_cli *c, const bench_input *in, size_t *c
         for (size_t i = 0; bench_calibrate_specs[i]; i++) specs[n++] = bench_calibrate_specs[i];
     } else if (!c->spec_count) {
         for (size_t i = 0; bench_default_specs[i]; i++) specs[n++] = bench_default_specs[i];
-        fprintf(stderr, "packrt bench: %zu representations, one of every family and layout (-r all: all %zu, "
-                        "-r SPEC: yours)\n", n, prt_repr_count());
+        fprintf(stderr,
+                "packrt bench: %zu representations, one of every family and layout (-r all: all %zu, "
+                "-r SPEC: yours)\n",
+                n, prt_repr_count());
     }
     for (int i = 0; i < c->spec_count && !in->file_accel; i++) {
         if (!strcmp(c->specs[i], "embree")) c->vs_embree = true;
@@ -406,7 +406,8 @@ static int make_workloads(const bench_cli *c, const bench_input *in, bench_embre
     if (!w->on[BENCH_SHADOW] && !w->on[BENCH_DIFFUSE]) return 0;
     prt_hit *ph = NULL;
     if ((s = primary_hits(c, em, in->mesh, specs, nspecs, &w->wl[BENCH_PRIMARY], &ph))) {
-        fprintf(stderr, "packrt bench: no accel for the primary hits of shadow and diffuse rays: %s\n", prt_last_error());
+        fprintf(stderr, "packrt bench: no accel for the primary hits of shadow and diffuse rays: %s\n",
+                prt_last_error());
         w->on[BENCH_SHADOW] = w->on[BENCH_DIFFUSE] = false;
         return 0;
     }
@@ -592,7 +593,8 @@ static int write_costs(const bench_cli *c, const bench_input *in, const bench_ro
 
 /* The main table: workloads, rounds of every row, the report. */
 static int run_table(bench_cli *c, const bench_input *in, double load) {
-    if (c->calibrate && !in->mesh) return cli_usage("bench", "--calibrate builds representations: it needs a mesh, not a .prt file");
+    if (c->calibrate && !in->mesh)
+        return cli_usage("bench", "--calibrate builds representations: it needs a mesh, not a .prt file");
     size_t nspecs = 0;
     const char **specs = resolve_specs(c, in, &nspecs);
     if (!specs) return cli_fail("bench", "rows", PRT_ERROR_NOMEM);
@@ -601,8 +603,7 @@ static int run_table(bench_cli *c, const bench_input *in, double load) {
     snprintf(why_not.name, sizeof why_not.name, "embree");
     if (!bench_embree_available())
         snprintf(why_not.error, sizeof why_not.error, "Embree was not available (this build has no Embree)");
-    else if (!in->mesh)
-        snprintf(why_not.error, sizeof why_not.error, "Embree not run: a .prt file carries no mesh");
+    else if (!in->mesh) snprintf(why_not.error, sizeof why_not.error, "Embree not run: a .prt file carries no mesh");
     bool vs_embree = c->vs_embree && in->mesh && bench_embree_available();
     bench_embree *em = NULL;
     if (vs_embree) {

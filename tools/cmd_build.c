@@ -60,8 +60,7 @@ static int parse_args(int argc, char **argv, build_args *b) {
         else if (!strcmp(argv[i], "--order") && i + 1 < argc) b->order_path = argv[++i];
         else if (!strcmp(argv[i], "--memory") && i + 1 < argc) {
             if (!cli_parse_count(argv[++i], &b->memory)) return cli_usage("build", "--memory: bad size '%s'", argv[i]);
-        }
-        else if (argv[i][0] == '-') return cli_usage("build", "unknown option '%s'", argv[i]);
+        } else if (argv[i][0] == '-') return cli_usage("build", "unknown option '%s'", argv[i]);
         else if (!b->mesh_path) b->mesh_path = argv[i];
         else return cli_usage("build", "more than one mesh given ('%s')", argv[i]);
     }
@@ -78,8 +77,8 @@ static void print_summary(const char *out, const prt_accel *a, bool peak) {
     double n = (double)st.triangles;
     char peak_text[64] = "";
     if (peak) snprintf(peak_text, sizeof peak_text, ", peak %.1f MB", st.build_peak_bytes / 1e6);
-    fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s%s, %.2f B/tri (tree %.2f, geometry %.2f)\n", out,
-            prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds, peak_text,
+    fprintf(stderr, "%s: %s, %zu triangles (%zu hittable), built in %.3f s%s, %.2f B/tri (tree %.2f, geometry %.2f)\n",
+            out, prt_accel_spec(a), st.triangles, st.triangles_built, st.build_seconds, peak_text,
             (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) / n, (double)st.bytes_tree / n,
             (double)st.bytes_geometry / n);
     if (st.detail[0]) fprintf(stderr, "  %s\n", st.detail);
@@ -108,8 +107,8 @@ static int build_to_file(const build_args *b) {
         return cli_usage("build", "--gen: expected KIND:TRIANGLES[:SEED], got '%s'", b->gen);
     cli_progress bar;
     cli_progress_begin(&bar, "building");
-    prt_build_options o = {.threads = b->threads, .progress = cli_progress_callback, .progress_user = &bar,
-                           .memory_budget = b->memory};
+    prt_build_options o = {
+        .threads = b->threads, .progress = cli_progress_callback, .progress_user = &bar, .memory_budget = b->memory};
     prt_status s = b->gen ? prt_build_generated(kind, tris, seed, b->spec, b->out, &o)
                           : prt_build_file(b->mesh_path, b->spec, b->out, &o);
     cli_progress_end(&bar);
@@ -144,15 +143,17 @@ static int build_in_core(const build_args *b) {
     cli_progress bar;
     cli_progress_begin(&bar, "building");
     uint32_t *order = b->order_path ? malloc((m->triangle_count ? m->triangle_count : 1) * sizeof *order) : NULL;
-    prt_build_options o = {.threads = b->threads, .progress = cli_progress_callback, .progress_user = &bar,
-                           .triangle_order = order};
+    prt_build_options o = {
+        .threads = b->threads, .progress = cli_progress_callback, .progress_user = &bar, .triangle_order = order};
     prt_accel *a;
     s = b->order_path && !order ? PRT_ERROR_NOMEM : prt_build(m, b->spec, &o, &a);
     cli_progress_end(&bar);
     prt_mesh_free(m);
     if (s == PRT_ERROR_ARGUMENT && !b->order_path && strstr(b->spec, "ids=none")) {
-        fprintf(stderr, "packrt build: %s: ids=none stores no triangle ids, so hits name positions in the accel's own "
-                        "order; give --order FILE to receive it\n", b->spec);
+        fprintf(stderr,
+                "packrt build: %s: ids=none stores no triangle ids, so hits name positions in the accel's own "
+                "order; give --order FILE to receive it\n",
+                b->spec);
         return 1;
     }
     if (s) {

@@ -73,8 +73,7 @@ int cmd_cast(int argc, char **argv) {
         else if (!strcmp(argv[i], "--all")) all = true;
         else if (!strcmp(argv[i], "--max") && i + 1 < argc) {
             if (!cli_parse_count(argv[++i], &max)) return cli_usage("cast", "--max needs a count, not '%s'", argv[i]);
-        }
-        else if (argv[i][0] == '-') return cli_usage("cast", "unknown option '%s'", argv[i]);
+        } else if (argv[i][0] == '-') return cli_usage("cast", "unknown option '%s'", argv[i]);
         else if (!path) path = argv[i];
         else return cli_usage("cast", "more than one input given ('%s')", argv[i]);
     }

@@ -10,32 +10,31 @@
 #include <time.h>
 
 static void usage(FILE *f) {
-    fprintf(
-        f,
-        "usage: packrt gen KIND [--tris N] [--seed S] -o out.ply|out.stl|out.off\n"
-        "\n"
-        "Write a procedural triangle mesh as binary little-endian PLY, or as binary STL or\n"
-        "ASCII OFF when the output name ends in .stl or .off (those hold the mesh in memory).\n"
-        "\n"
-        "  KIND        one of: %s\n"
-        "                sphere      closed cube sphere, radius 1: 12 k^2 triangles\n"
-        "                terrain     noise height field over [-1, 1]^2, y up: 2 nx nz triangles\n"
-        "                mandelbulb  power-8 Mandelbulb isosurface (marching cubes)\n"
-        "                cad         many boxes, plates, cylinders; unwelded faces; exact N\n"
-        "  --tris N    triangle budget, with k/M/G suffixes (100M); default 1M.\n"
-        "              The count is as near N as the kind's construction allows\n"
-        "              (docs/generators.md).\n"
-        "  --seed S    unsigned integer seed, default 1 (terrain and cad; sphere and\n"
-        "              mandelbulb have one shape). Same kind, N, seed: the same file.\n"
-        "  -o FILE     output path\n"
-        "\n"
-        "mandelbulb streams straight to disk at any size: memory stays within\n"
-        "  --memory M  bytes for bricks in flight (k/M/G suffixes; default 256M), plus\n"
-        "              about 0.2 bytes a triangle and a bitmap of up to 128 MiB; a\n"
-        "              temporary file of about 14 bytes a triangle goes beside FILE.\n"
-        "  --dry-run   extract the mandelbulb's triangles, count and time them, write\n"
-        "              nothing (what a consumer of the stream pays); no -o needed.\n",
-        prt_gen_kinds());
+    fprintf(f,
+            "usage: packrt gen KIND [--tris N] [--seed S] -o out.ply|out.stl|out.off\n"
+            "\n"
+            "Write a procedural triangle mesh as binary little-endian PLY, or as binary STL or\n"
+            "ASCII OFF when the output name ends in .stl or .off (those hold the mesh in memory).\n"
+            "\n"
+            "  KIND        one of: %s\n"
+            "                sphere      closed cube sphere, radius 1: 12 k^2 triangles\n"
+            "                terrain     noise height field over [-1, 1]^2, y up: 2 nx nz triangles\n"
+            "                mandelbulb  power-8 Mandelbulb isosurface (marching cubes)\n"
+            "                cad         many boxes, plates, cylinders; unwelded faces; exact N\n"
+            "  --tris N    triangle budget, with k/M/G suffixes (100M); default 1M.\n"
+            "              The count is as near N as the kind's construction allows\n"
+            "              (docs/generators.md).\n"
+            "  --seed S    unsigned integer seed, default 1 (terrain and cad; sphere and\n"
+            "              mandelbulb have one shape). Same kind, N, seed: the same file.\n"
+            "  -o FILE     output path\n"
+            "\n"
+            "mandelbulb streams straight to disk at any size: memory stays within\n"
+            "  --memory M  bytes for bricks in flight (k/M/G suffixes; default 256M), plus\n"
+            "              about 0.2 bytes a triangle and a bitmap of up to 128 MiB; a\n"
+            "              temporary file of about 14 bytes a triangle goes beside FILE.\n"
+            "  --dry-run   extract the mandelbulb's triangles, count and time them, write\n"
+            "              nothing (what a consumer of the stream pays); no -o needed.\n",
+            prt_gen_kinds());
 }
 
 static double now_s(void) {
@@ -96,8 +95,8 @@ static int gen_mandelbulb_streamed(size_t tris, uint64_t seed, size_t memory, co
                "streamed)\n",
                path, (unsigned long long)nt, (unsigned long long)nv, now_s() - t0);
     else
-        printf("mandelbulb: %llu triangles streamed in %.2f s (dry run: nothing written)\n",
-               (unsigned long long)seen, now_s() - t0);
+        printf("mandelbulb: %llu triangles streamed in %.2f s (dry run: nothing written)\n", (unsigned long long)seen,
+               now_s() - t0);
     return 0;
 }
 
@@ -113,8 +112,8 @@ int cmd_gen(int argc, char **argv) {
             return 0;
         } else if (!strcmp(a, "--dry-run")) {
             dry_run = true;
-        } else if (!strcmp(a, "--tris") || !strcmp(a, "--seed") || !strcmp(a, "-o") ||
-                   !strcmp(a, "--output") || !strcmp(a, "--memory")) {
+        } else if (!strcmp(a, "--tris") || !strcmp(a, "--seed") || !strcmp(a, "-o") || !strcmp(a, "--output") ||
+                   !strcmp(a, "--memory")) {
             if (i + 1 >= argc) return cli_usage("gen", "%s needs a value", a);
             const char *v = argv[++i];
             if (!strcmp(a, "--memory")) {
@@ -123,11 +122,9 @@ int cmd_gen(int argc, char **argv) {
             } else if (!strcmp(a, "--tris")) {
                 if (!cli_parse_count(v, &tris))
                     return cli_usage("gen", "--tris: '%s' is not a count (e.g. 500k, 2M)", v);
-                if (tris == 0)
-                    return cli_usage("gen", "--tris: the triangle count must be at least 1");
+                if (tris == 0) return cli_usage("gen", "--tris: the triangle count must be at least 1");
             } else if (!strcmp(a, "--seed")) {
-                if (!parse_seed(v, &seed))
-                    return cli_usage("gen", "--seed: '%s' is not an unsigned integer", v);
+                if (!parse_seed(v, &seed)) return cli_usage("gen", "--seed: '%s' is not an unsigned integer", v);
             } else {
                 path = v;
             }
@@ -140,8 +137,7 @@ int cmd_gen(int argc, char **argv) {
         }
     }
     if (!kind) return cli_usage("gen", "missing KIND (one of: %s)", prt_gen_kinds());
-    if (!known_kind(kind))
-        return cli_usage("gen", "unknown KIND '%s' (one of: %s)", kind, prt_gen_kinds());
+    if (!known_kind(kind)) return cli_usage("gen", "unknown KIND '%s' (one of: %s)", kind, prt_gen_kinds());
     bool streamed = !strcmp(kind, "mandelbulb") && (!path || !save_format(path));
     if (dry_run && !streamed) return cli_usage("gen", "--dry-run streams the mandelbulb only");
     if (!path && !dry_run) return cli_usage("gen", "missing -o out.ply");
@@ -154,7 +150,7 @@ int cmd_gen(int argc, char **argv) {
         return cli_usage("gen", "%s", prt_last_error()); /* e.g. a count beyond the limit */
     if (s) return cli_fail("gen", kind, s);
     double t1 = now_s();
-    s = save_format(path) == 's' ? prt_mesh_save_stl(m, path)
+    s = save_format(path) == 's'   ? prt_mesh_save_stl(m, path)
         : save_format(path) == 'o' ? prt_mesh_save_off(m, path)
                                    : prt_mesh_save_ply(m, path);
     double t2 = now_s();
@@ -162,8 +158,8 @@ int cmd_gen(int argc, char **argv) {
         prt_mesh_free(m);
         return cli_fail("gen", path, s);
     }
-    printf("%s: %s, %zu triangles, %zu vertices (generated in %.2f s, written in %.2f s)\n", path,
-           kind, m->triangle_count, m->vertex_count, t1 - t0, t2 - t1);
+    printf("%s: %s, %zu triangles, %zu vertices (generated in %.2f s, written in %.2f s)\n", path, kind,
+           m->triangle_count, m->vertex_count, t1 - t0, t2 - t1);
     prt_mesh_free(m);
     return 0;
 }

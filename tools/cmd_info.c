@@ -26,7 +26,8 @@ static void print_stats(const prt_accel *a) {
     prt_stats s;
     prt_accel_stats(a, &s);
     double n = (double)s.triangles;
-    printf("  %-36s %7.2f B/tri  (tree %6.2f, geometry %6.2f, other %.2f)  nodes %zu  leaves %zu  depth %u  build %.3f s\n",
+    printf("  %-36s %7.2f B/tri  (tree %6.2f, geometry %6.2f, other %.2f)  nodes %zu  leaves %zu  depth %u  build %.3f "
+           "s\n",
            prt_accel_spec(a), (double)(s.bytes_tree + s.bytes_geometry + s.bytes_other) / n, (double)s.bytes_tree / n,
            (double)s.bytes_geometry / n, (double)s.bytes_other / n, s.nodes, s.leaves, s.depth, s.build_seconds);
     if (s.detail[0]) printf("    %s\n", s.detail);
@@ -59,8 +60,8 @@ static void connectivity(const prt_mesh *m) {
         i = j;
     }
     free(e);
-    printf("edges        %zu (boundary %zu, shared by two %zu, by more %zu)%s\n", edges, boundary, manifold, nonmanifold,
-           boundary == 0 && nonmanifold == 0 ? "  closed" : "");
+    printf("edges        %zu (boundary %zu, shared by two %zu, by more %zu)%s\n", edges, boundary, manifold,
+           nonmanifold, boundary == 0 && nonmanifold == 0 ? "  closed" : "");
 }
 
 /* --verify: the size built over the whole mesh beside the estimate. */
@@ -99,7 +100,8 @@ static int estimates(const prt_mesh *m, const char *auto_spec, double limit, boo
     for (int l = 0; l < 2; l++)
         for (size_t i = 0; lists[l][i]; i++) {
             bool seen = false; /* a spec in both lists once */
-            for (size_t j = 0; l == 1 && bench_default_specs[j]; j++) seen |= !strcmp(bench_default_specs[j], lists[l][i]);
+            for (size_t j = 0; l == 1 && bench_default_specs[j]; j++)
+                seen |= !strcmp(bench_default_specs[j], lists[l][i]);
             if (seen) continue;
             prt_size_estimate e;
             prt_status s = prt_estimate(m, lists[l][i], &e);
@@ -109,8 +111,9 @@ static int estimates(const prt_mesh *m, const char *auto_spec, double limit, boo
             }
             size_t total = e.bytes_tree + e.bytes_geometry + e.bytes_other;
             printf("  %-44s %7.2f B/tri  (tree %6.2f, geometry %6.2f)  %9.1f MB%s%s", lists[l][i], e.bytes_per_triangle,
-                   (double)e.bytes_tree / (double)m->triangle_count, (double)e.bytes_geometry / (double)m->triangle_count,
-                   (double)total / 1e6, e.sample_triangles < m->triangle_count ? "" : " (exact)",
+                   (double)e.bytes_tree / (double)m->triangle_count,
+                   (double)e.bytes_geometry / (double)m->triangle_count, (double)total / 1e6,
+                   e.sample_triangles < m->triangle_count ? "" : " (exact)",
                    !limit || (double)total <= limit ? " *" : "");
             if (verify) verify_estimate(m, lists[l][i], total);
             putchar('\n');
@@ -154,8 +157,8 @@ static int describe_file(const char *path) {
     if (s) return cli_fail("info", path, s);
     prt_stats st;
     prt_accel_stats(a, &st);
-    printf("file         %s\nrepresentation %s\ntriangles    %zu (%zu hittable)\n", path, prt_accel_spec(a), st.triangles,
-           st.triangles_built);
+    printf("file         %s\nrepresentation %s\ntriangles    %zu (%zu hittable)\n", path, prt_accel_spec(a),
+           st.triangles, st.triangles_built);
     print_stats(a);
     prt_accel_free(a);
     return 0;
@@ -165,21 +168,21 @@ static int describe_file(const char *path) {
 static void describe_mesh(const prt_mesh *m, const char *path) {
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
-    printf("mesh         %s\ntriangles    %zu (degenerate, never hit: %zu)\nvertices     %zu\n", path, m->triangle_count,
-           prt_mesh_count_degenerate(m), m->vertex_count);
+    printf("mesh         %s\ntriangles    %zu (degenerate, never hit: %zu)\nvertices     %zu\n", path,
+           m->triangle_count, prt_mesh_count_degenerate(m), m->vertex_count);
     mesh_format fmt;
     if (mesh_format_of_file(path, &fmt) == PRT_OK) {
         printf("format       %s\n", mesh_format_name(fmt));
         /* STL stores 3 corners a triangle; the reader welds equal positions into one. */
         if (fmt == MESH_FORMAT_STL_BINARY || fmt == MESH_FORMAT_STL_ASCII)
-            printf("welded       %zu corners into %zu vertices (%zu merged)\n", 3 * m->triangle_count,
-                   m->vertex_count, 3 * m->triangle_count - m->vertex_count);
+            printf("welded       %zu corners into %zu vertices (%zu merged)\n", 3 * m->triangle_count, m->vertex_count,
+                   3 * m->triangle_count - m->vertex_count);
     }
     printf("bounds       (%g, %g, %g) - (%g, %g, %g)\n", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     printf("colours      %s\n", m->vertex_colors && m->triangle_colors ? "per vertex and per triangle"
-                                : m->vertex_colors                    ? "per vertex"
-                                : m->triangle_colors                  ? "per triangle"
-                                                                      : "none");
+                                : m->vertex_colors                     ? "per vertex"
+                                : m->triangle_colors                   ? "per triangle"
+                                                                       : "none");
     connectivity(m);
 }
 

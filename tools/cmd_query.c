@@ -40,10 +40,12 @@ static int answer(const char *out, const prt_accel *a, const float *pts, size_t 
     if (mode == 'c' || mode == 'w') {
         void *res = malloc(n ? n * (mode == 'c' ? 1 : 4) : 1);
         if (!res) return fprintf(stderr, "packrt query: out of memory for %zu points\n", n), 1;
-        s = mode == 'c'        ? prt_contains_by(a, pts, n, method, res, threads)
+        s = mode == 'c'   ? prt_contains_by(a, pts, n, method, res, threads)
             : isnan(beta) ? prt_winding_number(a, pts, n, res, threads)
                           : prt_winding_number_fast(a, pts, n, beta, res, threads);
-        if (!s) rc = qf_write("query", out, mode == 'c' ? "PRTINSD1" : "PRTWIND1", n, NULL, 0, res, n * (mode == 'c' ? 1 : 4));
+        if (!s)
+            rc = qf_write("query", out, mode == 'c' ? "PRTINSD1" : "PRTWIND1", n, NULL, 0, res,
+                          n * (mode == 'c' ? 1 : 4));
         free(res);
         return s ? cli_fail("query", "query", s) : rc;
     }
@@ -78,7 +80,8 @@ int cmd_query(int argc, char **argv) {
         else if (!strcmp(argv[i], "--max-distance") && i + 1 < argc) {
             char *end;
             max_distance = strtof(argv[++i], &end);
-            if (*end || !(max_distance >= 0)) return cli_usage("query", "--max-distance needs a distance, not '%s'", argv[i]);
+            if (*end || !(max_distance >= 0))
+                return cli_usage("query", "--max-distance needs a distance, not '%s'", argv[i]);
         } else if (!strcmp(argv[i], "--beta") && i + 1 < argc) {
             char *end;
             beta = strtof(argv[++i], &end);

@@ -16,40 +16,39 @@
 #define DEFAULT_SPEC "quad:float3-soa4"
 
 static int usage(void) {
-    printf(
-        "usage: packrt render MESH|FILE.prt [-r SPEC] -o img.png [options]\n"
-        "       packrt render MESH --compare SPEC1,SPEC2 -o img.png [options]\n"
-        "\n"
-        "Render with one of the shading modes (docs/render.md). The same command gives the same\n"
-        "image bit for bit, whatever --threads.\n"
-        "\n"
-        "  -r SPEC          representation to build MESH with (default " DEFAULT_SPEC "), or\n"
-        "                   embree: the same rays traced by Embree (timing comparisons)\n"
-        "  -o FILE          output image: .png (libpng) or .ppm\n"
-        "  --mesh MESH      the mesh a FILE.prt was built from: exact normals; without it they\n"
-        "                   are estimated from neighbouring rays (slower, softer at creases)\n"
-        "  --shade MODE     normal | diffuse | shadows | ao | gi (default diffuse)\n"
-        "  --size WxH       image size (default 1024x768)\n"
-        "  --spp N          samples per pixel (default 1; ao and gi 16)\n"
-        "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov in degrees (default 40);\n"
-        "                   default: the framing of the bounds that packrt bench uses\n"
-        "  --up x,y,z       camera up (default 0,1,0)\n"
-        "  --light x,y,z    point light of shadows and gi (default: above, front, left)\n"
-        "  --ao-radius R    occlusion ray length (default 0.15 x bounds diagonal)\n"
-        "  --denoise        gi: a-trous filter on the indirect light\n"
-        "  --seed S         random seed (default 1)\n"
-        "  --threads N      threads (default all cores)\n"
-        "  --repeat N       render N times and report the median time (for measurements)\n"
-        "  --lod P          levels of detail: stop at voxels that cover at most P pixels (Afra\n"
-        "                   2012, e.g. 3); with an out-of-core file, frames are rendered one after\n"
-        "                   the other, loading blocks between them, until nothing more is\n"
-        "                   requested (or --frames N), each reported with its working set\n"
-        "  --frames N       at most N progressive frames with --lod (default 200)\n"
-        "  --cache BYTES    out-of-core files: the block cache (k/M/G; default 1G)\n"
-        "  --compare A,B    build MESH as A and as B, write FILE-A.png, FILE-B.png and "
-        "FILE-diff.png\n"
-        "                   and print the largest pixel difference (and PSNR when they differ);\n"
-        "                   lossless representations give identical images\n");
+    printf("usage: packrt render MESH|FILE.prt [-r SPEC] -o img.png [options]\n"
+           "       packrt render MESH --compare SPEC1,SPEC2 -o img.png [options]\n"
+           "\n"
+           "Render with one of the shading modes (docs/render.md). The same command gives the same\n"
+           "image bit for bit, whatever --threads.\n"
+           "\n"
+           "  -r SPEC          representation to build MESH with (default " DEFAULT_SPEC "), or\n"
+           "                   embree: the same rays traced by Embree (timing comparisons)\n"
+           "  -o FILE          output image: .png (libpng) or .ppm\n"
+           "  --mesh MESH      the mesh a FILE.prt was built from: exact normals; without it they\n"
+           "                   are estimated from neighbouring rays (slower, softer at creases)\n"
+           "  --shade MODE     normal | diffuse | shadows | ao | gi (default diffuse)\n"
+           "  --size WxH       image size (default 1024x768)\n"
+           "  --spp N          samples per pixel (default 1; ao and gi 16)\n"
+           "  --camera ex,ey,ez,tx,ty,tz[,fov]   eye, target, vertical fov in degrees (default 40);\n"
+           "                   default: the framing of the bounds that packrt bench uses\n"
+           "  --up x,y,z       camera up (default 0,1,0)\n"
+           "  --light x,y,z    point light of shadows and gi (default: above, front, left)\n"
+           "  --ao-radius R    occlusion ray length (default 0.15 x bounds diagonal)\n"
+           "  --denoise        gi: a-trous filter on the indirect light\n"
+           "  --seed S         random seed (default 1)\n"
+           "  --threads N      threads (default all cores)\n"
+           "  --repeat N       render N times and report the median time (for measurements)\n"
+           "  --lod P          levels of detail: stop at voxels that cover at most P pixels (Afra\n"
+           "                   2012, e.g. 3); with an out-of-core file, frames are rendered one after\n"
+           "                   the other, loading blocks between them, until nothing more is\n"
+           "                   requested (or --frames N), each reported with its working set\n"
+           "  --frames N       at most N progressive frames with --lod (default 200)\n"
+           "  --cache BYTES    out-of-core files: the block cache (k/M/G; default 1G)\n"
+           "  --compare A,B    build MESH as A and as B, write FILE-A.png, FILE-B.png and "
+           "FILE-diff.png\n"
+           "                   and print the largest pixel difference (and PSNR when they differ);\n"
+           "                   lossless representations give identical images\n");
     return 0;
 }
 
@@ -113,8 +112,7 @@ static bool ends_with(const char *s, const char *suffix) {
 }
 
 int cli_render_save(const prt_image *img, const char *path) {
-    prt_status s =
-        ends_with(path, ".ppm") ? prt_image_save_ppm(img, path) : prt_image_save_png(img, path);
+    prt_status s = ends_with(path, ".ppm") ? prt_image_save_ppm(img, path) : prt_image_save_png(img, path);
     return s ? cli_fail("render", path, s) : 0;
 }
 
@@ -137,8 +135,8 @@ static int cmp_double(const void *a, const void *b) {
 }
 
 /* Render `repeat` times (the image is the same each time) and report the median. */
-static int render_timed(const prt_accel *a, const prt_mesh *m, const prt_camera *cam,
-                        prt_render_options *o, int repeat, prt_image *img, double *median_s) {
+static int render_timed(const prt_accel *a, const prt_mesh *m, const prt_camera *cam, prt_render_options *o, int repeat,
+                        prt_image *img, double *median_s) {
     double t[64];
     repeat = repeat < 1 ? 1 : repeat > 64 ? 64 : repeat;
     for (int i = 0; i < repeat; i++) {
@@ -155,24 +153,21 @@ static int render_timed(const prt_accel *a, const prt_mesh *m, const prt_camera 
     return 0;
 }
 
-static void report(const char *spec, const prt_render_options *o, const prt_image *img, double s,
-                   const char *path, int threads) {
-    printf("%-24s %ux%u %s spp %u, %d thread%s: %.3f s, %.2f Mrays/s (%.1f rays/pixel) -> %s\n",
-           spec, img->width, img->height, prt_shade_name(o->shade), o->spp, threads,
-           threads == 1 ? "" : "s", s, (double)img->rays / s * 1e-6,
-           (double)img->rays / ((double)img->width * img->height), path);
+static void report(const char *spec, const prt_render_options *o, const prt_image *img, double s, const char *path,
+                   int threads) {
+    printf("%-24s %ux%u %s spp %u, %d thread%s: %.3f s, %.2f Mrays/s (%.1f rays/pixel) -> %s\n", spec, img->width,
+           img->height, prt_shade_name(o->shade), o->spp, threads, threads == 1 ? "" : "s", s,
+           (double)img->rays / s * 1e-6, (double)img->rays / ((double)img->width * img->height), path);
 }
 
-static int compare(const char *path, const char *mesh_path, const char *specs,
-                   const prt_camera *cam, prt_render_options *o, int repeat, const char *out,
-                   int threads) {
+static int compare(const char *path, const char *mesh_path, const char *specs, const prt_camera *cam,
+                   prt_render_options *o, int repeat, const char *out, int threads) {
     char spec[2][160];
     if (!split_specs(specs, spec[0], spec[1], sizeof spec[0]))
         return cli_usage("render", "--compare needs two specs: SPEC1,SPEC2 (got '%s')", specs);
     const char *src = mesh_path ? mesh_path : path;
     if (cli_is_prt_file(src))
-        return cli_usage("render",
-                         "--compare builds both representations: give a mesh, or --mesh MESH");
+        return cli_usage("render", "--compare builds both representations: give a mesh, or --mesh MESH");
     prt_mesh *m;
     prt_status s = prt_mesh_load(src, &m);
     if (s) return cli_fail("render", src, s);
@@ -201,18 +196,14 @@ static int compare(const char *path, const char *mesh_path, const char *specs,
         char name[1024];
         derived_name(out, "diff", name, sizeof name);
         s = prt_image_compare(&img[0], &img[1], &largest, &differing, &psnr, &diff);
-        if (s)
-            rc = cli_fail("render", "compare", s);
-        else
-            rc = cli_render_save(&diff, name);
+        if (s) rc = cli_fail("render", "compare", s);
+        else rc = cli_render_save(&diff, name);
         if (!rc) {
             printf("%-24s -> %s\n", "difference", name);
-            printf("largest pixel difference: %d of 255, %zu of %zu pixels differ", largest,
-                   differing, (size_t)img[0].width * img[0].height);
-            if (largest)
-                printf(", PSNR %.2f dB\n", psnr);
-            else
-                printf(": identical\n");
+            printf("largest pixel difference: %d of 255, %zu of %zu pixels differ", largest, differing,
+                   (size_t)img[0].width * img[0].height);
+            if (largest) printf(", PSNR %.2f dB\n", psnr);
+            else printf(": identical\n");
         }
         prt_image_free(&diff);
     }
@@ -249,7 +240,8 @@ static int parse_counts(const char *arg, const char *val, render_parse *p) {
         p->frames = atoi(val);
         if (p->frames < 1 || p->frames > 100000) return cli_usage("render", "--frames wants 1..100000 (got '%s')", val);
     } else if (!strcmp(arg, "--cache")) {
-        if (!cli_parse_count(val, &p->cache) || !p->cache) return cli_usage("render", "--cache wants a size (got '%s')", val);
+        if (!cli_parse_count(val, &p->cache) || !p->cache)
+            return cli_usage("render", "--cache wants a size (got '%s')", val);
     } else if (!strcmp(arg, "--repeat")) {
         p->repeat = atoi(val);
         if (p->repeat < 1 || p->repeat > 64) return cli_usage("render", "--repeat wants 1..64 (got '%s')", val);
@@ -273,7 +265,8 @@ static int parse_valued(const char *arg, const char *val, render_parse *p) {
             return cli_usage("render", "--size wants WxH, e.g. 1024x768 (got '%s')", val);
     } else if (!strcmp(arg, "--spp")) {
         size_t n;
-        if (!cli_parse_count(val, &n) || !n || n > 65536) return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
+        if (!cli_parse_count(val, &n) || !n || n > 65536)
+            return cli_usage("render", "--spp wants 1..65536 (got '%s')", val);
         o->spp = (uint32_t)n;
     } else if (!strcmp(arg, "--camera")) {
         p->cam_n = parse_floats(val, p->cam_v, 7);
@@ -342,8 +335,7 @@ int cli_render_open(const cli_render_args *r, bool notes, prt_mesh **mesh, prt_a
     int rc = 0;
     if (spec && !strcmp(spec, "embree")) {
         prt_status s = PRT_OK;
-        if (cli_is_prt_file(path))
-            return cli_usage("render", "-r embree traces a mesh: give a mesh, not %s", path);
+        if (cli_is_prt_file(path)) return cli_usage("render", "-r embree traces a mesh: give a mesh, not %s", path);
         if ((s = prt_mesh_load(path, &m))) return cli_fail("render", path, s);
         if ((s = build_for_render(m, spec, &a))) {
             prt_mesh_free(m);
@@ -353,8 +345,7 @@ int cli_render_open(const cli_render_args *r, bool notes, prt_mesh **mesh, prt_a
         prt_open_options oo = {.cache_bytes = r->cache};
         prt_status s = prt_accel_open(path, &oo, &a);
         if (s) return cli_fail("render", path, s);
-    } else if ((rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a)))
-        return rc;
+    } else if ((rc = cli_open_accel("render", path, spec, DEFAULT_SPEC, &m, &a))) return rc;
     if (mesh_path && !m) {
         prt_status s = prt_mesh_load(mesh_path, &m);
         if (s) {
@@ -382,8 +373,7 @@ int cmd_render(int argc, char **argv) {
     const prt_camera *camp = r.have_camera ? &r.cam : NULL;
     int repeat = r.repeat, frames = r.frames, threads = r.threads;
 
-    if (r.compare_specs)
-        return compare(path, r.mesh_path, r.compare_specs, camp, &o, repeat, out, threads);
+    if (r.compare_specs) return compare(path, r.mesh_path, r.compare_specs, camp, &o, repeat, out, threads);
 
     const double t_open = omp_get_wtime(); /* "first image after opening the file" counts from here */
     prt_mesh *m;
@@ -417,16 +407,16 @@ int cmd_render(int argc, char **argv) {
                 /* Converged: time --repeat more frames of the same view and keep the median. */
                 if (steady < 64) tsteady[steady] = img.seconds;
                 if (++steady >= repeat) break;
-            } else if (ci.requested == 0)
-                usleep(2000); /* only loads in flight: let them land */
+            } else if (ci.requested == 0) usleep(2000); /* only loads in flight: let them land */
         }
         if (steady > 1) {
             int n = steady < 64 ? steady : 64;
             qsort(tsteady, (size_t)n, sizeof tsteady[0], cmp_double);
             t = n % 2 ? tsteady[n / 2] : 0.5 * (tsteady[n / 2 - 1] + tsteady[n / 2]);
         }
-        printf("first image %.3f s after opening the file; converged after %.3f s; median of %d converged frames %.3f s\n",
-               first, omp_get_wtime() - t_open, steady, t);
+        printf(
+            "first image %.3f s after opening the file; converged after %.3f s; median of %d converged frames %.3f s\n",
+            first, omp_get_wtime() - t_open, steady, t);
         prt_status ck = rc ? PRT_OK : prt_accel_check(a);
         if (ck) rc = cli_fail("render", path, ck);
     } else {

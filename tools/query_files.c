@@ -91,8 +91,8 @@ prt_status qf_write_parts(const char *path, const void *const *parts, const size
     return s;
 }
 
-int qf_write(const char *cmd, const char *path, const char magic[8], uint64_t count, const void *head, size_t head_bytes,
-             const void *data, size_t bytes) {
+int qf_write(const char *cmd, const char *path, const char magic[8], uint64_t count, const void *head,
+             size_t head_bytes, const void *data, size_t bytes) {
     const void *parts[4] = {magic, &count, head, data};
     const size_t sizes[4] = {8, 8, head_bytes, bytes};
     prt_status s = qf_write_parts(path, parts, sizes, 4);

@@ -14,7 +14,7 @@ prt_status qf_write_parts(const char *path, const void *const *parts, const size
 
 /* Write magic, count (u64), head_bytes of head, then bytes of data, renamed into place when
  * complete. Returns 0, or 1 after printing the error (any previous file untouched). */
-int qf_write(const char *cmd, const char *path, const char magic[8], uint64_t count, const void *head, size_t head_bytes,
-             const void *data, size_t bytes);
+int qf_write(const char *cmd, const char *path, const char magic[8], uint64_t count, const void *head,
+             size_t head_bytes, const void *data, size_t bytes);
 
 #endif

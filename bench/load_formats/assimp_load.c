@@ -19,10 +19,9 @@ int main(int argc, char **argv) {
         return 1;
     }
     size_t tris = 0, verts = 0;
-    for (unsigned i = 0; i < s->mNumMeshes; i++)
-        tris += s->mMeshes[i]->mNumFaces, verts += s->mMeshes[i]->mNumVertices;
-    printf("%-8s assimp %zu tris %zu verts wall %.3f s cpu %.3f s\n", argv[1], tris, verts,
-           c(CLOCK_MONOTONIC) - w, c(CLOCK_PROCESS_CPUTIME_ID) - u);
+    for (unsigned i = 0; i < s->mNumMeshes; i++) tris += s->mMeshes[i]->mNumFaces, verts += s->mMeshes[i]->mNumVertices;
+    printf("%-8s assimp %zu tris %zu verts wall %.3f s cpu %.3f s\n", argv[1], tris, verts, c(CLOCK_MONOTONIC) - w,
+           c(CLOCK_PROCESS_CPUTIME_ID) - u);
     aiReleaseImport(s);
     return 0;
 }

@@ -27,8 +27,7 @@ static int cmp(const void *a, const void *b) {
 int main(int argc, char **argv) {
     if (argc < 3) return fprintf(stderr, "usage: load_formats RUNS FILE...\n"), 2;
     int runs = atoi(argv[1]), nf = argc - 2;
-    double *t = calloc((size_t)(runs * nf), sizeof *t),
-           *cpu = calloc((size_t)(runs * nf), sizeof *cpu);
+    double *t = calloc((size_t)(runs * nf), sizeof *t), *cpu = calloc((size_t)(runs * nf), sizeof *cpu);
     size_t *peak = calloc((size_t)nf, sizeof *peak), *tris = calloc((size_t)nf, sizeof *tris);
     for (int r = 0; r < runs; r++)
         for (int f = 0; f < nf; f++) {
@@ -53,8 +52,8 @@ int main(int argc, char **argv) {
         if (f == 0) base = rate, cbase = crate;
         printf("%-24s %9zu tris  wall median %.3f s (min %.3f, max %.3f) %6.1f Mtri/s %.2fx  "
                "cpu median %.3f s %6.1f Mtri/s %.2fx  peak %.0f MiB\n",
-               argv[2 + f], tris[f], med, t[f * runs], t[f * runs + runs - 1], rate / 1e6,
-               rate / base, cmed, crate / 1e6, crate / cbase, (double)peak[f] / 1048576.0);
+               argv[2 + f], tris[f], med, t[f * runs], t[f * runs + runs - 1], rate / 1e6, rate / base, cmed,
+               crate / 1e6, crate / cbase, (double)peak[f] / 1048576.0);
     }
     return 0;
 }

@@ -17,8 +17,9 @@ prt_status prt_build(const prt_mesh *m, const char *spec_text, const prt_build_o
     /* Beyond this, the triangle test's numerator overflows (PRT_MAX_COORDINATE). */
     for (size_t i = 0; i < 3 * m->vertex_count; i++)
         if (fabsf(m->vertices[i]) > PRT_MAX_COORDINATE)
-            return prt__fail(PRT_ERROR_LIMIT, "vertex %zu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
-                             i / 3, (double)m->vertices[i], (double)PRT_MAX_COORDINATE);
+            return prt__fail(PRT_ERROR_LIMIT,
+                             "vertex %zu has a coordinate of magnitude %g; packrt builds meshes within +-%g", i / 3,
+                             (double)m->vertices[i], (double)PRT_MAX_COORDINATE);
     float lo[3], hi[3];
     prt_mesh_bounds(m, lo, hi);
     if ((s = prt__check_extent(lo, hi))) return s;
@@ -77,9 +78,10 @@ prt_status prt__check_update_vertices(const float *vertices, size_t count) {
 prt_status prt_accel_update(prt_accel *a, const float *vertices) {
     if (!a || !vertices) return prt__fail(PRT_ERROR_ARGUMENT, "prt_accel_update: NULL argument");
     if (!PRT_CAP(a, update))
-        return prt__fail(PRT_ERROR_UNSUPPORTED,
-                         "prt_accel_update: representation '%s' cannot be updated in place; build it again from the moved mesh",
-                         a->spec);
+        return prt__fail(
+            PRT_ERROR_UNSUPPORTED,
+            "prt_accel_update: representation '%s' cannot be updated in place; build it again from the moved mesh",
+            a->spec);
     double t0 = prt__now();
     prt_status s = a->ops->caps->update(a, vertices);
     if (!s) a->build_seconds = prt__now() - t0;
@@ -299,7 +301,8 @@ static prt_status open_container(const void *data, size_t size, bool verify_crc,
         return prt__fail(PRT_ERROR_UNSUPPORTED, "the file holds representation '%.64s', unknown to this packrt",
                          info.spec);
     if (!f->ops->load)
-        return prt__fail(PRT_ERROR_CORRUPT, "a .prt container names representation '%.64s', which is stored in a format of its own",
+        return prt__fail(PRT_ERROR_CORRUPT,
+                         "a .prt container names representation '%.64s', which is stored in a format of its own",
                          info.spec);
     prt_accel *a = NULL;
     if ((s = f->ops->load(&r, &spec, &a))) return s;

@@ -25,7 +25,7 @@ typedef struct prt_accel_ops {
     /* prt_occluded_packet for p->count <= PRT_PACKET_MAX rays (not yet checked for
      * validity); NULL: prt_occluded1 per ray. */
     void (*occluded_packet)(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
-    void (*stats)(const prt_accel *a, prt_stats *s);             /* fills bytes, nodes, leaves, depth */
+    void (*stats)(const prt_accel *a, prt_stats *s); /* fills bytes, nodes, leaves, depth */
     prt_status (*save)(const prt_accel *a, prt_writer *w);
     /* Load from a checked container; sections point into memory that outlives the accel. */
     prt_status (*load)(prt_reader *r, prt_spec *spec, prt_accel **out);

@@ -25,8 +25,8 @@ static const char *const g_workloads[] = {"random", "primary", "shadow", "diffus
  * a workload not measured). False for comments, blank and malformed lines. */
 static bool parse_row(const char *line, prt__cost_row *r) {
     char lossy[8], w[4][24];
-    if (line[0] == '#' || sscanf(line, "%95s %15s %7s %23s %23s %23s %23s", r->spec, r->kind, lossy, w[0], w[1], w[2],
-                                 w[3]) != 7)
+    if (line[0] == '#' ||
+        sscanf(line, "%95s %15s %7s %23s %23s %23s %23s", r->spec, r->kind, lossy, w[0], w[1], w[2], w[3]) != 7)
         return false;
     r->lossy = !strcmp(lossy, "yes");
     for (int k = 0; k < 4; k++) {
@@ -119,7 +119,8 @@ static prt_status parse_request(const char *text, const prt_mesh *m, auto_reques
         (s = prt__spec_enum(&spec, "lossy", yes_no, 2, 0, &lossy)))
         return s;
     r->lossy = lossy == 1;
-    if (budget && memory) return prt__fail(PRT_ERROR_ARGUMENT, "auto: give budget= (bytes per triangle) or memory=, not both");
+    if (budget && memory)
+        return prt__fail(PRT_ERROR_ARGUMENT, "auto: give budget= (bytes per triangle) or memory=, not both");
     if (budget && parse_size(budget, &r->budget))
         return prt__fail(PRT_ERROR_ARGUMENT, "auto: budget takes bytes per triangle, e.g. budget=12, not '%s'", budget);
     if (memory && parse_size(memory, &r->budget))
@@ -171,23 +172,29 @@ static prt_status make_plan(const prt_mesh *m, const char *text, const prt_build
     prt__cost_table_load(&p->table);
     p->count = candidates(&p->table, m, &p->req, o && o->triangle_order, p->cand);
     if (!p->count) return prt__fail(PRT_ERROR_ARGUMENT, "auto: the cost table has no representation for this request");
-    const char *hint = o && o->triangle_order ? "" : " (specs with ids=none, smaller, are candidates when a triangle order is asked for: packrt build --order)";
+    const char *hint = o && o->triangle_order ? ""
+                                              : " (specs with ids=none, smaller, are candidates when a triangle order "
+                                                "is asked for: packrt build --order)";
     prt__sample smp;
     if ((s = prt__sample_make(m, &smp))) return s;
     size_t smallest = SIZE_MAX;
     bool any = false;
     for (size_t i = 0; i < p->count; i++) {
-        if (prt__sample_estimate(&smp, p->cand[i]->spec, o ? o->threads : 0, &p->est[i])) continue; /* cannot encode m */
+        if (prt__sample_estimate(&smp, p->cand[i]->spec, o ? o->threads : 0, &p->est[i]))
+            continue; /* cannot encode m */
         p->fits[i] = !p->req.budget || (double)total(&p->est[i]) <= p->req.budget;
         any |= p->fits[i];
         if (total(&p->est[i]) < smallest) smallest = total(&p->est[i]);
     }
     prt__sample_free(&smp);
     if (any) return PRT_OK;
-    if (smallest == SIZE_MAX) return prt__fail(PRT_ERROR_LIMIT, "auto: no candidate representation can encode this mesh");
-    return prt__fail(PRT_ERROR_LIMIT, "auto: nothing fits %.4g bytes (%.2f per triangle); the smallest takes about %zu (%.2f per triangle)%s",
-                     p->req.budget, p->req.budget / (double)m->triangle_count, smallest,
-                     (double)smallest / (double)m->triangle_count, hint);
+    if (smallest == SIZE_MAX)
+        return prt__fail(PRT_ERROR_LIMIT, "auto: no candidate representation can encode this mesh");
+    return prt__fail(
+        PRT_ERROR_LIMIT,
+        "auto: nothing fits %.4g bytes (%.2f per triangle); the smallest takes about %zu (%.2f per triangle)%s",
+        p->req.budget, p->req.budget / (double)m->triangle_count, smallest,
+        (double)smallest / (double)m->triangle_count, hint);
 }
 
 prt_status prt_auto_choose(const prt_mesh *m, const char *auto_spec, const prt_build_options *o, char *spec_out,
@@ -224,8 +231,10 @@ prt_status prt__build_auto(const prt_mesh *m, const char *auto_spec, const prt_b
         }
         prt_accel_free(a);
     }
-    if (!s) s = prt__fail(PRT_ERROR_LIMIT, "auto: every representation estimated to fit %.4g bytes came out larger once built",
-                          p->req.budget);
+    if (!s)
+        s = prt__fail(PRT_ERROR_LIMIT,
+                      "auto: every representation estimated to fit %.4g bytes came out larger once built",
+                      p->req.budget);
     free(p);
     return s;
 }

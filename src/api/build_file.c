@@ -26,8 +26,7 @@ prt_status prt_build_file(const char *mesh_path, const char *spec, const char *o
     const prt_repr_family *f;
     prt_status s = find_family(spec, &parsed, &f);
     if (s) return s;
-    if (f->ops->caps && f->ops->caps->build_file)
-        return f->ops->caps->build_file(mesh_path, &parsed, out_path, o);
+    if (f->ops->caps && f->ops->caps->build_file) return f->ops->caps->build_file(mesh_path, &parsed, out_path, o);
     prt_mesh *m;
     if ((s = prt_mesh_load(mesh_path, &m))) return s;
     s = build_save(m, spec, out_path, o);
@@ -35,8 +34,8 @@ prt_status prt_build_file(const char *mesh_path, const char *spec, const char *o
     return s;
 }
 
-prt_status prt_build_generated(const char *kind, uint64_t triangles, uint64_t seed, const char *spec, const char *out_path,
-                               const prt_build_options *o) {
+prt_status prt_build_generated(const char *kind, uint64_t triangles, uint64_t seed, const char *spec,
+                               const char *out_path, const prt_build_options *o) {
     if (!kind || !spec || !out_path) return prt__fail(PRT_ERROR_ARGUMENT, "prt_build_generated: NULL argument");
     if (triangles == 0) return prt__fail(PRT_ERROR_ARGUMENT, "prt_build_generated: 0 triangles requested");
     prt_spec parsed;

@@ -52,7 +52,8 @@ prt_status prt_closest_points(const prt_accel *a, const float *points, size_t n,
     if (s) return s;
     if (n && (!points || !out)) return prt__fail(PRT_ERROR_ARGUMENT, "prt_closest_points: points and out must be set");
     if (!(max_distance >= 0.0f))
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_closest_points: max_distance %g is not a distance", (double)max_distance);
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_closest_points: max_distance %g is not a distance",
+                         (double)max_distance);
     const double r2 = (double)max_distance * max_distance;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 64)
     for (size_t i = 0; i < n; i++) prt__closest_one(a, points + 3 * i, r2, &out[i]);

@@ -104,7 +104,7 @@ static prt_status check_call(const prt_accel *a, const char *fn, size_t n, const
 }
 
 prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, prt_contains_method method,
-                               uint8_t *result, int threads) {
+                           uint8_t *result, int threads) {
     prt_status s = check_call(a, "prt_contains", n, points, result, "result");
     if (s) return s;
     if (method != PRT_CONTAINS_AUTO && method != PRT_CONTAINS_PARITY && method != PRT_CONTAINS_WINDING)
@@ -150,7 +150,8 @@ prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n
     prt_status s = check_call(a, "prt_signed_distance", n, points, distance, "distance");
     if (s) return s;
     if (!(max_distance >= 0.0f))
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_signed_distance: max_distance %g is not a distance", (double)max_distance);
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_signed_distance: max_distance %g is not a distance",
+                         (double)max_distance);
     uint8_t *in = prt__alloc(n ? n : 1);
     if (!in) return prt__fail(PRT_ERROR_NOMEM, "prt_signed_distance: out of memory for %zu points", n);
     if ((s = contains_all(a, points, n, PRT_CONTAINS_AUTO, in, threads))) {

@@ -77,7 +77,8 @@ prt_status prt_intersect_all_stream(const prt_accel *a, const prt_ray *rays, siz
     prt_status s = prt__query_check(a, "prt_intersect_all_stream");
     if (s) return s;
     if (n && (!rays || !counts || (hits && !offsets)))
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_intersect_all_stream: rays and counts must be set, and offsets with hits");
+        return prt__fail(PRT_ERROR_ARGUMENT,
+                         "prt_intersect_all_stream: rays and counts must be set, and offsets with hits");
     if (hits)
         for (size_t i = 0; i < n; i++)
             if (offsets[i + 1] < offsets[i])

@@ -185,7 +185,8 @@ prt_status prt__sample_build_estimate(const prt__sample *smp, const char *spec, 
     prt_status s;
     if (smp->whole) {
         if ((s = build_part(smp->whole, spec, &o, &whole))) return s;
-        out->bytes_tree = whole.bytes_tree, out->bytes_geometry = whole.bytes_geometry, out->bytes_other = whole.bytes_other;
+        out->bytes_tree = whole.bytes_tree, out->bytes_geometry = whole.bytes_geometry,
+        out->bytes_other = whole.bytes_other;
     } else {
         prt_stats sum = {0};
         if ((s = probe_limits(smp, spec, &o))) return s;

@@ -11,8 +11,8 @@
 #define PRT__SAMPLE_PARTS 4
 
 typedef struct prt__sample {
-    const prt_mesh *mesh;  /* the mesh sampled */
-    const prt_mesh *whole; /* the mesh itself when it is small enough, else NULL */
+    const prt_mesh *mesh;              /* the mesh sampled */
+    const prt_mesh *whole;             /* the mesh itself when it is small enough, else NULL */
     prt_mesh *part[PRT__SAMPLE_PARTS]; /* the patches */
     uint32_t *ids[PRT__SAMPLE_PARTS];  /* the mesh's id of each patch triangle */
     int count;

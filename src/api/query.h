@@ -21,7 +21,7 @@ struct prt__query {
     prt__query_kind kind;
     prt__rayx ray; /* RAY: the ray, with tfar below */
     float tfar;
-    double p[3];   /* POINT: the point and the squared radius still searched */
+    double p[3]; /* POINT: the point and the squared radius still searched */
     double r2;
     /* n triangles of 9 floats (mesh vertex order) and their mesh triangle ids. */
     void (*leaf)(prt__query *q, const float *v, const uint32_t *prims, uint32_t n);

@@ -14,16 +14,16 @@
 #define WTREE_LEAF 8
 
 typedef struct wnode {
-    double p[3], radius; /* centre (area-weighted centroid) and radius about it */
-    double n[3], m[9];   /* N and M (row i: n_i d^T) */
-    double c[27];        /* C, index 9 i + 3 j + k */
+    double p[3], radius;   /* centre (area-weighted centroid) and radius about it */
+    double n[3], m[9];     /* N and M (row i: n_i d^T) */
+    double c[27];          /* C, index 9 i + 3 j + k */
     uint32_t first, count; /* triangles [first, first + count) of the tree's order */
     uint32_t left;         /* inner: children left, left + 1; leaf: 0 */
 } wnode;
 
 struct prt__wtree {
-    float *tris; /* 9 floats a triangle, in the tree's order */
-    double *cent;  /* centroid of each (building) */
+    float *tris;  /* 9 floats a triangle, in the tree's order */
+    double *cent; /* centroid of each (building) */
     uint32_t count;
     wnode *nodes;
     uint32_t node_count;

@@ -57,7 +57,8 @@ void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6
 /* The root of layouts that keep no box for it (quad, quad-half, wide8): the inner node at
  * ref, its box the union of the boxes children() gives its children. bvh/child.c. */
 bvh_child bvh_child_inner_root(const uint8_t *blob, const bvh_codec *c, uint64_t ref,
-                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *, bvh_child[8]));
+                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *,
+                                                    bvh_child[8]));
 
 typedef struct bvh_layout {
     const char *name;
@@ -82,7 +83,15 @@ typedef struct bvh_layout {
 } bvh_layout;
 
 /* X(id, name) */
-#define BVH_LAYOUTS(X) X(aabb, "aabb") X(aabb_split, "aabb-split") X(quad, "quad") X(wide8, "wide8") X(quad_half, "quad-half") X(aabb_compressed, "aabb-compressed") X(aabb_pns, "aabb-pns") X(skd, "skd")
+#define BVH_LAYOUTS(X)                    \
+    X(aabb, "aabb")                       \
+    X(aabb_split, "aabb-split")           \
+    X(quad, "quad")                       \
+    X(wide8, "wide8")                     \
+    X(quad_half, "quad-half")             \
+    X(aabb_compressed, "aabb-compressed") \
+    X(aabb_pns, "aabb-pns")               \
+    X(skd, "skd")
 
 #define X(id, nm) extern const bvh_layout bvh_layout_##id;
 BVH_LAYOUTS(X)

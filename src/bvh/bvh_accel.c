@@ -19,8 +19,8 @@
  * refit the boxes and encode the tree again. */
 typedef struct bvh_refit {
     bvh_tree tree;
-    prt_mesh mesh;    /* own copies: the latest vertices, and the triangles tree->prims name */
-    uint32_t *remap;  /* shared_remap codecs rewrite indices: each update remaps a copy, here */
+    prt_mesh mesh;   /* own copies: the latest vertices, and the triangles tree->prims name */
+    uint32_t *remap; /* shared_remap codecs rewrite indices: each update remaps a copy, here */
 } bvh_refit;
 
 extern const prt_accel_ops prt__bvh_ops;
@@ -30,15 +30,15 @@ typedef struct bvh_accel {
     const bvh_layout *layout;
     int codec;
     bvh_blob blob;
-    bvh_shared shared; /* the codec's tree-wide data (vertex buffer), or empty */
+    bvh_shared shared;  /* the codec's tree-wide data (vertex buffer), or empty */
     uint32_t *mesh_ids; /* owned when built: the ids array behind shared.mesh_ids */
     float leaf_error;   /* codecs with leaf_error: the vertex error measured over the leaves */
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
     bvh_stream_fn stream; /* NULL: intersect1 per ray */
-    bvh_refit *refit; /* update=refit and built (not loaded); else NULL */
-    prt__isa isa;     /* its kernels' instruction set, picked when built or loaded (core/isa.h) */
+    bvh_refit *refit;     /* update=refit and built (not loaded); else NULL */
+    prt__isa isa;         /* its kernels' instruction set, picked when built or loaded (core/isa.h) */
 } bvh_accel;
 
 /* On-disk META section (little endian, 64 bytes). */
@@ -46,8 +46,8 @@ typedef struct bvh_meta {
     uint64_t blob_size, bytes_tree, bytes_geometry, nodes, leaves;
     uint32_t depth, layout; /* layout: written as 0, never read */
     uint32_t vertex_error;  /* codecs with leaf_error: their measured vertex error, float32 bits; else 0 */
-    uint32_t flags;     /* BVH_META_MESH_IDS: an IDS section maps leaf order to mesh ids */
-    uint64_t triangles; /* seq_ids codecs: triangles in the tree */
+    uint32_t flags;         /* BVH_META_MESH_IDS: an IDS section maps leaf order to mesh ids */
+    uint64_t triangles;     /* seq_ids codecs: triangles in the tree */
 } bvh_meta;
 enum { BVH_META_MESH_IDS = 1 };
 _Static_assert(sizeof(bvh_meta) == 64, "META section is 64 bytes");
@@ -165,7 +165,8 @@ static prt_status parse_order(prt_spec *spec, int layout, int *order) {
     prt_status s = prt__spec_enum(spec, "order", bvh_order_names, BVH_ORDER_COUNT, 0, order);
     if (s) return s;
     if (*order && g_layouts[layout] != &bvh_layout_aabb)
-        return prt__fail(PRT_ERROR_ARGUMENT, "order=%s: only the aabb layout stores nodes in another order than depth first",
+        return prt__fail(PRT_ERROR_ARGUMENT,
+                         "order=%s: only the aabb layout stores nodes in another order than depth first",
                          bvh_order_names[*order]);
     return PRT_OK;
 }
@@ -202,7 +203,8 @@ static bvh_accel *bvh_new(int layout, int codec, int order, int fill, prt__isa i
 /* The kernels for b's blob, once it is set (built, loaded or refitted), built for b's
  * instruction set (the base one where the layout has no such build). */
 static void bvh_pick_kernels(bvh_accel *b) {
-    const bvh_kernels *table = b->layout->kernels[b->isa] ? b->layout->kernels[b->isa] : b->layout->kernels[PRT__ISA_BASE];
+    const bvh_kernels *table =
+        b->layout->kernels[b->isa] ? b->layout->kernels[b->isa] : b->layout->kernels[PRT__ISA_BASE];
     bvh_kernels k = table[b->codec];
     if (k.for_blob) k = k.for_blob(b->blob.data);
     b->intersect1 = k.intersect1;
@@ -357,11 +359,12 @@ static prt_status parse_plan(prt_spec *spec, const prt_build_options *o, build_p
     if ((s = prt__spec_enum(spec, "ids", id_modes, 2, 0, &p->ids))) return s;
     if ((s = prt__spec_enum(spec, "update", update_modes, 2, 0, &p->refit))) return s;
     if (p->refit && c->leaves)
-        return prt__fail(PRT_ERROR_ARGUMENT, "update=refit: codec %s builds its %s from the tree's leaves; rebuild it instead",
-                         c->name, c->leaves->name);
+        return prt__fail(PRT_ERROR_ARGUMENT,
+                         "update=refit: codec %s builds its %s from the tree's leaves; rebuild it instead", c->name,
+                         c->leaves->name);
     if (p->ids && !c->seq_ids)
-        return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs a codec that stores one id per leaf; %s stores one per triangle",
-                         c->name);
+        return prt__fail(PRT_ERROR_ARGUMENT,
+                         "ids=none needs a codec that stores one id per leaf; %s stores one per triangle", c->name);
     if (p->ids && !(o && o->triangle_order))
         return prt__fail(PRT_ERROR_ARGUMENT, "ids=none needs prt_build_options.triangle_order to receive the order");
     return prt__spec_check_unused(spec);
@@ -466,12 +469,21 @@ static prt_status bvh_build_accel(const prt_mesh *m, prt_spec *spec, const prt_b
 
 static prt_status bvh_save(const prt_accel *a, prt_writer *w) {
     const bvh_accel *b = (const bvh_accel *)a;
-    bvh_meta meta = {b->blob.size, b->blob.bytes_tree, b->blob.bytes_geometry, b->blob.nodes, b->blob.leaves,
-                     b->blob.depth, 0, 0, b->shared.mesh_ids ? BVH_META_MESH_IDS : 0, b->shared.triangles};
+    bvh_meta meta = {b->blob.size,
+                     b->blob.bytes_tree,
+                     b->blob.bytes_geometry,
+                     b->blob.nodes,
+                     b->blob.leaves,
+                     b->blob.depth,
+                     0,
+                     0,
+                     b->shared.mesh_ids ? BVH_META_MESH_IDS : 0,
+                     b->shared.triangles};
     memcpy(&meta.vertex_error, &b->leaf_error, 4);
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), b->blob.data, b->blob.size);
-    if (!s && b->shared.size) s = prt__writer_section(w, PRT_FOURCC('S', 'H', 'R', 'D'), b->shared.data, b->shared.size);
+    if (!s && b->shared.size)
+        s = prt__writer_section(w, PRT_FOURCC('S', 'H', 'R', 'D'), b->shared.data, b->shared.size);
     if (!s && b->shared.mesh_ids)
         s = prt__writer_section(w, PRT_FOURCC('I', 'D', 'S', ' '), b->shared.mesh_ids, 4 * b->shared.triangles);
     return s;
@@ -499,13 +511,14 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     }
     shared.triangles = (size_t)meta.triangles;
     if (c->leaves && (s = c->leaves->load_shared(&shared))) return s;
-    if (meta.flags & ~(uint32_t)BVH_META_MESH_IDS || (meta.flags && !c->seq_ids) || (!c->seq_ids && meta.triangles) || meta.triangles > UINT32_MAX)
+    if (meta.flags & ~(uint32_t)BVH_META_MESH_IDS || (meta.flags && !c->seq_ids) || (!c->seq_ids && meta.triangles) ||
+        meta.triangles > UINT32_MAX)
         return prt__fail(PRT_ERROR_CORRUPT, "BVH META section has flags or a triangle count its codec does not use");
     float leaf_error;
     memcpy(&leaf_error, &meta.vertex_error, 4);
     if (!(leaf_error >= 0 && leaf_error < INFINITY) || (leaf_error != 0 && !c->leaf_error))
-        return prt__fail(PRT_ERROR_CORRUPT, "BVH META section states a vertex error of %g for codec %s", (double)leaf_error,
-                         c->name);
+        return prt__fail(PRT_ERROR_CORRUPT, "BVH META section states a vertex error of %g for codec %s",
+                         (double)leaf_error, c->name);
     if (meta.flags & BVH_META_MESH_IDS) {
         const void *ids;
         size_t ids_size;
@@ -517,11 +530,13 @@ static prt_status bvh_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     }
     int order, fill;
     prt__isa isa;
-    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill)) || (s = prt__isa_pick(&isa)))
+    if ((s = parse_order(spec, layout, &order)) || (s = parse_collapse(spec, layout, &fill)) ||
+        (s = prt__isa_pick(&isa)))
         return s;
     bvh_accel *b = bvh_new(layout, codec, order, fill, isa);
     if (!b) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
-    b->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
+    b->blob =
+        (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, meta.bytes_geometry, meta.nodes, meta.leaves, meta.depth};
     b->shared = shared;
     b->leaf_error = leaf_error;
     if ((s = b->layout->validate(&b->blob, c, &b->shared))) {
@@ -537,8 +552,9 @@ static prt_status bvh_update(prt_accel *a, const float *vertices) {
     bvh_accel *b = (bvh_accel *)a;
     bvh_refit *r = b->refit;
     if (!r)
-        return prt__fail(PRT_ERROR_UNSUPPORTED, "prt_accel_update: '%s' %s; build it again from the moved mesh", a->spec,
-                         b->owns_blob ? "was built without update=refit" : "was loaded, without the tree update=refit keeps");
+        return prt__fail(
+            PRT_ERROR_UNSUPPORTED, "prt_accel_update: '%s' %s; build it again from the moved mesh", a->spec,
+            b->owns_blob ? "was built without update=refit" : "was loaded, without the tree update=refit keeps");
     prt_status s = prt__check_update_vertices(vertices, 3 * r->mesh.vertex_count);
     if (s) return s;
     const bvh_codec *c = &bvh_codecs[b->codec];

@@ -27,11 +27,14 @@ void bvh_decoded_box(const bvh_codec *c, const bvh_shared *sh, const float box[6
 }
 
 bvh_child bvh_child_inner_root(const uint8_t *blob, const bvh_codec *c, uint64_t ref,
-                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *, bvh_child[8])) {
-    bvh_child root = {.box = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}, .ref = ref, .count = 0}, kids[8];
+                               uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *,
+                                                    bvh_child[8])) {
+    bvh_child root = {.box = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}, .ref = ref, .count = 0},
+              kids[8];
     const uint32_t n = children(blob, c, &root, kids);
     for (uint32_t i = 0; i < n; i++)
         for (int k = 0; k < 3; k++)
-            root.box[k] = fminf(root.box[k], kids[i].box[k]), root.box[3 + k] = fmaxf(root.box[3 + k], kids[i].box[3 + k]);
+            root.box[k] = fminf(root.box[k], kids[i].box[k]),
+            root.box[3 + k] = fmaxf(root.box[3 + k], kids[i].box[3 + k]);
     return root;
 }

@@ -40,7 +40,8 @@ static bool grid_runs(const bvh_tree *t, uint32_t unit, run **out, size_t *count
         for (size_t i = 0; i < t->node_count; i++) {
             if (total[i] > max_leaf) continue;
             const uint32_t u = unit ? unit : total[i];
-            for (uint32_t s = first[i]; s < first[i] + total[i]; s += u) r[k++] = (run){s, PRT_MIN(s + u, first[i] + total[i])};
+            for (uint32_t s = first[i]; s < first[i] + total[i]; s += u)
+                r[k++] = (run){s, PRT_MIN(s + u, first[i] + total[i])};
         }
     }
     prt__free(first), prt__free(total);
@@ -63,7 +64,8 @@ prt_status bvh_lattice_snap_tree(const bvh_tree *t, const prt_mesh *m, const flo
     if (runs) er = prt__alloc(prt__mul_size(nr ? nr : 1, sizeof *er));
     if (!er) {
         prt__free(runs), prt__free(ev);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory for the quantization lattice of %zu vertices", m->vertex_count);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for the quantization lattice of %zu vertices",
+                         m->vertex_count);
     }
     if (out != in) memcpy(out, in, prt__mul_size(m->vertex_count, 12));
     for (int k = 0; k < 3; k++) {
@@ -82,7 +84,8 @@ prt_status bvh_lattice_snap_tree(const bvh_tree *t, const prt_mesh *m, const flo
                 er[r] = (int16_t)e, grew = true;
                 for (size_t c = 3 * (size_t)runs[r].first; c < 3 * (size_t)runs[r].end; c++) {
                     const size_t v = m->triangles[3 * (size_t)t->prims[c / 3] + c % 3];
-                    if (e > ev[v]) ev[v] = (int16_t)e, out[3 * v + (size_t)k] = bvh_lattice_round(in[3 * v + (size_t)k], e);
+                    if (e > ev[v])
+                        ev[v] = (int16_t)e, out[3 * v + (size_t)k] = bvh_lattice_round(in[3 * v + (size_t)k], e);
                 }
             }
         }

@@ -67,7 +67,8 @@ static prt_status new_pair(state *s, uint32_t *index) {
         if (!nodes) return prt__fail(PRT_ERROR_NOMEM, "out of memory splitting strip leaves");
         t->nodes = nodes, s->node_capacity = cap;
     }
-    if (t->node_count + 2 > UINT32_MAX) return prt__fail(PRT_ERROR_LIMIT, "too many nodes after splitting strip leaves");
+    if (t->node_count + 2 > UINT32_MAX)
+        return prt__fail(PRT_ERROR_LIMIT, "too many nodes after splitting strip leaves");
     *index = (uint32_t)t->node_count;
     t->node_count += 2;
     return PRT_OK;
@@ -213,12 +214,14 @@ prt_status bvh_strip_leaves(bvh_tree *t, prt_mesh *m, uint32_t *ids, bvh_strip_s
     out->rotations = prt__calloc((n + 3) / 4 + 1, 1);
     uint64_t *leaves = prt__alloc(prt__mul_size(t->leaf_count ? t->leaf_count : 1, sizeof *leaves));
     prt_status s = PRT_OK;
-    if (!out->entries || !out->rotations || !leaves) s = prt__fail(PRT_ERROR_NOMEM, "out of memory for strips of %zu triangles", n);
+    if (!out->entries || !out->rotations || !leaves)
+        s = prt__fail(PRT_ERROR_NOMEM, "out of memory for strips of %zu triangles", n);
     size_t count = 0;
     for (size_t i = 0; !s && i < t->node_count; i++)
         if (t->nodes[i].count) {
             if (t->nodes[i].count > LEAF_MAX || count == t->leaf_count)
-                s = prt__fail(PRT_ERROR_ARGUMENT, "internal: strip leaves need leaves of at most %d triangles", LEAF_MAX);
+                s = prt__fail(PRT_ERROR_ARGUMENT, "internal: strip leaves need leaves of at most %d triangles",
+                              LEAF_MAX);
             else leaves[count++] = (uint64_t)t->nodes[i].index << 32 | i;
         }
     /* In prims order, so every subtree's entries and triangles stay contiguous. */
@@ -265,7 +268,8 @@ static prt_status clear_low_bits(const prt_mesh *m, prt_mesh *out, float *error)
         }
         err2 = fmax(err2, d2);
     }
-    *out = (prt_mesh){.vertices = v, .triangles = m->triangles, .vertex_count = m->vertex_count, .triangle_count = m->triangle_count};
+    *out = (prt_mesh){
+        .vertices = v, .triangles = m->triangles, .vertex_count = m->vertex_count, .triangle_count = m->triangle_count};
     *error = (float)sqrt(err2);
     if ((double)*error * *error < err2) *error = nextafterf(*error, INFINITY); /* not below it */
     return PRT_OK;
@@ -291,7 +295,9 @@ static prt_status encode_strips(const bvh_layout *l, const bvh_codec *c, bvh_tre
     sh->data = data;
     sh->size = sizeof hd + rot;
     sh->rotations = data + sizeof hd;
-    const prt_mesh em = {.vertices = lm->vertices, .triangles = set.entries, .vertex_count = lm->vertex_count,
+    const prt_mesh em = {.vertices = lm->vertices,
+                         .triangles = set.entries,
+                         .vertex_count = lm->vertex_count,
                          .triangle_count = set.count};
     s = l->encode(tree, c, &em, blob);
     bvh_strip_set_free(&set);
@@ -318,7 +324,8 @@ static void detail(const bvh_shared *sh, char *text, size_t size) {
     strip_shared_head hd;
     memcpy(&hd, sh->data, sizeof hd);
     snprintf(text, size, "%u strips of %.2f triangles on average, %.3f entries per triangle", hd.strips,
-             hd.strips ? (double)hd.triangles / hd.strips : 0.0, hd.triangles ? (double)hd.entries / hd.triangles : 0.0);
+             hd.strips ? (double)hd.triangles / hd.strips : 0.0,
+             hd.triangles ? (double)hd.entries / hd.triangles : 0.0);
 }
 
 /* Strip leaves are tested 8 triangles at a time (codecs/strip_kernel.inc). */

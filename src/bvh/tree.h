@@ -23,7 +23,7 @@ typedef struct bvh_tree {
     size_t node_count;
     uint32_t *prims; /* primitive ids in leaf order */
     size_t prim_count;
-    uint32_t depth;  /* levels, the root alone is 1 */
+    uint32_t depth; /* levels, the root alone is 1 */
     size_t leaf_count;
 } bvh_tree;
 
@@ -90,8 +90,8 @@ typedef struct bvh_builder bvh_builder;
 
 /* Partition prims[0..n) into [0, *mid) and [*mid, n). Return false to make a leaf (only
  * allowed when n <= max_leaf; the driver falls back to a median split otherwise). */
-typedef bool (*bvh_split_fn)(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box,
-                             const prt_aabb *cbox, size_t *mid);
+typedef bool (*bvh_split_fn)(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox,
+                             size_t *mid);
 
 struct bvh_builder {
     bvh_build_params params;
@@ -101,10 +101,10 @@ struct bvh_builder {
     bvh_node *nodes;
     size_t node_capacity;
     _Atomic size_t node_next;
-    _Atomic uint32_t depth;  /* maximum */
-    _Atomic size_t placed;   /* primitives in finished leaves, for progress */
+    _Atomic uint32_t depth; /* maximum */
+    _Atomic size_t placed;  /* primitives in finished leaves, for progress */
     size_t total;
-    size_t next_report;   /* read and written by the calling thread only */
+    size_t next_report; /* read and written by the calling thread only */
 };
 
 static inline float bvh_centroid(const bvh_prim *p, int k) { return 0.5f * (p->lo[k] + p->hi[k]); }
@@ -115,8 +115,10 @@ prt_status bvh_build_with(bvh_builder *b, bvh_prim *prims, size_t n, bvh_tree *o
 /* Split functions, one per builder file. */
 bool bvh_split_sah(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
 bool bvh_split_mean(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
-bool bvh_split_longest(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
-bool bvh_split_morton(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid);
+bool bvh_split_longest(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox,
+                       size_t *mid);
+bool bvh_split_morton(bvh_builder *b, bvh_prim *prims, size_t n, const prt_aabb *box, const prt_aabb *cbox,
+                      size_t *mid);
 
 /* The binned SAH split, also naming the axis it partitioned along (centroids of
  * prims[0..mid) lie below those of prims[mid..n) on it). */

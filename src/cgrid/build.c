@@ -170,7 +170,8 @@ static inline void store3(float *p, vf4 v) {
 /* Pass A for one triangle (indices i): its vertices, false when it is never hit (repeated
  * index or zero area). */
 static inline bool gather(const float *vertices, const uint32_t *i, vf4 *a, vf4 *b, vf4 *e) {
-    *a = load3(vertices + 3 * (size_t)i[0]), *b = load3(vertices + 3 * (size_t)i[1]), *e = load3(vertices + 3 * (size_t)i[2]);
+    *a = load3(vertices + 3 * (size_t)i[0]), *b = load3(vertices + 3 * (size_t)i[1]),
+    *e = load3(vertices + 3 * (size_t)i[2]);
     return !(i[0] == i[1] || i[1] == i[2] || i[0] == i[2] || degenerate(*a, *b, *e));
 }
 
@@ -181,8 +182,10 @@ typedef struct cell_ranger {
 } cell_ranger;
 
 static inline cell_ranger ranger_make(const cg_grid *lg) {
-    return (cell_ranger){{lg->lo[0], lg->lo[1], lg->lo[2], 0}, vf4_set1(lg->inv_cell),
-                         {(float)(lg->res[0] - 1), (float)(lg->res[1] - 1), (float)(lg->res[2] - 1), 0}, vf4_set1(0.0f),
+    return (cell_ranger){{lg->lo[0], lg->lo[1], lg->lo[2], 0},
+                         vf4_set1(lg->inv_cell),
+                         {(float)(lg->res[0] - 1), (float)(lg->res[1] - 1), (float)(lg->res[2] - 1), 0},
+                         vf4_set1(0.0f),
                          vf4_set1(CG_INSERT_MARGIN)};
 }
 
@@ -233,7 +236,7 @@ static uint32_t slab_cut(const uint64_t *cum, uint32_t rz, int j, int nt) {
     if (j >= nt) return rz;
     const uint64_t w = cum[rz], q = (uint64_t)nt, k = (uint64_t)j;
     const uint64_t goal = w / q * k + w % q * k / q; /* w * j / nt without overflow */
-    uint32_t a = 0, b = rz; /* the smallest z with cum[z] >= goal */
+    uint32_t a = 0, b = rz;                          /* the smallest z with cum[z] >= goal */
     while (a < b) {
         uint32_t m = a + (b - a) / 2;
         if (cum[m] < goal) a = m + 1;
@@ -315,7 +318,8 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
         if (me == 0) {
             /* Only thread 0 touches the pool here; the others use these arrays after the
              * barrier. */
-            if ((status_b = grow((void **)&pl->cell_start, &pl->cap_cells, lg.ncells + 1, sizeof(uint32_t))) == PRT_OK &&
+            if ((status_b = grow((void **)&pl->cell_start, &pl->cap_cells, lg.ncells + 1, sizeof(uint32_t))) ==
+                    PRT_OK &&
                 (status_b = grow((void **)&pl->mflags, &pl->cap_macro, lg.nmacro ? lg.nmacro : 1, 1)) == PRT_OK)
                 memset(pl->mflags, 0, lg.nmacro);
             *g = lg;
@@ -360,7 +364,8 @@ prt_status cg_rebuild(cg_accel *c, const float *vertices, int threads) {
         bool ok = status_b == PRT_OK && !too_many;
         if (ok && PRT_MAX(nrefs, 1) > pl->cap_refs) { /* the same decision on every thread */
 #pragma omp barrier
-            if (me == 0) status_c = grow((void **)&pl->refs, &pl->cap_refs, (size_t)PRT_MAX(nrefs, 1), sizeof(uint32_t));
+            if (me == 0)
+                status_c = grow((void **)&pl->refs, &pl->cap_refs, (size_t)PRT_MAX(nrefs, 1), sizeof(uint32_t));
 #pragma omp barrier
             ok = status_c == PRT_OK;
         }
@@ -443,7 +448,8 @@ prt_status cg_count(const prt_mesh *m, int lambda, uint32_t macro, cg_grid *g, s
         lo4 = vf4_min(lo4, vf4_min(a, vf4_min(b, e)));
         hi4 = vf4_max(hi4, vf4_max(a, vf4_max(b, e)));
     }
-    float lo[3] = {n ? lo4[0] : 0, n ? lo4[1] : 0, n ? lo4[2] : 0}, hi[3] = {n ? hi4[0] : 0, n ? hi4[1] : 0, n ? hi4[2] : 0};
+    float lo[3] = {n ? lo4[0] : 0, n ? lo4[1] : 0, n ? lo4[2] : 0},
+          hi[3] = {n ? hi4[0] : 0, n ? hi4[1] : 0, n ? hi4[2] : 0};
     choose_resolution(g, lo, hi, n, lambda);
     macro_dims(g, macro);
     const cell_ranger cr = ranger_make(g);

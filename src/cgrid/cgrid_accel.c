@@ -33,7 +33,8 @@ static const char *const g_tri[] = {"watertight", "wald"};
 /* Read the options of spec (and spell them all out in it). */
 static prt_status parse_options(prt_spec *spec, cg_options *o) {
     prt_status s;
-    if ((s = prt__spec_int(spec, "lambda", 6, 1, 64, &o->lambda)) || (s = prt__spec_int(spec, "macro", 6, 0, 32, &o->macro)) ||
+    if ((s = prt__spec_int(spec, "lambda", 6, 1, 64, &o->lambda)) ||
+        (s = prt__spec_int(spec, "macro", 6, 0, 32, &o->macro)) ||
         (s = prt__spec_int(spec, "packet", 0, 0, 16, &o->packet)) ||
         (s = prt__spec_enum(spec, "mailbox", g_onoff, 2, 1, &o->mailbox)) ||
         (s = prt__spec_enum(spec, "cull", g_onoff, 2, 1, &o->cull)) ||
@@ -81,8 +82,8 @@ static prt_status cg_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
     prt_status s = parse_options(spec, &opt);
     if (s) return s;
     if (m->triangle_count > UINT32_MAX - 1 || m->vertex_count > UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT, "cgrid: %zu triangles / %zu vertices exceed its 32-bit ids", m->triangle_count,
-                         m->vertex_count);
+        return prt__fail(PRT_ERROR_LIMIT, "cgrid: %zu triangles / %zu vertices exceed its 32-bit ids",
+                         m->triangle_count, m->vertex_count);
     cg_accel *c = prt__calloc(1, sizeof *c);
     if (!c) return prt__fail(PRT_ERROR_NOMEM, "out of memory");
     c->base.ops = &prt__cgrid_ops;
@@ -156,13 +157,16 @@ static prt_status corrupt(const char *what) { return prt__fail(PRT_ERROR_CORRUPT
 
 static prt_status cg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     cg_options opt;
-    if (parse_options(spec, &opt)) return prt__fail(PRT_ERROR_CORRUPT, "cgrid: the file's spec has bad options: %s", prt_last_error());
+    if (parse_options(spec, &opt))
+        return prt__fail(PRT_ERROR_CORRUPT, "cgrid: the file's spec has bad options: %s", prt_last_error());
     const void *hp, *cells, *refs, *tris, *indices;
     size_t hs, cs, rs, ts, is;
     prt_status s;
     if ((s = prt__reader_section(r, TAG_HEAD, sizeof(cg_file_header), &hp, &hs)) ||
-        (s = prt__reader_section(r, TAG_CELLS, 8, &cells, &cs)) || (s = prt__reader_section(r, TAG_REFS, 4, &refs, &rs)) ||
-        (s = prt__reader_section(r, TAG_TRIS, 36, &tris, &ts)) || (s = prt__reader_section(r, TAG_INDICES, 12, &indices, &is)))
+        (s = prt__reader_section(r, TAG_CELLS, 8, &cells, &cs)) ||
+        (s = prt__reader_section(r, TAG_REFS, 4, &refs, &rs)) ||
+        (s = prt__reader_section(r, TAG_TRIS, 36, &tris, &ts)) ||
+        (s = prt__reader_section(r, TAG_INDICES, 12, &indices, &is)))
         return s;
     cg_file_header h;
     memcpy(&h, hp, sizeof h);
@@ -215,8 +219,9 @@ static bool cg_accepts(const prt_spec *s) { return !strcmp(s->structure, "cgrid"
 static bool cg_name_at(size_t i, const char **name, const char **desc) {
     if (i) return false;
     *name = "cgrid";
-    *desc = "Coherent grid (Wald et al. 2006): uniform grid of ~lambda*N cubic cells rebuilt per frame (prt_accel_update), "
-            "macrocells, slice-by-slice frustum packets with mailboxing and culling, 3D-DDA for single rays";
+    *desc =
+        "Coherent grid (Wald et al. 2006): uniform grid of ~lambda*N cubic cells rebuilt per frame (prt_accel_update), "
+        "macrocells, slice-by-slice frustum packets with mailboxing and culling, 3D-DDA for single rays";
     return true;
 }
 
@@ -247,11 +252,16 @@ static prt_status cg_estimate(const prt__sample *smp, const char *spec_text, int
 /* The counters of the paper's Tables 1, 3 and 4 (cg_counters), read and reset. */
 static size_t cg_counters_take(prt_counter *out) {
     const cg_counters c = prt__cgrid_counters_get();
-    const prt_counter all[] = {{"cells", c.cells},         {"tests", c.tests},   {"packets", c.packets},
-                               {"slices", c.slices},       {"macro_skips", c.macro_skips},
-                               {"culled", c.culled},       {"mailboxed", c.mailboxed},
+    const prt_counter all[] = {{"cells", c.cells},
+                               {"tests", c.tests},
+                               {"packets", c.packets},
+                               {"slices", c.slices},
+                               {"macro_skips", c.macro_skips},
+                               {"culled", c.culled},
+                               {"mailboxed", c.mailboxed},
                                {"dda_rays", c.dda_rays}};
-    _Static_assert(sizeof all / sizeof all[0] <= PRT_COUNTERS_MAX, "prt_accel_caps.counters writes at most PRT_COUNTERS_MAX");
+    _Static_assert(sizeof all / sizeof all[0] <= PRT_COUNTERS_MAX,
+                   "prt_accel_caps.counters writes at most PRT_COUNTERS_MAX");
     prt__cgrid_counters_reset();
     memcpy(out, all, sizeof all);
     return sizeof all / sizeof all[0];

@@ -69,16 +69,16 @@ static inline bool mailbox_seen(uint32_t *box, uint32_t tri) {
 }
 
 /* Visit cells in order; for each, f(cell) returns true to stop. */
-#define DDA_WALK(g, d, t_exit, ...)                                                               \
-    for (;;) {                                                                                    \
-        float tn[3] = {dda_next(&d, 0), dda_next(&d, 1), dda_next(&d, 2)};                        \
-        int ax = tn[0] < tn[1] ? (tn[0] < tn[2] ? 0 : 2) : (tn[1] < tn[2] ? 1 : 2);               \
-        float t_exit = tn[ax];                                                                    \
+#define DDA_WALK(g, d, t_exit, ...)                                                                        \
+    for (;;) {                                                                                             \
+        float tn[3] = {dda_next(&d, 0), dda_next(&d, 1), dda_next(&d, 2)};                                 \
+        int ax = tn[0] < tn[1] ? (tn[0] < tn[2] ? 0 : 2) : (tn[1] < tn[2] ? 1 : 2);                        \
+        float t_exit = tn[ax];                                                                             \
         size_t cidx = ((size_t)d.cell[2] * g->res[1] + (size_t)d.cell[1]) * g->res[0] + (size_t)d.cell[0]; \
-        __VA_ARGS__                                                                               \
-        if (t_exit > d.t1) break;                                                                 \
-        d.cell[ax] += d.step[ax];                                                                 \
-        if (d.cell[ax] == d.end[ax]) break;                                                       \
+        __VA_ARGS__                                                                                        \
+        if (t_exit > d.t1) break;                                                                          \
+        d.cell[ax] += d.step[ax];                                                                          \
+        if (d.cell[ax] == d.end[ax]) break;                                                                \
     }
 
 void cg_dda_closest(const cg_grid *g, const prt_ray *r, prt__hitx *hit) {
@@ -100,8 +100,7 @@ void cg_dda_closest(const cg_grid *g, const prt_ray *r, prt__hitx *hit) {
             float t, u, v;
             const bool h = g->wald ? cg_wald_hit(&g->wald[tri], r->org, r->dir, r->tnear, hit->t, &t, &u, &v)
                                    : prt__tri_hit(&rx, p, p + 3, p + 6, hit->t, &t, &u, &v);
-            if (h && (t < hit->t || tri < hit->prim))
-                hit->t = t, hit->u = u, hit->v = v, hit->prim = tri;
+            if (h && (t < hit->t || tri < hit->prim)) hit->t = t, hit->u = u, hit->v = v, hit->prim = tri;
         }
         if (hit->prim != PRT_INVALID && hit->t <= t_exit) break;
     })

@@ -37,15 +37,15 @@ typedef struct pray {
     float t1;        /* end of the segment inside the grid */
     float t, u, v;   /* closest hit so far; t starts at tfar */
     uint32_t prim, index;
-    int send;        /* slice where the segment ends (an index along K) */
-    int khit;        /* slice of the closest hit so far (set with it) */
-    float dgK;       /* direction along K in grid units: k = ogK + t dgK */
+    int send;             /* slice where the segment ends (an index along K) */
+    int khit;             /* slice of the closest hit so far (set with it) */
+    float dgK;            /* direction along K in grid units: k = ogK + t dgK */
     uint16_t block, lane; /* its place in the ray blocks */
 } pray;
 
 typedef struct frustum {
     pray *rays;
-    uint32_t n;         /* rays in the frustum set */
+    uint32_t n; /* rays in the frustum set */
     uint32_t live[PRT_PACKET_MAX], nlive;
     rblock *blocks;
     uint32_t nblocks;
@@ -102,7 +102,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
         const float *d = rays[idx[i]].dir;
         for (int k = 0; k < 3; k++) sum[k] += d[k];
     }
-    const int K = fabsf(sum[0]) > fabsf(sum[1]) ? (fabsf(sum[0]) > fabsf(sum[2]) ? 0 : 2) : (fabsf(sum[1]) > fabsf(sum[2]) ? 1 : 2);
+    const int K = fabsf(sum[0]) > fabsf(sum[1]) ? (fabsf(sum[0]) > fabsf(sum[2]) ? 0 : 2)
+                                                : (fabsf(sum[1]) > fabsf(sum[2]) ? 1 : 2);
     const int U = (K + 1) % 3, V = (K + 2) % 3;
     const int sgn = sum[K] >= 0.0f ? 1 : -1;
 
@@ -144,7 +145,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             for (int k = 0; k < 3; k++) og[k] = (o[k] - vf8_set1(g->lo[k])) * inv_cell, dg[k] = d[k] * inv_cell;
             const vf8 aK = dg[K] * fsg;
             const vf8 zero = vf8_set1(0.0f);
-            const vi8 elig = (aK > zero) & (vf8_max(dg[U], -dg[U]) <= slope * aK) & (vf8_max(dg[V], -dg[V]) <= slope * aK);
+            const vi8 elig =
+                (aK > zero) & (vf8_max(dg[U], -dg[U]) <= slope * aK) & (vf8_max(dg[V], -dg[V]) <= slope * aK);
             vf8 t0 = tn, t1 = tf, invs[3];
             for (int k = 0; k < 3; k++) {
                 const vf8 inv = invs[k] = one / dg[k];
@@ -196,10 +198,13 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
                 kl_acc = vf8_min(kl_acc, vf8_select(mem, sout, pinf));
             }
             const vf8 esu = rel * vf8_max(su, -su), esv = rel * vf8_max(sv, -sv);
-            su0v = vf8_min(su0v, vf8_select(mem, su - esu, pinf)), su1v = vf8_max(su1v, vf8_select(mem, su + esu, ninf));
-            sv0v = vf8_min(sv0v, vf8_select(mem, sv - esv, pinf)), sv1v = vf8_max(sv1v, vf8_select(mem, sv + esv, ninf));
+            su0v = vf8_min(su0v, vf8_select(mem, su - esu, pinf)),
+            su1v = vf8_max(su1v, vf8_select(mem, su + esu, ninf));
+            sv0v = vf8_min(sv0v, vf8_select(mem, sv - esv, pinf)),
+            sv1v = vf8_max(sv1v, vf8_select(mem, sv + esv, ninf));
         }
-        const float kf = sgn > 0 ? vf8_hmin(kf_acc) : -vf8_hmin(-kf_acc), kl = sgn > 0 ? -vf8_hmin(-kl_acc) : vf8_hmin(kl_acc);
+        const float kf = sgn > 0 ? vf8_hmin(kf_acc) : -vf8_hmin(-kf_acc),
+                    kl = sgn > 0 ? -vf8_hmin(-kl_acc) : vf8_hmin(kl_acc);
         if (kf < INFINITY && kf > -INFINITY) k_first = (int)kf, k_last = (int)kl;
         su0 = vf8_hmin(su0v), su1 = -vf8_hmin(-su1v), sv0 = vf8_hmin(sv0v), sv1 = -vf8_hmin(-sv1v);
     }
@@ -240,11 +245,13 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
             if (!bits) continue;
             vi8 mem;
             for (int l = 0; l < 8; l++) mem[l] = (bits >> l & 1) ? -1 : 0;
-            const vf8 ou = vf8_load(a_ou + i0), ov = vf8_load(a_ov + i0), su = vf8_load(a_su + i0), sv = vf8_load(a_sv + i0);
+            const vf8 ou = vf8_load(a_ou + i0), ov = vf8_load(a_ov + i0), su = vf8_load(a_su + i0),
+                      sv = vf8_load(a_sv + i0);
             const vf8 dist = (vP0 - vf8_load(a_ogK + i0)) * fs;
             const vf8 du = dist * su, dv = dist * sv;
             const vf8 u = ou + du, v = ov + dv;
-            const vf8 mu = mg + rel * (vf8_max(ou, -ou) + vf8_max(du, -du)), mv = mg + rel * (vf8_max(ov, -ov) + vf8_max(dv, -dv));
+            const vf8 mu = mg + rel * (vf8_max(ou, -ou) + vf8_max(du, -du)),
+                      mv = mg + rel * (vf8_max(ov, -ov) + vf8_max(dv, -dv));
             lu = vf8_min(lu, vf8_select(mem, u - mu, pinf)), hu = vf8_max(hu, vf8_select(mem, u + mu, ninf));
             lv = vf8_min(lv, vf8_select(mem, v - mv, pinf)), hv = vf8_max(hv, vf8_select(mem, v + mv, ninf));
         }
@@ -280,7 +287,8 @@ static void trace_group(const cg_accel *c, prt_ray *rays, prt_hit *hits, const u
     {
         float big = 0;
         for (int i = 0; i < 4; i++) big = cg_max(big, fabsf(f.plane_c[i]) + fabsf(f.plane_k[i]) * (float)g->res[K]);
-        f.cull_eps = 2.0f * CG_TRAVERSE_MARGIN * (2.0f * CG_MAX_SLOPE + 1.0f) + 1e-6f * (big + (float)PRT_MAX(g->res[U], g->res[V]));
+        f.cull_eps = 2.0f * CG_TRAVERSE_MARGIN * (2.0f * CG_MAX_SLOPE + 1.0f) +
+                     1e-6f * (big + (float)PRT_MAX(g->res[U], g->res[V]));
     }
 
     const size_t stride[3] = {1, g->res[0], (size_t)g->res[0] * g->res[1]};

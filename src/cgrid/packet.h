@@ -36,9 +36,9 @@ static inline bool cg_mailbox_seen(uint32_t epoch, uint32_t tri) {
  * prt__tri_hit does for each (so packets give the single rays' bits). */
 typedef struct rblock {
     vf8 org[3], dir[3], sx, sy, sz, tnear; /* dir: for Wald's test (tri=wald) */
-    vf8 t; /* each lane's closest hit so far: the test's tfar */
+    vf8 t;                                 /* each lane's closest hit so far: the test's tfar */
     int kx, ky, kz;
-    uint32_t live; /* lanes still traced */
+    uint32_t live;   /* lanes still traced */
     uint16_t ray[8]; /* lane -> index into the frustum's rays */
 } rblock;
 
@@ -59,8 +59,10 @@ static inline int rblock_hit(const rblock *B, const float *p, vf8 *t_out, vf8 *u
     const vf8 az0 = vf8_set1(p[kz]) - B->org[kz], bz0 = vf8_set1(p[3 + kz]) - B->org[kz],
               cz0 = vf8_set1(p[6 + kz]) - B->org[kz];
     const vf8 ax = (vf8_set1(p[kx]) - B->org[kx]) - B->sx * az0, ay = (vf8_set1(p[ky]) - B->org[ky]) - B->sy * az0;
-    const vf8 bx = (vf8_set1(p[3 + kx]) - B->org[kx]) - B->sx * bz0, by = (vf8_set1(p[3 + ky]) - B->org[ky]) - B->sy * bz0;
-    const vf8 cx = (vf8_set1(p[6 + kx]) - B->org[kx]) - B->sx * cz0, cy = (vf8_set1(p[6 + ky]) - B->org[ky]) - B->sy * cz0;
+    const vf8 bx = (vf8_set1(p[3 + kx]) - B->org[kx]) - B->sx * bz0,
+              by = (vf8_set1(p[3 + ky]) - B->org[ky]) - B->sy * bz0;
+    const vf8 cx = (vf8_set1(p[6 + kx]) - B->org[kx]) - B->sx * cz0,
+              cy = (vf8_set1(p[6 + ky]) - B->org[ky]) - B->sy * cz0;
     vf8 u = cx * by - cy * bx;
     vf8 v = ax * cy - ay * cx;
     vf8 w = bx * ay - by * ax;
@@ -109,10 +111,13 @@ static inline bool cg_planes_cull(const cg_grid *g, int K, int U, int V, vf4 pk,
     const vf4 inv = vf4_set1(g->inv_cell), ne = vf4_set1(-eps);
     const vf4 gu = (G[U] - vf4_set1(g->lo[U])) * inv, gv = (G[V] - vf4_set1(g->lo[V])) * inv,
               gk = (G[K] - vf4_set1(g->lo[K])) * inv;
-    const vi4 o0 = (gu + vf4_set1(pk[0]) * gk) + vf4_set1(pc[0]) < ne, o1 = (-gu + vf4_set1(pk[1]) * gk) + vf4_set1(pc[1]) < ne;
-    const vi4 o2 = (gv + vf4_set1(pk[2]) * gk) + vf4_set1(pc[2]) < ne, o3 = (-gv + vf4_set1(pk[3]) * gk) + vf4_set1(pc[3]) < ne;
+    const vi4 o0 = (gu + vf4_set1(pk[0]) * gk) + vf4_set1(pc[0]) < ne,
+              o1 = (-gu + vf4_set1(pk[1]) * gk) + vf4_set1(pc[1]) < ne;
+    const vi4 o2 = (gv + vf4_set1(pk[2]) * gk) + vf4_set1(pc[2]) < ne,
+              o3 = (-gv + vf4_set1(pk[3]) * gk) + vf4_set1(pc[3]) < ne;
     /* Without branches: (int) so that clang does not read the bitwise | as a typo for ||. */
-    return (int)(vi4_mask(o0) == 0xf) | (int)(vi4_mask(o1) == 0xf) | (int)(vi4_mask(o2) == 0xf) | (int)(vi4_mask(o3) == 0xf);
+    return (int)(vi4_mask(o0) == 0xf) | (int)(vi4_mask(o1) == 0xf) | (int)(vi4_mask(o2) == 0xf) |
+           (int)(vi4_mask(o3) == 0xf);
 }
 
 #endif

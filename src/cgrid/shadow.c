@@ -115,7 +115,8 @@ static void walk(const shadow_ctx *x, const sray *sr, uint32_t n, int K, int sgn
     /* Slices of each segment, and the walk's range. */
     int s_lo[PRT_PACKET_MAX], s_hi[PRT_PACKET_MAX], k_lo = INT32_MAX, k_hi = INT32_MIN;
     for (uint32_t i = 0; i < n; i++) {
-        int a = (int)cg_min(cg_max(sr[i].p0[K], 0.0f), (float)topK), b = (int)cg_min(cg_max(sr[i].p1[K], 0.0f), (float)topK);
+        int a = (int)cg_min(cg_max(sr[i].p0[K], 0.0f), (float)topK),
+            b = (int)cg_min(cg_max(sr[i].p1[K], 0.0f), (float)topK);
         s_lo[i] = PRT_MIN(a, b), s_hi[i] = PRT_MAX(a, b);
         k_lo = PRT_MIN(k_lo, s_lo[i]), k_hi = PRT_MAX(k_hi, s_hi[i]);
     }
@@ -147,7 +148,8 @@ static void walk(const shadow_ctx *x, const sray *sr, uint32_t n, int K, int sgn
     /* Incoherent groups (as frustum.c): a frustum far wider than its rays costs more than
      * the rays alone. */
     {
-        float w0 = cg_min(base[1] - base[0], (float)g->res[U]) + 1, h0 = cg_min(base[3] - base[2], (float)g->res[V]) + 1;
+        float w0 = cg_min(base[1] - base[0], (float)g->res[U]) + 1,
+              h0 = cg_min(base[3] - base[2], (float)g->res[V]) + 1;
         float w1 = cg_min(H[2] - L[2], (float)g->res[U]) + 1, h1 = cg_min(H[3] - L[3], (float)g->res[V]) + 1;
         if (0.5f * (w0 * h0 + w1 * h1) > 4.0f * (float)n + 16.0f) {
             uint32_t idx[PRT_PACKET_MAX];
@@ -358,10 +360,10 @@ static void shadow_group(const shadow_ctx *x, uint32_t *idx, uint32_t n, int dep
         uint32_t rest[PRT_PACKET_MAX];
         for (uint32_t i = 0; i < n; i++) {
             const float aK = sr[i].dg[K] * (float)sgn;
-            if (aK > 0.0f && fabsf(sr[i].dg[U]) <= CG_SHADOW_MAX_SLOPE * aK && fabsf(sr[i].dg[V]) <= CG_SHADOW_MAX_SLOPE * aK)
+            if (aK > 0.0f && fabsf(sr[i].dg[U]) <= CG_SHADOW_MAX_SLOPE * aK &&
+                fabsf(sr[i].dg[V]) <= CG_SHADOW_MAX_SLOPE * aK)
                 sr[f++] = sr[i];
-            else
-                rest[--r] = sr[i].index;
+            else rest[--r] = sr[i].index;
         }
         if (f) walk(x, sr, f, K, sgn, from_t0);
         if (r == n) return;

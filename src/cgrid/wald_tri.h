@@ -14,8 +14,8 @@
 #include <stdint.h>
 
 typedef struct cg_wald {
-    float n_u, n_v, n_d; /* plane: p_k + n_u p_u + n_v p_v = n_d */
-    uint32_t k;          /* projection axis: the normal's largest component */
+    float n_u, n_v, n_d;         /* plane: p_k + n_u p_u + n_v p_v = n_d */
+    uint32_t k;                  /* projection axis: the normal's largest component */
     float b_nu, b_nv, b_d, pad0; /* barycentric of vertex B: b_nu h_u + b_nv h_v + b_d */
     float c_nu, c_nv, c_d, pad1; /* barycentric of vertex C */
 } cg_wald;
@@ -39,8 +39,8 @@ static inline void cg_wald_setup(const float *p, cg_wald *w) {
 }
 
 /* Hit with t in [tnear, tfar]: t, and u, v the weights of B and C. */
-static inline bool cg_wald_hit(const cg_wald *w, const float *org, const float *dir, float tnear, float tfar, float *t_out,
-                               float *u_out, float *v_out) {
+static inline bool cg_wald_hit(const cg_wald *w, const float *org, const float *dir, float tnear, float tfar,
+                               float *t_out, float *u_out, float *v_out) {
     const uint32_t k = w->k, u = (k + 1) % 3, v = (k + 2) % 3;
     const float nd = 1.0f / (dir[k] + w->n_u * dir[u] + w->n_v * dir[v]);
     const float f = (w->n_d - org[k] - w->n_u * org[u] - w->n_v * org[v]) * nd;

@@ -29,8 +29,7 @@ void prt_memory_reset_peak(void) { atomic_store(&g_peak, atomic_load(&g_current)
 static void count_add(size_t n) {
     size_t now = atomic_fetch_add(&g_current, n) + n;
     size_t peak = atomic_load(&g_peak);
-    while (now > peak && !atomic_compare_exchange_weak(&g_peak, &peak, now)) {
-    }
+    while (now > peak && !atomic_compare_exchange_weak(&g_peak, &peak, now)) {}
 }
 
 /* Blocks of 2 MiB and more start on a 2 MiB boundary and ask for transparent huge pages

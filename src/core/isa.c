@@ -60,14 +60,12 @@ prt_status prt__isa_pick(prt__isa *out) {
                          want, prt__isa_name(PRT__ISA_BASE));
 #else
         return prt__fail(PRT_ERROR_UNSUPPORTED,
-                         "PRT_ISA=%s: this library was built without %s kernels (it has %s only)",
-                         want, want, prt__isa_name(PRT__ISA_BASE));
+                         "PRT_ISA=%s: this library was built without %s kernels (it has %s only)", want, want,
+                         prt__isa_name(PRT__ISA_BASE));
 #endif
     }
-    return prt__fail(
-        PRT_ERROR_ARGUMENT,
-        "PRT_ISA=%s: unknown instruction set (avx2 or avx512; unset: the best this CPU runs)",
-        want);
+    return prt__fail(PRT_ERROR_ARGUMENT,
+                     "PRT_ISA=%s: unknown instruction set (avx2 or avx512; unset: the best this CPU runs)", want);
 }
 
 const char *prt__isa_active(void) {

@@ -14,7 +14,11 @@ typedef float vf4 __attribute__((vector_size(16)));
 typedef int32_t vi4 __attribute__((vector_size(16))); /* comparison masks: -1 true, 0 false */
 
 static inline vf4 vf4_set1(float x) { return (vf4){x, x, x, x}; }
-static inline vf4 vf4_load(const float *p) { vf4 v; memcpy(&v, p, sizeof v); return v; }
+static inline vf4 vf4_load(const float *p) {
+    vf4 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
 
 #if defined(__SSE4_1__)
 static inline vf4 vf4_min(vf4 a, vf4 b) { return (vf4)_mm_min_ps((__m128)a, (__m128)b); }
@@ -23,10 +27,26 @@ static inline int vi4_mask(vi4 m) { return _mm_movemask_ps((__m128)m); }
 static inline vf4 vf4_select(vi4 m, vf4 a, vf4 b) { return (vf4)_mm_blendv_ps((__m128)b, (__m128)a, (__m128)m); }
 #else
 /* min/max return the second operand when either is NaN, like SSE. */
-static inline vf4 vf4_min(vf4 a, vf4 b) { vf4 r; for (int i = 0; i < 4; i++) r[i] = a[i] < b[i] ? a[i] : b[i]; return r; }
-static inline vf4 vf4_max(vf4 a, vf4 b) { vf4 r; for (int i = 0; i < 4; i++) r[i] = a[i] > b[i] ? a[i] : b[i]; return r; }
-static inline int vi4_mask(vi4 m) { int r = 0; for (int i = 0; i < 4; i++) r |= (m[i] < 0) << i; return r; }
-static inline vf4 vf4_select(vi4 m, vf4 a, vf4 b) { vf4 r; for (int i = 0; i < 4; i++) r[i] = m[i] ? a[i] : b[i]; return r; }
+static inline vf4 vf4_min(vf4 a, vf4 b) {
+    vf4 r;
+    for (int i = 0; i < 4; i++) r[i] = a[i] < b[i] ? a[i] : b[i];
+    return r;
+}
+static inline vf4 vf4_max(vf4 a, vf4 b) {
+    vf4 r;
+    for (int i = 0; i < 4; i++) r[i] = a[i] > b[i] ? a[i] : b[i];
+    return r;
+}
+static inline int vi4_mask(vi4 m) {
+    int r = 0;
+    for (int i = 0; i < 4; i++) r |= (m[i] < 0) << i;
+    return r;
+}
+static inline vf4 vf4_select(vi4 m, vf4 a, vf4 b) {
+    vf4 r;
+    for (int i = 0; i < 4; i++) r[i] = m[i] ? a[i] : b[i];
+    return r;
+}
 #endif
 
 /* Horizontal minimum, broadcast. */
@@ -41,10 +61,18 @@ typedef float vf8 __attribute__((vector_size(32)));
 typedef int32_t vi8 __attribute__((vector_size(32)));
 
 static inline vf8 vf8_set1(float x) { return (vf8){x, x, x, x, x, x, x, x}; }
-static inline vf8 vf8_load(const float *p) { vf8 v; memcpy(&v, p, sizeof v); return v; }
+static inline vf8 vf8_load(const float *p) {
+    vf8 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
 
 static inline void vf8_store(float *p, vf8 v) { memcpy(p, &v, sizeof v); }
-static inline vi8 vi8_load(const int32_t *p) { vi8 v; memcpy(&v, p, sizeof v); return v; }
+static inline vi8 vi8_load(const int32_t *p) {
+    vi8 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
 static inline void vi8_store(int32_t *p, vi8 v) { memcpy(p, &v, sizeof v); }
 static inline vi8 vi8_select(vi8 m, vi8 a, vi8 b) { return (m & a) | (~m & b); }
 
@@ -74,10 +102,26 @@ static inline vf8 vf8_max(vf8 a, vf8 b) { return (vf8)_mm256_max_ps((__m256)a, (
 static inline int vi8_mask(vi8 m) { return _mm256_movemask_ps((__m256)m); }
 static inline vf8 vf8_select(vi8 m, vf8 a, vf8 b) { return (vf8)_mm256_blendv_ps((__m256)b, (__m256)a, (__m256)m); }
 #else
-static inline vf8 vf8_min(vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = a[i] < b[i] ? a[i] : b[i]; return r; }
-static inline vf8 vf8_max(vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = a[i] > b[i] ? a[i] : b[i]; return r; }
-static inline int vi8_mask(vi8 m) { int r = 0; for (int i = 0; i < 8; i++) r |= (m[i] < 0) << i; return r; }
-static inline vf8 vf8_select(vi8 m, vf8 a, vf8 b) { vf8 r; for (int i = 0; i < 8; i++) r[i] = m[i] ? a[i] : b[i]; return r; }
+static inline vf8 vf8_min(vf8 a, vf8 b) {
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = a[i] < b[i] ? a[i] : b[i];
+    return r;
+}
+static inline vf8 vf8_max(vf8 a, vf8 b) {
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = a[i] > b[i] ? a[i] : b[i];
+    return r;
+}
+static inline int vi8_mask(vi8 m) {
+    int r = 0;
+    for (int i = 0; i < 8; i++) r |= (m[i] < 0) << i;
+    return r;
+}
+static inline vf8 vf8_select(vi8 m, vf8 a, vf8 b) {
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = m[i] ? a[i] : b[i];
+    return r;
+}
 #endif
 
 /* Eight bytes widened to floats (quantized box planes). */

@@ -54,9 +54,17 @@ PRT_SIMD16_INLINE vi16 vi16_select(vi16 m, vi16 a, vi16 b) {
 PRT_SIMD16_INLINE uint32_t vi16_mask(vi16 m) { return (uint32_t)vi8_mask(m.lo) | (uint32_t)vi8_mask(m.hi) << 8; }
 #endif
 
-PRT_SIMD16_INLINE vf16 vf16_load(const float *p) { vf16 v; memcpy(&v, p, sizeof v); return v; }
+PRT_SIMD16_INLINE vf16 vf16_load(const float *p) {
+    vf16 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
 PRT_SIMD16_INLINE void vf16_store(float *p, vf16 v) { memcpy(p, &v, sizeof v); }
-PRT_SIMD16_INLINE vi16 vi16_load(const int32_t *p) { vi16 v; memcpy(&v, p, sizeof v); return v; }
+PRT_SIMD16_INLINE vi16 vi16_load(const int32_t *p) {
+    vi16 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
 PRT_SIMD16_INLINE void vi16_store(int32_t *p, vi16 v) { memcpy(p, &v, sizeof v); }
 PRT_SIMD16_INLINE vf16 vf16_min(vf16 a, vf16 b) { return vf16_select(vf16_lt(a, b), a, b); }
 PRT_SIMD16_INLINE vf16 vf16_max(vf16 a, vf16 b) { return vf16_select(vf16_gt(a, b), a, b); }

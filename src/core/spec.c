@@ -7,8 +7,7 @@
 
 static bool is_name_char(char c) { return isalnum((unsigned char)c) || c == '-' || c == '_' || c == '.'; }
 
-static prt_status copy_token(const char *b, const char *e, char *dst, size_t cap, const char *what,
-                             const char *text) {
+static prt_status copy_token(const char *b, const char *e, char *dst, size_t cap, const char *what, const char *text) {
     size_t n = (size_t)(e - b);
     if (n == 0) return prt__fail(PRT_ERROR_ARGUMENT, "spec '%s': empty %s", text, what);
     if (n >= cap) return prt__fail(PRT_ERROR_ARGUMENT, "spec '%s': %s too long", text, what);
@@ -26,19 +25,16 @@ prt_status prt__spec_parse(const char *text, prt_spec *out) {
     const char *p = text;
     const char *end = p + strcspn(p, ",");
     const char *colon = memchr(p, ':', (size_t)(end - p));
-    prt_status st = copy_token(p, colon ? colon : end, out->structure, sizeof out->structure,
-                               "structure name", text);
+    prt_status st = copy_token(p, colon ? colon : end, out->structure, sizeof out->structure, "structure name", text);
     if (st) return st;
-    if (colon && (st = copy_token(colon + 1, end, out->codec, sizeof out->codec, "codec name", text)))
-        return st;
+    if (colon && (st = copy_token(colon + 1, end, out->codec, sizeof out->codec, "codec name", text))) return st;
     p = end;
     while (*p == ',') {
         p++;
         end = p + strcspn(p, ",");
         const char *eq = memchr(p, '=', (size_t)(end - p));
         if (!eq) return prt__fail(PRT_ERROR_ARGUMENT, "spec '%s': option without '=' near '%s'", text, p);
-        if (out->count == PRT_SPEC_MAX_KEYS)
-            return prt__fail(PRT_ERROR_ARGUMENT, "spec '%s': too many options", text);
+        if (out->count == PRT_SPEC_MAX_KEYS) return prt__fail(PRT_ERROR_ARGUMENT, "spec '%s': too many options", text);
         int i = out->count++;
         if ((st = copy_token(p, eq, out->kv[i].key, sizeof out->kv[i].key, "option name", text)) ||
             (st = copy_token(eq + 1, end, out->kv[i].value, sizeof out->kv[i].value, "option value", text)))
@@ -75,8 +71,7 @@ prt_status prt__spec_int(prt_spec *s, const char *key, int def, int lo, int hi, 
     return PRT_OK;
 }
 
-prt_status prt__spec_enum(prt_spec *s, const char *key, const char *const *names, int count, int def,
-                          int *out) {
+prt_status prt__spec_enum(prt_spec *s, const char *key, const char *const *names, int count, int def, int *out) {
     const char *v = prt__spec_get(s, key);
     if (!v) {
         *out = def;
@@ -98,8 +93,7 @@ prt_status prt__spec_enum(prt_spec *s, const char *key, const char *const *names
 prt_status prt__spec_check_unused(const prt_spec *s) {
     for (int i = 0; i < s->count; i++)
         if (!s->kv[i].used)
-            return prt__fail(PRT_ERROR_ARGUMENT, "representation '%s' has no option '%s'", s->structure,
-                             s->kv[i].key);
+            return prt__fail(PRT_ERROR_ARGUMENT, "representation '%s' has no option '%s'", s->structure, s->kv[i].key);
     return PRT_OK;
 }
 

@@ -27,8 +27,7 @@ const char *prt__spec_get(prt_spec *s, const char *key);
 prt_status prt__spec_int(prt_spec *s, const char *key, int def, int lo, int hi, int *out);
 
 /* Option from a fixed set of names: *out = index of the value in names, def when absent. */
-prt_status prt__spec_enum(prt_spec *s, const char *key, const char *const *names, int count,
-                          int def, int *out);
+prt_status prt__spec_enum(prt_spec *s, const char *key, const char *const *names, int count, int def, int *out);
 
 /* After a representation has read its options: error naming the first unknown key. */
 prt_status prt__spec_check_unused(const prt_spec *s);

@@ -50,7 +50,8 @@ static inline int prt__box4_hit(const prt__rayx4 *r, const float *b, float tfar,
         tmin = vf4_max((n - r->org[k]) * r->inv[k], tmin); /* NaN in the first operand: tmin */
         tmax = vf4_min((f - r->org[k]) * r->inv[k], tmax);
     }
-    tmax = vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
+    tmax =
+        vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
     *tentry = tmin;
     return vi4_mask(tmin <= tmax);
 }

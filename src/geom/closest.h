@@ -22,13 +22,12 @@ static inline double prt__closest_on_triangle(const double p[3], const double a[
     for (int k = 0; k < 3; k++) bp[k] = p[k] - b[k], cp[k] = p[k] - c[k];
     const double d3 = DOT(ab, bp), d4 = DOT(ac, bp), d5 = DOT(ab, cp), d6 = DOT(ac, cp);
     const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
-    if (d1 <= 0 && d2 <= 0) u = 0, v = 0;                                      /* vertex a */
-    else if (d3 >= 0 && d4 <= d3) u = 1, v = 0;                                 /* vertex b */
-    else if (d6 >= 0 && d5 <= d6) u = 0, v = 1;                                 /* vertex c */
-    else if (vc <= 0 && d1 >= 0 && d3 <= 0) u = d1 / (d1 - d3), v = 0;         /* edge ab */
-    else if (vb <= 0 && d2 >= 0 && d6 <= 0) u = 0, v = d2 / (d2 - d6);         /* edge ac */
-    else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {                        /* edge bc */
-        v = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    if (d1 <= 0 && d2 <= 0) u = 0, v = 0;                              /* vertex a */
+    else if (d3 >= 0 && d4 <= d3) u = 1, v = 0;                        /* vertex b */
+    else if (d6 >= 0 && d5 <= d6) u = 0, v = 1;                        /* vertex c */
+    else if (vc <= 0 && d1 >= 0 && d3 <= 0) u = d1 / (d1 - d3), v = 0; /* edge ab */
+    else if (vb <= 0 && d2 >= 0 && d6 <= 0) u = 0, v = d2 / (d2 - d6); /* edge ac */
+    else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) { /* edge bc */ v = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         u = 1 - v;
     } else {
         const double den = va + vb + vc;
@@ -63,8 +62,8 @@ static inline double prt__solid_angle(const double p[3], const double a[3], cons
     const double lx = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
     const double ly = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
     const double lz = sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
-    const double det = x[0] * (y[1] * z[2] - y[2] * z[1]) - x[1] * (y[0] * z[2] - y[2] * z[0]) +
-                       x[2] * (y[0] * z[1] - y[1] * z[0]);
+    const double det =
+        x[0] * (y[1] * z[2] - y[2] * z[1]) - x[1] * (y[0] * z[2] - y[2] * z[0]) + x[2] * (y[0] * z[1] - y[1] * z[0]);
     const double xy = x[0] * y[0] + x[1] * y[1] + x[2] * y[2], yz = y[0] * z[0] + y[1] * z[1] + y[2] * z[2];
     const double zx = z[0] * x[0] + z[1] * x[1] + z[2] * x[2];
     return 2.0 * atan2(det, lx * ly * lz + xy * lz + yz * lx + zx * ly);

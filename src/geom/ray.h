@@ -10,11 +10,11 @@
 
 typedef struct prt__rayx {
     float org[3], dir[3];
-    float inv[3];      /* 1/dir: +-inf for a +-0 component (box.h handles the NaNs that make) */
+    float inv[3]; /* 1/dir: +-inf for a +-0 component (box.h handles the NaNs that make) */
     float tnear;
-    int kx, ky, kz;    /* kz: dominant axis; kx, ky chosen to keep the winding */
-    float sx, sy, sz;  /* shear constants */
-    int neg[3];        /* inv[k] < 0: which slab plane is near */
+    int kx, ky, kz;   /* kz: dominant axis; kx, ky chosen to keep the winding */
+    float sx, sy, sz; /* shear constants */
+    int neg[3];       /* inv[k] < 0: which slab plane is near */
 } prt__rayx;
 
 /* Hit record used inside kernels; t starts at the ray's tfar. */
@@ -49,8 +49,8 @@ static inline void prt__rayx_init(prt__rayx *x, const prt_ray *r) {
  * answers a miss for anything else rather than letting NaNs into the kernels. */
 static inline bool prt__ray_valid(const prt_ray *r) {
     /* x * 0 is 0 for finite x and NaN otherwise: one sum checks all six components. */
-    float z = r->org[0] * 0.0f + r->org[1] * 0.0f + r->org[2] * 0.0f + r->dir[0] * 0.0f + r->dir[1] * 0.0f +
-              r->dir[2] * 0.0f;
+    float z =
+        r->org[0] * 0.0f + r->org[1] * 0.0f + r->org[2] * 0.0f + r->dir[0] * 0.0f + r->dir[1] * 0.0f + r->dir[2] * 0.0f;
     if (z != 0.0f) return false;
     if (r->dir[0] == 0.0f && r->dir[1] == 0.0f && r->dir[2] == 0.0f) return false;
     return r->tnear <= r->tfar; /* false for NaN too */

@@ -14,8 +14,8 @@
 
 /* Edge functions recomputed in double: the products of floats are exact there, so the
  * sign of a near-zero edge function is decided correctly. */
-static inline void prt__tri_edges_double(float ax, float ay, float bx, float by, float cx, float cy,
-                                         float *u, float *v, float *w) {
+static inline void prt__tri_edges_double(float ax, float ay, float bx, float by, float cx, float cy, float *u, float *v,
+                                         float *w) {
     *u = (float)((double)cx * (double)by - (double)cy * (double)bx);
     *v = (float)((double)ax * (double)cy - (double)ay * (double)cx);
     *w = (float)((double)bx * (double)ay - (double)by * (double)ax);
@@ -48,7 +48,8 @@ static inline bool prt__tri_test(const prt__rayx *r, const float *p0, const floa
     if (PRT_UNLIKELY(u == 0.0f || v == 0.0f || w == 0.0f)) prt__tri_edges_double(ax, ay, bx, by, cx, cy, &u, &v, &w);
     float su = u, sv = v, sw = w;
     if (crossing) { /* u belongs to the edge b -> c, v to c -> a, w to a -> b */
-        su = prt__sos_edge(u, bx, by, cx, cy), sv = prt__sos_edge(v, cx, cy, ax, ay), sw = prt__sos_edge(w, ax, ay, bx, by);
+        su = prt__sos_edge(u, bx, by, cx, cy), sv = prt__sos_edge(v, cx, cy, ax, ay),
+        sw = prt__sos_edge(w, ax, ay, bx, by);
         if (su == 0.0f || sv == 0.0f || sw == 0.0f) return false; /* an edge of no length: seen edge-on */
     }
     if ((su < 0.0f || sv < 0.0f || sw < 0.0f) && (su > 0.0f || sv > 0.0f || sw > 0.0f)) return false;

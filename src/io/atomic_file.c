@@ -126,8 +126,8 @@ prt_status prt__afile_commit(prt__afile *a) {
     if (!e && rename(a->tmp, a->path) != 0) e = errno;
     if (e) unlink(a->tmp);
     else if (big) sync_dir(a->path);
-    prt_status s = e ? prt__fail(PRT_ERROR_IO, "%s: write failed: %s (the previous file, if any, is unchanged)", a->path,
-                                 strerror(e))
+    prt_status s = e ? prt__fail(PRT_ERROR_IO, "%s: write failed: %s (the previous file, if any, is unchanged)",
+                                 a->path, strerror(e))
                      : PRT_OK;
     prt__free(a->tmp);
     prt__free(a->path);

@@ -64,8 +64,16 @@ static uint32_t crc_of(const void *data, size_t size) {
 
 static void put32(uint8_t *p, uint32_t v) { memcpy(p, &v, 4); }
 static void put64(uint8_t *p, uint64_t v) { memcpy(p, &v, 8); }
-static uint32_t get32(const uint8_t *p) { uint32_t v; memcpy(&v, p, 4); return v; }
-static uint64_t get64(const uint8_t *p) { uint64_t v; memcpy(&v, p, 8); return v; }
+static uint32_t get32(const uint8_t *p) {
+    uint32_t v;
+    memcpy(&v, p, 4);
+    return v;
+}
+static uint64_t get64(const uint8_t *p) {
+    uint64_t v;
+    memcpy(&v, p, 8);
+    return v;
+}
 
 /* Header and section table (the table's unused entries stay zero). */
 static void make_header(uint8_t *h, const prt_file_info *info, const prt_writer *w, uint64_t file_bytes) {
@@ -208,7 +216,8 @@ prt_status prt_accel_open(const char *path, const prt_open_options *o, prt_accel
     char head[PRT_PROBE_BYTES];
     ssize_t got = pread(fd, head, sizeof head, 0);
     prt_accel *own;
-    prt_status s = prt__accel_open_own(NULL, (uint64_t)st.st_size, fd, head, got > 0 ? (size_t)got : 0, path, o, true, &own);
+    prt_status s =
+        prt__accel_open_own(NULL, (uint64_t)st.st_size, fd, head, got > 0 ? (size_t)got : 0, path, o, true, &own);
     if (s || own) {
         if (s) close(fd);
         *out = own;

@@ -30,8 +30,7 @@ prt_status prt__writer_section(prt_writer *w, uint32_t tag, const void *data, si
 
 /* Find a section; PRT_ERROR_CORRUPT naming the tag when it is missing. The pointer is
  * 64-byte aligned when the container memory is. min_size: the least acceptable size. */
-prt_status prt__reader_section(prt_reader *r, uint32_t tag, size_t min_size, const void **data,
-                               size_t *size);
+prt_status prt__reader_section(prt_reader *r, uint32_t tag, size_t min_size, const void **data, size_t *size);
 
 /* Write info plus the sections that fill() adds to path. */
 prt_status prt__file_save(const char *path, const prt_file_info *info,
@@ -40,8 +39,7 @@ prt_status prt__file_save(const char *path, const prt_file_info *info,
 /* Check header, section table and checksums of an in-memory container and return a
  * reader over it (valid while data is). verify_crc=false is for fuzzing the structure
  * checks behind the checksums. */
-prt_status prt__file_open(const void *data, size_t size, bool verify_crc, prt_file_info *info,
-                          prt_reader *r);
+prt_status prt__file_open(const void *data, size_t size, bool verify_crc, prt_file_info *info, prt_reader *r);
 
 struct prt_reader {
     const uint8_t *data;

@@ -23,8 +23,7 @@ static prt_status read_array(const char *path, const char *magic, size_t record,
     prt_status s = PRT_OK;
     if (fread(m, 1, 8, f) != 8 || memcmp(m, magic, 8) != 0)
         s = prt__fail(PRT_ERROR_FORMAT, "%s: not a %.8s file (bad magic)", path, magic);
-    else if (fread(&n, 8, 1, f) != 1)
-        s = prt__fail(PRT_ERROR_FORMAT, "%s: truncated header", path);
+    else if (fread(&n, 8, 1, f) != 1) s = prt__fail(PRT_ERROR_FORMAT, "%s: truncated header", path);
     else if (fstat(fileno(f), &st) != 0 || (uint64_t)st.st_size < 16 || ((uint64_t)st.st_size - 16) / record < n ||
              ((uint64_t)st.st_size - 16) != n * record)
         s = prt__fail(PRT_ERROR_FORMAT, "%s: header says %llu records of %zu bytes, the file has %lld bytes of data",

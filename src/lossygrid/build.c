@@ -57,7 +57,8 @@ static size_t distinct_corners(const lg_source *s, size_t n) {
     if (!ids) return 0;
     for (size_t i = 0; i < n; i++) {
         const int rx = s[i].rx, ry = s[i].ry;
-        ids[4 * i] = s[i].v[0], ids[4 * i + 1] = s[i].v[rx], ids[4 * i + 2] = s[i].v[5 * ry], ids[4 * i + 3] = s[i].v[5 * ry + rx];
+        ids[4 * i] = s[i].v[0], ids[4 * i + 1] = s[i].v[rx], ids[4 * i + 2] = s[i].v[5 * ry],
+                ids[4 * i + 3] = s[i].v[5 * ry + rx];
     }
     qsort(ids, 4 * n, sizeof *ids, cmp_u32);
     size_t d = 0;
@@ -72,7 +73,8 @@ static prt_status find_records(const prt_mesh *m, int threads, uint32_t **canon,
     prt_status s = prt__mesh_weld(m, canon);
     if (!s) s = lg_extract(m, *canon, ex);
     if (!s && ex->subgrid_count + ex->loose_count == 0)
-        s = prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: the mesh has no triangle that can be hit (all %zu are degenerate)",
+        s = prt__fail(PRT_ERROR_ARGUMENT,
+                      "lossygrid: the mesh has no triangle that can be hit (all %zu are degenerate)",
                       m->triangle_count);
     if (!s) s = lg_cluster(m, *canon, ex->loose, ex->loose_count, threads, tris, tri_ids, ntri_rec);
     return s;
@@ -106,7 +108,8 @@ prt_status lg_build_blob(const prt_mesh *m, const lg_build_params *bp, bvh_blob 
     prt_status s = find_records(m, bp->threads, &canon, &ex, &tris, &tri_ids, &ntri_rec);
     const size_t ng = ex.subgrid_count, nrec = ng + ntri_rec;
     if (!s && ex.grid_triangles + ex.loose_count > UINT32_MAX)
-        s = prt__fail(PRT_ERROR_LIMIT, "lossygrid: %zu triangles exceed 32-bit positions", ex.grid_triangles + ex.loose_count);
+        s = prt__fail(PRT_ERROR_LIMIT, "lossygrid: %zu triangles exceed 32-bit positions",
+                      ex.grid_triangles + ex.loose_count);
     if (!s) {
         grids = prt__alloc(prt__mul_size(ng + 1, sizeof *grids));
         errs = prt__alloc(prt__mul_size(ng + 1, sizeof *errs));

@@ -32,7 +32,9 @@ static bool rec_valid(const void *ctx, const uint8_t *leaf, uint32_t count) {
             lg_grid_rec g;
             memcpy(&g, leaf, sizeof g);
             const bool fix_ok = g.scale > (g.res >> 4) && g.scale < 255; /* both exponents in 1..254 */
-            if ((g.kind == LG_ENC_FIX ? !fix_ok : g.scale != 0 || g.res > 15) || (uint64_t)g.first + 2u * (uint64_t)(lg_rx(&g) * lg_ry(&g)) > sh->triangles) return false;
+            if ((g.kind == LG_ENC_FIX ? !fix_ok : g.scale != 0 || g.res > 15) ||
+                (uint64_t)g.first + 2u * (uint64_t)(lg_rx(&g) * lg_ry(&g)) > sh->triangles)
+                return false;
             for (int c = 0; c < 4; c++)
                 if (!finite3(g.corner[c])) return false;
         } else {

@@ -49,7 +49,8 @@ prt_status lg_cluster(const prt_mesh *m, const uint32_t *canon, const uint32_t *
     if (st) return st;
     if (np != n) { /* loose triangles are hittable ones (lg_extract) */
         prt__free(p);
-        return prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: internal: %zu of %zu loose triangles are degenerate", n - np, n);
+        return prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: internal: %zu of %zu loose triangles are degenerate", n - np,
+                         n);
     }
     lg_tri_rec *recs = prt__alloc(prt__mul_size(n + 1, sizeof *recs)); /* at most one record a triangle */
     uint32_t *ids = prt__alloc(prt__mul_size(n + 1, LG_TRI_MAX * sizeof(uint32_t)));

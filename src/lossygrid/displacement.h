@@ -38,7 +38,7 @@ typedef struct lg_res_tables {
      * a byte shuffle of it into the eight lanes' codes (index 0x80: a zero byte). */
     uint8_t row_shuffle[5][32];
     int32_t row_load[5];
-    int32_t inner[40];   /* -1 for a vertex inside the sub-grid (not on its border), else 0 */
+    int32_t inner[40]; /* -1 for a vertex inside the sub-grid (not on its border), else 0 */
     int8_t slot_lane[21];
 } lg_res_tables;
 extern lg_res_tables lg_res[16];
@@ -80,7 +80,9 @@ static inline void lg_disp_decode(int enc, uint32_t c, uint8_t s, float d[3]) {
     }
 }
 
-static inline uint32_t lg_disp_load(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16; }
+static inline uint32_t lg_disp_load(const uint8_t *p) {
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16;
+}
 
 /* The code whose decoded vertex base + decode(code) lies nearest to target; *out receives
  * that decoded vertex. s: the grid's exponent byte (LG_ENC_FIX). */

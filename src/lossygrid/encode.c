@@ -65,7 +65,8 @@ void lg_grid_encode(const prt_mesh *m, const lg_source *src, int enc, uint8_t sc
         patch_point(rec, t, l, p);
         const uint8_t s = t->inner[l] ? lg_inner_scale(rec) : scale;
         const uint32_t code = lg_disp_encode(enc, s, p, &m->vertices[3 * (size_t)src->v[5 * (l >> 3) + (l & 7)]], got);
-        rec->disp[slot][0] = (uint8_t)code, rec->disp[slot][1] = (uint8_t)(code >> 8), rec->disp[slot][2] = (uint8_t)(code >> 16);
+        rec->disp[slot][0] = (uint8_t)code, rec->disp[slot][1] = (uint8_t)(code >> 8),
+        rec->disp[slot][2] = (uint8_t)(code >> 16);
     }
     lg_grid_vertices gv;
     lg_grid_decode(rec, &gv);

@@ -23,15 +23,15 @@ typedef struct extractor {
     const prt_mesh *m;
     const uint32_t *canon;
     size_t nt;
-    uint8_t *valid;     /* per triangle: not degenerate */
-    uint32_t *opp;      /* per half-edge 3 t + k (vertex k to k + 1): its twin, or NONE */
-    uint32_t *quad_of;  /* per triangle: its quad, or NONE */
-    uint8_t *hside;     /* per half-edge: the side of its quad it lies on, 4 for a diagonal */
+    uint8_t *valid;    /* per triangle: not degenerate */
+    uint32_t *opp;     /* per half-edge 3 t + k (vertex k to k + 1): its twin, or NONE */
+    uint32_t *quad_of; /* per triangle: its quad, or NONE */
+    uint8_t *hside;    /* per half-edge: the side of its quad it lies on, 4 for a diagonal */
     quad *quads;
     size_t quad_count;
-    uint8_t *used;      /* per quad: in a grid */
-    uint32_t *cellq;    /* growth scratch: quad of each cell, (2 GRID_CAP)^2 */
-    uint8_t *cellr;     /* and its rotation: cell corner c is quad vertex (r + c) % 4 */
+    uint8_t *used;   /* per quad: in a grid */
+    uint32_t *cellq; /* growth scratch: quad of each cell, (2 GRID_CAP)^2 */
+    uint8_t *cellr;  /* and its rotation: cell corner c is quad vertex (r + c) % 4 */
 } extractor;
 
 static uint32_t vtx(const extractor *x, size_t t, int k) { return x->canon[x->m->triangles[3 * t + (size_t)k]]; }
@@ -107,7 +107,8 @@ static int shared_edge(const extractor *x, uint32_t t, uint32_t u) {
  * a grid cell instead of its diagonal makes a rhombus-like quad, far from 0). */
 static float quad_skew(const extractor *x, uint32_t t, int k) {
     const uint32_t o = x->opp[3 * (size_t)t + (size_t)k], t2 = o / 3;
-    const uint32_t q[4] = {vtx(x, t, (k + 1) % 3), vtx(x, t, (k + 2) % 3), vtx(x, t, k), vtx(x, t2, (int)(o % 3 + 2) % 3)};
+    const uint32_t q[4] = {vtx(x, t, (k + 1) % 3), vtx(x, t, (k + 2) % 3), vtx(x, t, k),
+                           vtx(x, t2, (int)(o % 3 + 2) % 3)};
     float worst = 0;
     for (int i = 0; i < 4; i++) {
         const float *p = &x->m->vertices[3 * (size_t)q[i]], *a = &x->m->vertices[3 * (size_t)q[(i + 3) % 4]],
@@ -277,7 +278,8 @@ static prt_status cut(extractor *x, const rect *g, lg_extraction *out, size_t *c
                         sg->tri[k] = d->tri[has3 ? 1 : 0];
                         const int r = rotation(x, sg->tri[k], tris[h]);
                         if (r < 0)
-                            return prt__fail(PRT_ERROR_ARGUMENT, "lossygrid: internal: cell triangle does not match triangle %u",
+                            return prt__fail(PRT_ERROR_ARGUMENT,
+                                             "lossygrid: internal: cell triangle does not match triangle %u",
                                              sg->tri[k]);
                         sg->rot[k] = (uint8_t)r;
                     }
@@ -336,7 +338,8 @@ prt_status lg_extract(const prt_mesh *m, const uint32_t *canon, lg_extraction *o
         out->loose = prt__alloc(prt__mul_size(n + 1, 4));
         if (!out->loose) s = prt__fail(PRT_ERROR_NOMEM, "lossygrid: out of memory for %zu loose triangles", n);
         for (size_t t = 0; !s && t < nt; t++)
-            if (x.valid[t] && (x.quad_of[t] == NONE || x.used[x.quad_of[t]] != 2)) out->loose[out->loose_count++] = (uint32_t)t;
+            if (x.valid[t] && (x.quad_of[t] == NONE || x.used[x.quad_of[t]] != 2))
+                out->loose[out->loose_count++] = (uint32_t)t;
     }
     prt__free(x.valid), prt__free(x.opp), prt__free(x.quad_of), prt__free(x.hside), prt__free(x.quads),
         prt__free(x.used), prt__free(x.cellq), prt__free(x.cellr);

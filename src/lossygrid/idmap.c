@@ -48,9 +48,11 @@ prt_status lg_idmap_open(const void *data, size_t size, size_t n, lg_idmap *out)
     if (size < HEAD) return prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDMP section: shorter than its header");
     memcpy(head, data, sizeof head);
     if (head[0] != (n + 31) / 32 || size != image_size(head[0], head[1]))
-        return prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDMP section: %zu bytes, not the size of %zu positions' map", size, n);
+        return prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDMP section: %zu bytes, not the size of %zu positions' map",
+                         size, n);
     const uint8_t *img = data;
-    *out = (lg_idmap){(const uint32_t *)(const void *)(img + HEAD), (const uint16_t *)(const void *)(img + HEAD + 4 * (size_t)head[0]),
+    *out = (lg_idmap){(const uint32_t *)(const void *)(img + HEAD),
+                      (const uint16_t *)(const void *)(img + HEAD + 4 * (size_t)head[0]),
                       (const uint32_t *)(const void *)(img + HEAD + 68 * (size_t)head[0]), head[0], head[1]};
     for (uint32_t b = 0; b < head[0]; b++)
         if (out->base[b] & LG_IDMAP_WIDE && (out->base[b] & ~LG_IDMAP_WIDE) >= head[1])

@@ -9,20 +9,20 @@
 #define LG_MAX_LEAF 4 /* records per leaf */
 
 typedef struct lg_build_params {
-    int enc;   /* LG_ENC_OCT or LG_ENC_EXP */
-    int leaf;  /* records per leaf, 1..LG_MAX_LEAF */
+    int enc;  /* LG_ENC_OCT or LG_ENC_EXP */
+    int leaf; /* records per leaf, 1..LG_MAX_LEAF */
     int threads;
 } lg_build_params;
 
 /* What a build measured, for stats and the results tables (Benthin's Tables 1 and 3). */
 typedef struct lg_build_report {
-    size_t triangles;      /* hittable triangles = accel positions */
+    size_t triangles; /* hittable triangles = accel positions */
     size_t grids, subgrids, grid_triangles;
     size_t tri_records, loose_triangles;
-    double vertex_error;   /* largest distance of a decoded grid vertex from the mesh's */
-    double rms_error;      /* over every sub-grid vertex */
+    double vertex_error;                 /* largest distance of a decoded grid vertex from the mesh's */
+    double rms_error;                    /* over every sub-grid vertex */
     double rel_error_avg, rel_error_max; /* per sub-grid: its largest error / its box diagonal */
-    size_t distinct_corners; /* mesh vertices that are some sub-grid's corner (§9's sharing) */
+    size_t distinct_corners;             /* mesh vertices that are some sub-grid's corner (§9's sharing) */
     float bounds[6];
 } lg_build_report;
 

@@ -20,7 +20,7 @@
 /* On-disk META section (little endian, 64 bytes). */
 typedef struct lg_meta {
     uint64_t blob_size, bytes_tree, nodes, leaves;
-    uint64_t triangles; /* accel positions: every record's triangles lie below */
+    uint64_t triangles;    /* accel positions: every record's triangles lie below */
     uint32_t depth, flags; /* how positions map to mesh ids: LG_META_IDS, LG_META_IDMAP or neither */
     float vertex_error;    /* the largest decoded vertex error, measured at build time */
     float rms_error;
@@ -136,16 +136,18 @@ static void lg_stats(const prt_accel *a, prt_stats *s) {
     s->depth = g->blob.depth;
     s->vertex_error = g->meta.vertex_error;
     const double n = g->meta.triangles ? (double)g->meta.triangles : 1.0;
-    int k = snprintf(s->detail, sizeof s->detail, "%u sub-grids hold %.1f%% of the triangles, %.1f per sub-grid; vertex error max %.3g, RMS %.3g",
+    int k = snprintf(s->detail, sizeof s->detail,
+                     "%u sub-grids hold %.1f%% of the triangles, %.1f per sub-grid; vertex error max %.3g, RMS %.3g",
                      g->meta.subgrids, 100.0 * g->meta.grid_triangles / n,
-                     g->meta.subgrids ? (double)g->meta.grid_triangles / g->meta.subgrids : 0.0, (double)g->meta.vertex_error,
-                     (double)g->meta.rms_error);
+                     g->meta.subgrids ? (double)g->meta.grid_triangles / g->meta.subgrids : 0.0,
+                     (double)g->meta.vertex_error, (double)g->meta.rms_error);
     if (g->report.subgrids && k > 0 && (size_t)k < sizeof s->detail)
-        snprintf(s->detail + k, sizeof s->detail - (size_t)k,
-                 "; per sub-grid / its diagonal: avg %.3g%%, max %.3g%%; %zu grids; shared corners would save %.2f B/tri",
-                 100.0 * g->report.rel_error_avg, 100.0 * g->report.rel_error_max, g->report.grids,
-                 /* four 12-byte corners a record against four u32 indices and a 12-byte table entry a corner */
-                 ((double)g->report.subgrids * 32.0 - 12.0 * (double)g->report.distinct_corners) / n);
+        snprintf(
+            s->detail + k, sizeof s->detail - (size_t)k,
+            "; per sub-grid / its diagonal: avg %.3g%%, max %.3g%%; %zu grids; shared corners would save %.2f B/tri",
+            100.0 * g->report.rel_error_avg, 100.0 * g->report.rel_error_max, g->report.grids,
+            /* four 12-byte corners a record against four u32 indices and a 12-byte table entry a corner */
+            ((double)g->report.subgrids * 32.0 - 12.0 * (double)g->report.distinct_corners) / n);
 }
 
 static void lg_destroy(prt_accel *a) {
@@ -230,9 +232,19 @@ static prt_status lg_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
             return s;
         }
     }
-    g->meta = (lg_meta){g->blob.size, g->blob.bytes_tree, g->blob.nodes, g->blob.leaves, g->report.triangles,
-                        g->blob.depth, ids ? 0u : g->shared.map ? LG_META_IDMAP : LG_META_IDS, (float)g->report.vertex_error,
-                        (float)g->report.rms_error, (uint32_t)g->report.subgrids, (uint32_t)g->report.grid_triangles};
+    g->meta = (lg_meta){g->blob.size,
+                        g->blob.bytes_tree,
+                        g->blob.nodes,
+                        g->blob.leaves,
+                        g->report.triangles,
+                        g->blob.depth,
+                        ids             ? 0u
+                        : g->shared.map ? LG_META_IDMAP
+                                        : LG_META_IDS,
+                        (float)g->report.vertex_error,
+                        (float)g->report.rms_error,
+                        (uint32_t)g->report.subgrids,
+                        (uint32_t)g->report.grid_triangles};
     if ((double)g->meta.vertex_error < g->report.vertex_error) /* never state less than measured */
         g->meta.vertex_error = nextafterf(g->meta.vertex_error, INFINITY);
     memcpy(g->base.bounds, g->report.bounds, sizeof g->base.bounds);
@@ -247,8 +259,8 @@ static prt_status lg_save(const prt_accel *a, prt_writer *w) {
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &g->meta, sizeof g->meta);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('B', 'L', 'O', 'B'), g->blob.data, g->blob.size);
     if (!s && g->idmap_size)
-        s = prt__writer_section(w, g->shared.map ? PRT_FOURCC('I', 'D', 'M', 'P') : PRT_FOURCC('I', 'D', 'S', ' '), g->idmap_data,
-                                g->idmap_size);
+        s = prt__writer_section(w, g->shared.map ? PRT_FOURCC('I', 'D', 'M', 'P') : PRT_FOURCC('I', 'D', 'S', ' '),
+                                g->idmap_data, g->idmap_size);
     return s;
 }
 
@@ -275,7 +287,8 @@ static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         !(s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'M', 'P'), 4, &map, &g->idmap_size)) &&
         !(s = lg_idmap_open(map, g->idmap_size, g->shared.triangles, &g->idmap)))
         g->shared.map_id = lg_idmap_lookup, g->shared.map = &g->idmap;
-    if (meta.flags == LG_META_IDS && !(s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'S', ' '), 4, &map, &g->idmap_size))) {
+    if (meta.flags == LG_META_IDS &&
+        !(s = prt__reader_section(r, PRT_FOURCC('I', 'D', 'S', ' '), 4, &map, &g->idmap_size))) {
         if (g->idmap_size != 4 * g->shared.triangles)
             s = prt__fail(PRT_ERROR_CORRUPT, "lossygrid IDS section holds %zu bytes for %zu triangles", g->idmap_size,
                           g->shared.triangles);
@@ -286,7 +299,8 @@ static prt_status lg_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
         prt__free(g);
         return s;
     }
-    g->blob = (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, size - meta.bytes_tree, meta.nodes, meta.leaves, meta.depth};
+    g->blob =
+        (bvh_blob){(uint8_t *)data, size, meta.bytes_tree, size - meta.bytes_tree, meta.nodes, meta.leaves, meta.depth};
     g->meta = meta;
     if ((s = lg_blob_check(&g->blob, &g->shared))) {
         prt__free(g);

@@ -46,7 +46,8 @@ typedef struct lg_tri_rec {
 } lg_tri_rec;
 
 _Static_assert(offsetof(lg_grid_rec, disp) == LG_DISP_OFFSET, "codes where the decoder's tables expect them");
-_Static_assert(sizeof(lg_grid_rec) == LG_RECORD_BYTES && sizeof(lg_tri_rec) == LG_RECORD_BYTES, "records are 128 bytes");
+_Static_assert(sizeof(lg_grid_rec) == LG_RECORD_BYTES && sizeof(lg_tri_rec) == LG_RECORD_BYTES,
+               "records are 128 bytes");
 
 static inline int lg_rx(const lg_grid_rec *g) { return (g->res & 3) + 1; }
 static inline int lg_ry(const lg_grid_rec *g) { return (g->res >> 2 & 3) + 1; }
@@ -248,7 +249,8 @@ static inline void lg_take(prt__hitx *h, vf8 t, vf8 u, vf8 v, unsigned mask, con
     float tt[8], uu[8], vv[8];
     memcpy(tt, &t, sizeof tt), memcpy(uu, &u, sizeof uu), memcpy(vv, &v, sizeof vv);
     if (rot)
-        for (unsigned m = mask; m; m &= m - 1) lg_rotate_uv(rot[__builtin_ctz(m)], &uu[__builtin_ctz(m)], &vv[__builtin_ctz(m)]);
+        for (unsigned m = mask; m; m &= m - 1)
+            lg_rotate_uv(rot[__builtin_ctz(m)], &uu[__builtin_ctz(m)], &vv[__builtin_ctz(m)]);
     bvh_take_nearest_seq(h, tt, uu, vv, ids, mask, vf8_hmin(t), sh);
 }
 
@@ -275,7 +277,8 @@ static inline void lg_record_decode(const uint8_t *rec, lg_decoded *d) {
 }
 
 /* Closest hit of one ray with a decoded record (the record's bytes at rec). */
-PRT_INLINE void lg_record_hit(const uint8_t *rec, const lg_decoded *d, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h) {
+PRT_INLINE void lg_record_hit(const uint8_t *rec, const lg_decoded *d, const prt__rayx *r, const lgrec_ray *c,
+                              prt__hitx *h) {
     vf8 t, u, v;
     uint32_t ids[8];
     if (!d->g) {
@@ -290,7 +293,8 @@ PRT_INLINE void lg_record_hit(const uint8_t *rec, const lg_decoded *d, const prt
     lg_sheared sh;
     lg_shear(&d->gv, d->ry + 1, r, &c->r8, &sh);
     for (int row = 0; row < d->ry; row++) {
-        const unsigned mask = (unsigned)lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, vf8_set1(h->t), &t, &u, &v);
+        const unsigned mask =
+            (unsigned)lg_row_hit(&sh, row, g->diag >> (4 * row) & 15, &c->r8, vf8_set1(h->t), &t, &u, &v);
         if (!mask) continue;
         int rot[8];
         for (unsigned l = mask; l; l &= l - 1) {

@@ -48,8 +48,10 @@ static inline void lgrecc_ray_init(lgrecc_ray *c, const prt__rayx *r, const bvh_
     lgrec_ray_init(&c->c, r, sh);
     c->cache = &((lg_stream_shared *)(uintptr_t)sh)->cache;
 }
-PRT_INLINE void lgrecc_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrecc_ray *c, prt__hitx *h) {
-    for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES) lg_record_hit(leaf, lg_cache_get(c->cache, leaf), r, &c->c, h);
+PRT_INLINE void lgrecc_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrecc_ray *c,
+                                 prt__hitx *h) {
+    for (uint32_t i = 0; i < n; i++, leaf += LG_RECORD_BYTES)
+        lg_record_hit(leaf, lg_cache_get(c->cache, leaf), r, &c->c, h);
 }
 PRT_INLINE bool lgrecc_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrecc_ray *c, float tfar) {
     return lgrec_occluded(leaf, n, r, &c->c, tfar);
@@ -69,7 +71,8 @@ void lg_trace1_template(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, p
 /* A leaf's records tested out of line, so that the node loop of lg_trace1 keeps its ray
  * constants in registers (inlined, the record code's 30-odd vectors made the compiler
  * spill them around every node). */
-PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c, prt__hitx *h) {
+PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c,
+                                  prt__hitx *h) {
     lgrec_intersect(leaf, n, r, c, h);
 }
 
@@ -126,7 +129,8 @@ void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit 
                 for (unsigned m = mask; m; m &= m - 1) {
                     const int i = __builtin_ctz(m);
                     const vf8 ti = vf8_set1(tt[i]);
-                    const unsigned before = (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
+                    const unsigned before =
+                        (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
                     const int slot = top + c - 1 - __builtin_popcount(before & mask);
                     const uint64_t cref = wide8_child_ref_lgrec(n, i, w);
                     const uint8_t *cp = blob + (cref & WIDE8_OFFSET_MASK);
@@ -165,7 +169,9 @@ void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
     wide8_stream_lgrecc(blob, &s.sh, rays, hits, n);
 }
 
-bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) { return wide8_occluded1_lgrec(blob, sh, r); }
+bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r) {
+    return wide8_occluded1_lgrec(blob, sh, r);
+}
 
 /* --- packets ---------------------------------------------------------------------------- */
 
@@ -430,7 +436,8 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
                 lg_record_decode(leaf, &d);
                 for (uint32_t m = mask; m; m &= m - 1) {
                     const int i = __builtin_ctz(m);
-                    if (lg_record_blocks(&d, &pk.r[i], &pk.c[i], pk.tf[i])) occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
+                    if (lg_record_blocks(&d, &pk.r[i], &pk.c[i], pk.tf[i]))
+                        occluded[i] = 1, open &= ~(1u << i), mask &= ~(1u << i);
                 }
             }
             if (!open) return;

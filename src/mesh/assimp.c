@@ -29,8 +29,7 @@ static void diffuse(const struct aiScene *sc, const struct aiMesh *m, float rgb[
     *set = false;
     struct aiColor4D c;
     if (m->mMaterialIndex < sc->mNumMaterials &&
-        aiGetMaterialColor(sc->mMaterials[m->mMaterialIndex], AI_MATKEY_COLOR_DIFFUSE, &c) ==
-            aiReturn_SUCCESS &&
+        aiGetMaterialColor(sc->mMaterials[m->mMaterialIndex], AI_MATKEY_COLOR_DIFFUSE, &c) == aiReturn_SUCCESS &&
         isfinite(c.r) && isfinite(c.g) && isfinite(c.b)) {
         rgb[0] = c.r, rgb[1] = c.g, rgb[2] = c.b;
         *set = c.r != 1.0f || c.g != 1.0f || c.b != 1.0f;
@@ -47,12 +46,10 @@ static prt_status instance(ai_reader *r, unsigned mi, const double T[16]) {
     const struct aiMesh *m = r->scene->mMeshes[mi];
     mesh_arrays *a = r->a;
     if (r->instances > UINT16_MAX)
-        return prt__fail(
-            PRT_ERROR_LIMIT,
-            "%s: more than 65536 mesh instances: packrt keeps a 16-bit geometry id a triangle",
-            r->name);
-    double det = T[0] * (T[5] * T[10] - T[6] * T[9]) - T[1] * (T[4] * T[10] - T[6] * T[8]) +
-                 T[2] * (T[4] * T[9] - T[5] * T[8]);
+        return prt__fail(PRT_ERROR_LIMIT,
+                         "%s: more than 65536 mesh instances: packrt keeps a 16-bit geometry id a triangle", r->name);
+    double det =
+        T[0] * (T[5] * T[10] - T[6] * T[9]) - T[1] * (T[4] * T[10] - T[6] * T[8]) + T[2] * (T[4] * T[9] - T[5] * T[8]);
     float factor[3];
     bool set;
     diffuse(r->scene, m, factor, &set);
@@ -85,18 +82,16 @@ static prt_status instance(ai_reader *r, unsigned mi, const double T[16]) {
         uint32_t tri[3];
         for (int k = 0; k < 3; k++) {
             if (face->mIndices[k] >= m->mNumVertices)
-                return prt__fail(
-                    PRT_ERROR_MESH,
-                    "%s: mesh %u: face %u references vertex %u, but the mesh has %u vertices",
-                    r->name, mi, f, face->mIndices[k], m->mNumVertices);
+                return prt__fail(PRT_ERROR_MESH,
+                                 "%s: mesh %u: face %u references vertex %u, but the mesh has %u vertices", r->name, mi,
+                                 f, face->mIndices[k], m->mNumVertices);
             tri[k] = (uint32_t)base + face->mIndices[k];
         }
         if (det < 0) { /* a mirroring transform turns the winding over: turn it back */
             uint32_t s = tri[1];
             tri[1] = tri[2], tri[2] = s;
         }
-        if ((a->nt == a->tcap || a->stream) && (st = mesh_arrays_triangle_room(a, 1, 0)) != PRT_OK)
-            return st;
+        if ((a->nt == a->tcap || a->stream) && (st = mesh_arrays_triangle_room(a, 1, 0)) != PRT_OK) return st;
         memcpy(a->t + 3 * a->nt, tri, sizeof tri);
         a->tm[a->nt++] = (uint16_t)r->instances;
         r->triangles++;
@@ -106,8 +101,7 @@ static prt_status instance(ai_reader *r, unsigned mi, const double T[16]) {
 }
 
 static prt_status walk(ai_reader *r, const struct aiNode *n, const double P[16], int depth) {
-    if (depth > 64)
-        return prt__fail(PRT_ERROR_FORMAT, "%s: nodes nested more than 64 deep", r->name);
+    if (depth > 64) return prt__fail(PRT_ERROR_FORMAT, "%s: nodes nested more than 64 deep", r->name);
     const struct aiMatrix4x4 *L = &n->mTransformation;
     const float l[16] = {L->a1, L->a2, L->a3, L->a4, L->b1, L->b2, L->b3, L->b4,
                          L->c1, L->c2, L->c3, L->c4, L->d1, L->d2, L->d3, L->d4};
@@ -121,12 +115,11 @@ static prt_status walk(ai_reader *r, const struct aiNode *n, const double P[16],
     prt_status st = PRT_OK;
     for (unsigned i = 0; i < n->mNumMeshes && st == PRT_OK; i++) {
         if (n->mMeshes[i] >= r->scene->mNumMeshes)
-            return prt__fail(PRT_ERROR_FORMAT, "%s: a node names mesh %u of %u", r->name,
-                             n->mMeshes[i], r->scene->mNumMeshes);
+            return prt__fail(PRT_ERROR_FORMAT, "%s: a node names mesh %u of %u", r->name, n->mMeshes[i],
+                             r->scene->mNumMeshes);
         st = instance(r, n->mMeshes[i], T);
     }
-    for (unsigned i = 0; i < n->mNumChildren && st == PRT_OK; i++)
-        st = walk(r, n->mChildren[i], T, depth + 1);
+    for (unsigned i = 0; i < n->mNumChildren && st == PRT_OK; i++) st = walk(r, n->mChildren[i], T, depth + 1);
     return st;
 }
 
@@ -153,8 +146,7 @@ static prt_status convert(ai_reader *r) {
 }
 
 prt_status mesh_assimp_parse_arrays(mesh_source *s, const char *path, mesh_arrays *a) {
-    const unsigned flags =
-        aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
+    const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
     const struct aiScene *sc;
     uint8_t *owned = NULL;
     if (path && s->total != UINT64_MAX) { /* a plain file: Assimp opens it (and what it names) */
@@ -172,13 +164,10 @@ prt_status mesh_assimp_parse_arrays(mesh_source *s, const char *path, mesh_array
         if (!strcmp(hint, "gz") && dot > s->name) { /* x.dae.gz: the hint is dae */
             const char *d2 = dot - 1;
             while (d2 > s->name && *d2 != '.') d2--;
-            if (*d2 == '.' && (size_t)(dot - d2 - 1) < sizeof ext)
-                memcpy(ext, d2 + 1, (size_t)(dot - d2 - 1));
+            if (*d2 == '.' && (size_t)(dot - d2 - 1) < sizeof ext) memcpy(ext, d2 + 1, (size_t)(dot - d2 - 1));
             hint = ext;
         }
-        sc = size > UINT32_MAX
-                 ? NULL
-                 : aiImportFileFromMemory((const char *)data, (unsigned)size, flags, hint);
+        sc = size > UINT32_MAX ? NULL : aiImportFileFromMemory((const char *)data, (unsigned)size, flags, hint);
     }
     prt__free(owned);
     if (!sc) return prt__fail(PRT_ERROR_FORMAT, "%s: Assimp: %s", s->name, aiGetErrorString());

@@ -24,16 +24,15 @@ prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out);
  * flight (isosurface.h: gen_isosurface_stream). *triangle_count (may be NULL): the total.
  * Requests up to 16M are first counted once at the calibrated grid, as gen_mandelbulb
  * checks them; larger ones cost one extraction plus the calibration. */
-prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_budget,
-                                 tri_sink_fn sink, void *user, uint64_t *triangle_count);
+prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_budget, tri_sink_fn sink, void *user,
+                                 uint64_t *triangle_count);
 
 /* Write the mesh gen_mandelbulb gives (the same file as prt_mesh_save_ply would write of
  * it) to path as binary PLY, holding neither it nor its triangles: the extraction spills to
  * a temporary file beside path (isosurface.h: gen_isosurface_indexed). The file is removed
  * on failure. *triangle_count, *vertex_count (may be NULL): what was written. */
-prt_status gen_mandelbulb_save_ply(size_t triangles, uint64_t seed, size_t memory_budget,
-                                   const char *path, uint64_t *triangle_count,
-                                   uint64_t *vertex_count);
+prt_status gen_mandelbulb_save_ply(size_t triangles, uint64_t seed, size_t memory_budget, const char *path,
+                                   uint64_t *triangle_count, uint64_t *vertex_count);
 
 prt_status gen_canyon(size_t triangles, uint64_t seed, prt_mesh **out);
 prt_status gen_torus(size_t triangles, uint64_t seed, prt_mesh **out);

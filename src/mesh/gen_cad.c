@@ -25,9 +25,7 @@ static size_t part_vertices(const part *p) {
     return p->kind == PART_BOX ? 24 : (p->kind == PART_CYLINDER ? 4 * (size_t)p->segments : 3);
 }
 
-static float uniform(prt_rng *r, float lo, float hi) {
-    return lo + (hi - lo) * prt_rng_float(r);
-}
+static float uniform(prt_rng *r, float lo, float hi) { return lo + (hi - lo) * prt_rng_float(r); }
 
 /* A uniformly random rotation (unit quaternion by rejection), or none for half the parts:
  * most CAD parts are aligned with the assembly's axes. */
@@ -53,8 +51,7 @@ static void random_axes(prt_rng *r, float a[3][3]) {
 /* Lay out parts until exactly `triangles` are used: boxes (12), cylinders (4n - 4 for n
  * rim points) and, for the last 1 to 3, single stray facets. Sequential, from one RNG
  * stream: cheap next to the geometry, and the layout is then fixed for any thread count. */
-static prt_status layout(size_t triangles, uint64_t seed, part **out, size_t *count,
-                         size_t *verts) {
+static prt_status layout(size_t triangles, uint64_t seed, part **out, size_t *count, size_t *verts) {
     /* About 64 triangles per part on average; parts shrink as they multiply so the
      * assembly fills [-1, 1]^3 about as densely at every size. */
     double expected = (double)triangles / 64.0 + 1;
@@ -89,8 +86,7 @@ static prt_status layout(size_t triangles, uint64_t seed, part **out, size_t *co
         /* Keep every part inside [-1, 1]^3: its farthest point is within the half-diagonal
          * of its local box from the centre, whatever the rotation (at most 0.55: scale is
          * at most 0.5). */
-        float reach =
-            sqrtf(q->half[0] * q->half[0] + q->half[1] * q->half[1] + q->half[2] * q->half[2]);
+        float reach = sqrtf(q->half[0] * q->half[0] + q->half[1] * q->half[1] + q->half[2] * q->half[2]);
         for (int k = 0; k < 3; k++) q->centre[k] = uniform(&r, -1 + reach, 1 - reach);
         q->tri = t;
         q->vert = v;
@@ -105,8 +101,7 @@ static prt_status layout(size_t triangles, uint64_t seed, part **out, size_t *co
 }
 
 static void put(float *dst, const part *p, float x, float y, float z) {
-    for (int k = 0; k < 3; k++)
-        dst[k] = p->centre[k] + x * p->axes[0][k] + y * p->axes[1][k] + z * p->axes[2][k];
+    for (int k = 0; k < 3; k++) dst[k] = p->centre[k] + x * p->axes[0][k] + y * p->axes[1][k] + z * p->axes[2][k];
 }
 
 /* Box: six faces of four own vertices each, wound outward. */
@@ -142,8 +137,7 @@ static void emit_cylinder(const part *p, float *v, uint32_t *t, uint32_t base) {
         put(v + 3 * (3 * n + i), p, x, y, h);  /* top cap */
     }
     for (uint32_t i = 0; i < n; i++) {
-        uint32_t j = (i + 1) % n,
-                 q[6] = {base + i, base + j, base + n + j, base + i, base + n + j, base + n + i};
+        uint32_t j = (i + 1) % n, q[6] = {base + i, base + j, base + n + j, base + i, base + n + j, base + n + i};
         memcpy(t + 6 * i, q, sizeof q);
     }
     t += 6 * n;
@@ -170,8 +164,7 @@ prt_status gen_cad(size_t triangles, uint64_t seed, prt_mesh **out) {
     if (st) return st;
     if (nv >= UINT32_MAX) {
         prt__free(parts);
-        return prt__fail(PRT_ERROR_LIMIT, "cad: %zu triangles needs %zu vertices, more than 2^32",
-                         triangles, nv);
+        return prt__fail(PRT_ERROR_LIMIT, "cad: %zu triangles needs %zu vertices, more than 2^32", triangles, nv);
     }
     prt_mesh *m;
     if ((st = prt_mesh_create(nv, triangles, &m))) {
@@ -183,12 +176,9 @@ prt_status gen_cad(size_t triangles, uint64_t seed, prt_mesh **out) {
         const part *p = &parts[i];
         float *v = m->vertices + 3 * p->vert;
         uint32_t *t = m->triangles + 3 * p->tri, base = (uint32_t)p->vert;
-        if (p->kind == PART_BOX)
-            emit_box(p, v, t, base);
-        else if (p->kind == PART_CYLINDER)
-            emit_cylinder(p, v, t, base);
-        else
-            emit_facet(p, v, t, base);
+        if (p->kind == PART_BOX) emit_box(p, v, t, base);
+        else if (p->kind == PART_CYLINDER) emit_cylinder(p, v, t, base);
+        else emit_facet(p, v, t, base);
     }
     prt__free(parts);
     *out = m;

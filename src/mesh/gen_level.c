@@ -52,7 +52,8 @@ prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out) {
         nv = parts[0]->vertex_count + rocks * parts[1]->vertex_count;
         nt = parts[0]->triangle_count + rocks * parts[1]->triangle_count;
         for (int b = 0; b < BLOCKS; b++) nv += parts[2 + b]->vertex_count, nt += parts[2 + b]->triangle_count;
-        if (nv >= UINT32_MAX) st = prt__fail(PRT_ERROR_LIMIT, "level: %zu triangles need more than 2^32 vertices", triangles);
+        if (nv >= UINT32_MAX)
+            st = prt__fail(PRT_ERROR_LIMIT, "level: %zu triangles need more than 2^32 vertices", triangles);
     }
     prt_mesh *m = NULL;
     if (!st) st = prt_mesh_create(nv, nt, &m);
@@ -64,7 +65,10 @@ prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out) {
     const float ground_scale[3] = {LEVEL_HALF, 3.0f, LEVEL_HALF}, zero[3] = {0, 0, 0};
     append(m, &v, &t, parts[0], ground_scale, zero);
     /* The ground as placed, for heights: the first part of m. */
-    prt_mesh placed = {.vertices = m->vertices, .triangles = m->triangles, .vertex_count = parts[0]->vertex_count, .triangle_count = parts[0]->triangle_count};
+    prt_mesh placed = {.vertices = m->vertices,
+                       .triangles = m->triangles,
+                       .vertex_count = parts[0]->vertex_count,
+                       .triangle_count = parts[0]->triangle_count};
 
     prt_rng r = prt_rng_seed(seed, 0x1e7e1);
     for (int b = 0; b < BLOCKS; b++) { /* blocks on a ring around the centre, 1.5 units tall */
@@ -75,7 +79,8 @@ prt_status gen_level(size_t triangles, uint64_t seed, prt_mesh **out) {
     }
     for (size_t k = 0; k < rocks; k++) {
         size_t first = v;
-        float x = LEVEL_HALF * 0.95f * (2 * prt_rng_float(&r) - 1), z = LEVEL_HALF * 0.95f * (2 * prt_rng_float(&r) - 1);
+        float x = LEVEL_HALF * 0.95f * (2 * prt_rng_float(&r) - 1),
+              z = LEVEL_HALF * 0.95f * (2 * prt_rng_float(&r) - 1);
         float size = 0.05f + 0.45f * powf(prt_rng_float(&r), 3.0f); /* many pebbles, few boulders */
         float s[3] = {size * (0.7f + 0.6f * prt_rng_float(&r)), size * (0.4f + 0.4f * prt_rng_float(&r)),
                       size * (0.7f + 0.6f * prt_rng_float(&r))};

@@ -28,7 +28,7 @@ typedef long long vl __attribute__((vector_size(8 * LANES)));
 /* Macros rather than functions: 64-byte vectors passed by value would make GCC warn
  * about an ABI that differs with AVX-512 (-Wpsabi), though everything here is inlined. */
 #define BLEND(mask, a, b) ((vd)(((vl)(a) & (mask)) | ((vl)(b) & ~(mask))))
-#define SQRT(r, a)                                                                                 \
+#define SQRT(r, a) \
     for (int k_ = 0; k_ < LANES; k_++) (r)[k_] = sqrt((a)[k_]) /* one vsqrtpd per register */
 
 /* Distance from LANES points to the offset surface, or -ISO inside (no distance known
@@ -62,9 +62,7 @@ static void bulb_lanes(const double *cx_, const double *cy_, const double *cz_, 
         vd k4 = x2 - y2 + z2;
         vd nx = px + 64.0 * x * y * z * (x2 - z2) * k4 * (x4 - 6.0 * x2 * z2 + z4) * k1 * k2;
         vd ny = py - 16.0 * y2 * k3 * k4 * k4 + k1 * k1;
-        vd nz = pz - 8.0 * y * k4 *
-                         (x4 * x4 - 28.0 * x4 * x2 * z2 + 70.0 * x4 * z4 - 28.0 * x2 * z2 * z4 +
-                          z4 * z4) *
+        vd nz = pz - 8.0 * y * k4 * (x4 * x4 - 28.0 * x4 * x2 * z2 + 70.0 * x4 * z4 - 28.0 * x2 * z2 * z4 + z4 * z4) *
                          k1 * k2;
         vd nm = nx * nx + ny * ny + nz * nz;
         x = BLEND(alive, nx, x);
@@ -77,12 +75,10 @@ static void bulb_lanes(const double *cx_, const double *cy_, const double *cz_, 
         edr = BLEND(escaped, dr, edr);
         alive &= ~escaped;
     }
-    for (int k = 0; k < LANES; k++)
-        out[k] = alive[k] ? -ISO : 0.25 * log(em[k]) * sqrt(em[k]) / edr[k] - ISO;
+    for (int k = 0; k < LANES; k++) out[k] = alive[k] ? -ISO : 0.25 * log(em[k]) * sqrt(em[k]) / edr[k] - ISO;
 }
 
-static void bulb_field(const void *ctx, size_t n, const double *x, const double *y, const double *z,
-                       double *out) {
+static void bulb_field(const void *ctx, size_t n, const double *x, const double *y, const double *z, double *out) {
     (void)ctx;
     size_t i = 0;
     for (; i + LANES <= n; i += LANES) bulb_lanes(x + i, y + i, z + i, out + i);
@@ -100,11 +96,9 @@ static void bulb_field(const void *ctx, size_t n, const double *x, const double 
 static prt_status grid(double r, gen_iso_params *p) {
     double cell = 2 * HALF_EXTENT / r, n = ceil(r - 1e-9);
     if (n > GEN_ISO_MAX_RES)
-        return prt__fail(PRT_ERROR_LIMIT,
-                         "mandelbulb: the request needs a %.0f^3 grid; at most %u^3 is supported",
-                         n, GEN_ISO_MAX_RES);
-    *p = (gen_iso_params){
-        bulb_field, NULL, {-HALF_EXTENT, -HALF_EXTENT, -HALF_EXTENT}, cell, (uint32_t)n};
+        return prt__fail(PRT_ERROR_LIMIT, "mandelbulb: the request needs a %.0f^3 grid; at most %u^3 is supported", n,
+                         GEN_ISO_MAX_RES);
+    *p = (gen_iso_params){bulb_field, NULL, {-HALF_EXTENT, -HALF_EXTENT, -HALF_EXTENT}, cell, (uint32_t)n};
     return PRT_OK;
 }
 
@@ -114,9 +108,7 @@ static prt_status extract(double r, prt_mesh **out, size_t *tris) {
     return st ? st : gen_isosurface(&p, out, tris);
 }
 
-static double clamp_exponent(double d) {
-    return d < 2.0 ? 2.0 : (d > 3.0 ? 3.0 : d);
-}
+static double clamp_exponent(double d) { return d < 2.0 ? 2.0 : (d > 3.0 ? 3.0 : d); }
 
 /* log2 of the growth in triangle count from resolution 2^u0 to 2^(u0 + span) when the
  * local exponent is D(u) = 2 + a rho^(u - u0 + 1/2): a measured at the middle of the last
@@ -139,14 +131,12 @@ static prt_status calibrate(size_t want, double *r_out, double *r_last, size_t *
     prt_status st = extract(r[0], NULL, &t[0]);
     if (st) return st;
     int n = 1;
-    while (n < 20 && (double)t[n - 1] * 4.4 <= 0.25 * (double)want &&
-           2 * r[n - 1] <= GEN_ISO_MAX_RES / 2) {
+    while (n < 20 && (double)t[n - 1] * 4.4 <= 0.25 * (double)want && 2 * r[n - 1] <= GEN_ISO_MAX_RES / 2) {
         r[n] = 2 * r[n - 1];
         if ((st = extract(r[n], NULL, &t[n]))) return st;
         n++;
     }
-    for (int i = 1; i < n; i++)
-        d[i] = t[i] > t[i - 1] && t[i - 1] ? log2((double)t[i] / (double)t[i - 1]) : 2.2;
+    for (int i = 1; i < n; i++) d[i] = t[i] > t[i - 1] && t[i - 1] ? log2((double)t[i] / (double)t[i - 1]) : 2.2;
     double a = (n >= 2 ? d[n - 1] : 2.2) - 2, rho = n >= 3 ? 1.0 : 0.67;
     a = a < 0 ? 0 : (a > 1 ? 1 : a);
     if (n >= 3 && d[n - 2] - 2 > 0.01) rho = (d[n - 1] - 2) / (d[n - 2] - 2);
@@ -155,10 +145,8 @@ static prt_status calibrate(size_t want, double *r_out, double *r_last, size_t *
     double goal = log2((double)want / (double)(t[n - 1] ? t[n - 1] : 1)), lo = -12, hi = 12;
     for (int it = 0; it < 60; it++) {
         double mid = 0.5 * (lo + hi);
-        if (log_growth(mid, a, rho) < goal)
-            lo = mid;
-        else
-            hi = mid;
+        if (log_growth(mid, a, rho) < goal) lo = mid;
+        else hi = mid;
     }
     double x = r[n - 1] * exp2(0.5 * (lo + hi));
     *r_out = x < 2 ? 2 : x;
@@ -178,8 +166,7 @@ static prt_status calibrate(size_t want, double *r_out, double *r_last, size_t *
 /* The corrected resolution after a run at r gave `got` triangles, or false to keep r. */
 static bool correction(size_t want, double r, size_t got, double rc, size_t tc, double *r2) {
     double ratio = (double)got / (double)want;
-    if (want > CHECK_MAX || (ratio >= 0.92 && ratio <= 1.08) || !got || !tc || r == rc)
-        return false;
+    if (want > CHECK_MAX || (ratio >= 0.92 && ratio <= 1.08) || !got || !tc || r == rc) return false;
     double d = clamp_exponent(log((double)got / (double)tc) / log(r / rc));
     double x = r * pow(1.0 / ratio, 1.0 / d);
     *r2 = x < 2 ? 2 : x;
@@ -214,12 +201,10 @@ prt_status gen_mandelbulb(size_t triangles, uint64_t seed, prt_mesh **out) {
 /* The grid gen_mandelbulb extracts for the request, found without building a mesh: the
  * check run of small requests only counts. */
 static prt_status stream_grid(size_t triangles, gen_iso_params *p) {
-    if (triangles == 0)
-        return prt__fail(PRT_ERROR_ARGUMENT, "mandelbulb: triangle count must be at least 1");
+    if (triangles == 0) return prt__fail(PRT_ERROR_ARGUMENT, "mandelbulb: triangle count must be at least 1");
     if (triangles > GEN_MAX_TRIANGLES)
-        return prt__fail(PRT_ERROR_LIMIT,
-                         "mandelbulb: %zu triangles requested; at most %zu are supported",
-                         triangles, GEN_MAX_TRIANGLES);
+        return prt__fail(PRT_ERROR_LIMIT, "mandelbulb: %zu triangles requested; at most %zu are supported", triangles,
+                         GEN_MAX_TRIANGLES);
     double r, rc, r2;
     size_t tc, got;
     prt_status st = calibrate(triangles, &r, &rc, &tc);
@@ -231,12 +216,10 @@ static prt_status stream_grid(size_t triangles, gen_iso_params *p) {
     return grid(r, p);
 }
 
-prt_status gen_mandelbulb_grid(size_t triangles, gen_iso_params *p) {
-    return stream_grid(triangles, p);
-}
+prt_status gen_mandelbulb_grid(size_t triangles, gen_iso_params *p) { return stream_grid(triangles, p); }
 
-prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_budget,
-                                 tri_sink_fn sink, void *user, uint64_t *triangle_count) {
+prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_budget, tri_sink_fn sink, void *user,
+                                 uint64_t *triangle_count) {
     (void)seed;
     if (triangle_count) *triangle_count = 0;
     gen_iso_params p;
@@ -251,16 +234,13 @@ prt_status gen_mandelbulb_stream(size_t triangles, uint64_t seed, size_t memory_
 static prt_status ply_begin(void *w, uint64_t vertices, uint64_t triangles) {
     return ply_writer_begin(w, vertices, triangles, false, false);
 }
-static prt_status ply_vertices(void *w, const float *xyz, size_t n) {
-    return ply_writer_vertices(w, xyz, NULL, n);
-}
+static prt_status ply_vertices(void *w, const float *xyz, size_t n) { return ply_writer_vertices(w, xyz, NULL, n); }
 static prt_status ply_triangles(void *w, const uint32_t *idx, size_t n) {
     return ply_writer_triangles(w, idx, NULL, n);
 }
 
-prt_status gen_mandelbulb_save_ply(size_t triangles, uint64_t seed, size_t memory_budget,
-                                   const char *path, uint64_t *triangle_count,
-                                   uint64_t *vertex_count) {
+prt_status gen_mandelbulb_save_ply(size_t triangles, uint64_t seed, size_t memory_budget, const char *path,
+                                   uint64_t *triangle_count, uint64_t *vertex_count) {
     (void)seed;
     if (triangle_count) *triangle_count = 0;
     if (vertex_count) *vertex_count = 0;

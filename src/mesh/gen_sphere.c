@@ -51,9 +51,7 @@ prt_status gen_sphere(size_t triangles, uint64_t seed, prt_mesh **out) {
     double kk = floor(sqrt((double)triangles / 12.0)), want = (double)triangles;
     if (fabs(12 * (kk + 1) * (kk + 1) - want) < fabs(12 * kk * kk - want)) kk += 1;
     if (kk < 1) kk = 1;
-    if (kk > MAX_K)
-        return prt__fail(PRT_ERROR_LIMIT, "sphere: %zu triangles needs more than 2^32 vertices",
-                         triangles);
+    if (kk > MAX_K) return prt__fail(PRT_ERROR_LIMIT, "sphere: %zu triangles needs more than 2^32 vertices", triangles);
     size_t k = (size_t)kk;
     prt_mesh *m;
     prt_status st = prt_mesh_create(6 * k * k + 2, 12 * k * k, &m);

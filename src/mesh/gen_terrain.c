@@ -16,8 +16,7 @@ prt_status gen_terrain(size_t triangles, uint64_t seed, prt_mesh **out) {
     double dnz = floor((double)triangles / (2.0 * dnx) + 0.5);
     if (dnz < 1) dnz = 1;
     if ((dnx + 1) * (dnz + 1) >= (double)UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT, "terrain: %zu triangles needs more than 2^32 vertices",
-                         triangles);
+        return prt__fail(PRT_ERROR_LIMIT, "terrain: %zu triangles needs more than 2^32 vertices", triangles);
     size_t nx = (size_t)dnx, nz = (size_t)dnz, row = nx + 1;
 
     /* Octaves down to a wavelength of about four cells: finer ones would only alias. */
@@ -50,8 +49,7 @@ prt_status gen_terrain(size_t triangles, uint64_t seed, prt_mesh **out) {
             /* a (i, j), b (i+1, j), c (i, j+1), d (i+1, j+1). Counter-clockwise seen from +y
              * (z x x = y). Split along the diagonal whose ends differ less in height, which
              * follows ridges and valleys instead of cutting across them. */
-            float dad = fabsf(v[3 * a + 1] - v[3 * d + 1]),
-                  dbc = fabsf(v[3 * b + 1] - v[3 * c + 1]);
+            float dad = fabsf(v[3 * a + 1] - v[3 * d + 1]), dbc = fabsf(v[3 * b + 1] - v[3 * c + 1]);
             if (dad <= dbc) {
                 uint32_t q[6] = {a, c, d, a, d, b};
                 memcpy(t, q, sizeof q);

@@ -31,9 +31,10 @@ prt_status gen_torus(size_t triangles, uint64_t seed, prt_mesh **out) {
             float b[3];
             for (int k = 0; k < 3; k++) b[k] = (float)(c[k] + 0.4 * n[k]);
             const float f = 4.0f;
-            const float d = (gen_fbm2(f * b[0], f * b[1], seed, octaves) + gen_fbm2(f * b[1] + 3.1f, f * b[2], seed + 1, octaves) +
-                             gen_fbm2(f * b[2], f * b[0] + 7.3f, seed + 2, octaves)) /
-                            3.0f;
+            const float d =
+                (gen_fbm2(f * b[0], f * b[1], seed, octaves) + gen_fbm2(f * b[1] + 3.1f, f * b[2], seed + 1, octaves) +
+                 gen_fbm2(f * b[2], f * b[0] + 7.3f, seed + 2, octaves)) /
+                3.0f;
             float *p = m->vertices + 3 * (j * nu + i);
             for (int k = 0; k < 3; k++) p[k] = (float)(c[k] + (0.4 + 0.08 * d) * n[k]);
         }

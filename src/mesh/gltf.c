@@ -84,8 +84,7 @@ static prt_status decode_base64(gltf *g, size_t bi, const char *p, size_t n, gbu
     size_t out = n / 4 * 3 + (n % 4 ? n % 4 - 1 : 0);
     if (n % 4 == 1) return bad(g, "buffer %2$ld: malformed base64 %1$s", "data", (long)bi);
     b->owned = prt__alloc(out ? out : 1);
-    if (!b->owned)
-        return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for buffer %zu", g->name, bi);
+    if (!b->owned) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for buffer %zu", g->name, bi);
     uint32_t acc = 0;
     size_t o = 0;
     for (size_t i = 0; i < n; i++) {
@@ -93,17 +92,15 @@ static prt_status decode_base64(gltf *g, size_t bi, const char *p, size_t n, gbu
         if (v < 0) return bad(g, "buffer %2$ld: malformed base64 %1$s", "data", (long)bi);
         acc = acc << 6 | (uint32_t)v;
         if (i % 4 == 3) {
-            b->owned[o++] = (uint8_t)(acc >> 16), b->owned[o++] = (uint8_t)(acc >> 8),
-            b->owned[o++] = (uint8_t)acc;
+            b->owned[o++] = (uint8_t)(acc >> 16), b->owned[o++] = (uint8_t)(acc >> 8), b->owned[o++] = (uint8_t)acc;
             acc = 0;
         }
     }
     if (n % 4 == 2) b->owned[o++] = (uint8_t)(acc >> 4);
     if (n % 4 == 3) b->owned[o++] = (uint8_t)(acc >> 10), b->owned[o++] = (uint8_t)(acc >> 2);
     if (o < b->size)
-        return prt__fail(PRT_ERROR_FORMAT,
-                         "%s: glTF: buffer %zu declares %llu bytes, its data: URI holds %zu",
-                         g->name, bi, (unsigned long long)b->size, o);
+        return prt__fail(PRT_ERROR_FORMAT, "%s: glTF: buffer %zu declares %llu bytes, its data: URI holds %zu", g->name,
+                         bi, (unsigned long long)b->size, o);
     b->data = b->owned;
     return PRT_OK;
 }
@@ -116,11 +113,10 @@ static prt_status read_external(gltf *g, size_t bi, const char *uri, size_t n, g
                          "file path) can read",
                          g->name, bi);
     if (memchr(uri, ':', n) || uri[0] == '/' || memchr(uri, '\\', n) || memchr(uri, '%', n))
-        return prt__fail(
-            PRT_ERROR_UNSUPPORTED,
-            "%s: glTF: buffer %zu: only relative file names are read (no schemes, absolute "
-            "paths or %%-escapes): '%.*s'",
-            g->name, bi, (int)PRT_MIN(n, (size_t)64), uri);
+        return prt__fail(PRT_ERROR_UNSUPPORTED,
+                         "%s: glTF: buffer %zu: only relative file names are read (no schemes, absolute "
+                         "paths or %%-escapes): '%.*s'",
+                         g->name, bi, (int)PRT_MIN(n, (size_t)64), uri);
     const char *slash = strrchr(g->path, '/');
     size_t dir = slash ? (size_t)(slash - g->path) + 1 : 0;
     char *full = prt__alloc(dir + n + 1);
@@ -131,15 +127,12 @@ static prt_status read_external(gltf *g, size_t bi, const char *uri, size_t n, g
     FILE *f = fopen(full, "rb");
     prt_status st = PRT_OK;
     if (!f) {
-        st = prt__fail(PRT_ERROR_IO, "%s: glTF: buffer %zu: cannot open %s: %s", g->name, bi, full,
-                       strerror(errno));
+        st = prt__fail(PRT_ERROR_IO, "%s: glTF: buffer %zu: cannot open %s: %s", g->name, bi, full, strerror(errno));
     } else {
         b->owned = prt__alloc(b->size ? (size_t)b->size : 1);
-        if (!b->owned)
-            st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for buffer %zu", g->name, bi);
+        if (!b->owned) st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for buffer %zu", g->name, bi);
         else if (fread(b->owned, 1, (size_t)b->size, f) != b->size)
-            st = prt__fail(PRT_ERROR_FORMAT,
-                           "%s: glTF: buffer %zu: %s is shorter than the %llu bytes declared",
+            st = prt__fail(PRT_ERROR_FORMAT, "%s: glTF: buffer %zu: %s is shorter than the %llu bytes declared",
                            g->name, bi, full, (unsigned long long)b->size);
         fclose(f);
         b->data = b->owned;
@@ -163,18 +156,14 @@ static prt_status load_buffers(gltf *g) {
         long uri = json_get(d, b, "uri");
         if (uri < 0) {
             if (i != 0 || (!g->bin && g->fd < 0))
-                return bad(g, "buffer %2$ld has no %1$s and is not the GLB's BIN chunk", "uri",
-                           (long)i);
+                return bad(g, "buffer %2$ld has no %1$s and is not the GLB's BIN chunk", "uri", (long)i);
             if (gb->size > g->bin_size)
-                return prt__fail(PRT_ERROR_FORMAT,
-                                 "%s: glTF: buffer 0 declares %llu bytes, the BIN chunk holds %llu",
-                                 g->name, (unsigned long long)gb->size,
-                                 (unsigned long long)g->bin_size);
+                return prt__fail(PRT_ERROR_FORMAT, "%s: glTF: buffer 0 declares %llu bytes, the BIN chunk holds %llu",
+                                 g->name, (unsigned long long)gb->size, (unsigned long long)g->bin_size);
             gb->data = g->bin, gb->file_off = g->bin_off;
             continue;
         }
-        if (d->tok[uri].type != JSON_STRING)
-            return bad(g, "buffer %2$ld: %1$s is not a string", "uri", (long)i);
+        if (d->tok[uri].type != JSON_STRING) return bad(g, "buffer %2$ld: %1$s is not a string", "uri", (long)i);
         const char *u = d->text + d->tok[uri].start;
         size_t n = d->tok[uri].end - d->tok[uri].start;
         prt_status st;
@@ -196,24 +185,19 @@ static prt_status load_buffers(gltf *g) {
  * allowed), within its buffer view, the view within its buffer. */
 static prt_status accessor(gltf *g, uint64_t i, unsigned ncomp_ok, const char *role, gacc *out) {
     json_doc *d = &g->d;
-    long acc =
-        json_at(d, json_get(d, g->root, "accessors"), (size_t)PRT_MIN(i, (uint64_t)SIZE_MAX));
+    long acc = json_at(d, json_get(d, g->root, "accessors"), (size_t)PRT_MIN(i, (uint64_t)SIZE_MAX));
     if (acc < 0) return bad(g, "%s accessor %ld does not exist", role, (long)i);
     if (json_get(d, acc, "sparse") >= 0)
-        return prt__fail(PRT_ERROR_UNSUPPORTED,
-                         "%s: glTF: accessor %llu is sparse, which is not supported", g->name,
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: glTF: accessor %llu is sparse, which is not supported", g->name,
                          (unsigned long long)i);
     uint64_t comp, count, view_i, off = 0;
-    if (!json_uint(d, json_get(d, acc, "componentType"), &comp) ||
-        !json_uint(d, json_get(d, acc, "count"), &count))
+    if (!json_uint(d, json_get(d, acc, "componentType"), &comp) || !json_uint(d, json_get(d, acc, "count"), &count))
         return bad(g, "accessor %2$ld: %1$s or count missing", "componentType", (long)i);
     if (!json_uint(d, json_get(d, acc, "bufferView"), &view_i))
-        return prt__fail(PRT_ERROR_UNSUPPORTED,
-                         "%s: glTF: accessor %llu has no bufferView (all zeros), not supported",
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: glTF: accessor %llu has no bufferView (all zeros), not supported",
                          g->name, (unsigned long long)i);
     long o = json_get(d, acc, "byteOffset");
-    if (o >= 0 && !json_uint(d, o, &off))
-        return bad(g, "accessor %2$ld: bad %1$s", "byteOffset", (long)i);
+    if (o >= 0 && !json_uint(d, o, &off)) return bad(g, "accessor %2$ld: bad %1$s", "byteOffset", (long)i);
     long type = json_get(d, acc, "type");
     int ncomp = json_is(d, type, "SCALAR") ? 1
                 : json_is(d, type, "VEC2") ? 2
@@ -228,47 +212,38 @@ static prt_status accessor(gltf *g, uint64_t i, unsigned ncomp_ok, const char *r
     if (!csize) return bad(g, "accessor %2$ld: unknown %1$s", "componentType", (long)i);
     if (!ncomp || ncomp > 4 || !(ncomp_ok & (1u << ncomp)))
         return bad(g, "accessor %2$ld: wrong type for %1$s", role, (long)i);
-    long view = json_at(d, json_get(d, g->root, "bufferViews"),
-                        (size_t)PRT_MIN(view_i, (uint64_t)SIZE_MAX));
+    long view = json_at(d, json_get(d, g->root, "bufferViews"), (size_t)PRT_MIN(view_i, (uint64_t)SIZE_MAX));
     uint64_t buf_i, voff = 0, vlen, stride = 0;
     if (view < 0) return bad(g, "accessor %2$ld: %1$s does not exist", "bufferView", (long)i);
     if (!json_uint(d, json_get(d, view, "buffer"), &buf_i) || buf_i >= g->nbuf ||
         !json_uint(d, json_get(d, view, "byteLength"), &vlen))
-        return bad(g, "buffer view %2$ld: %1$s or byteLength missing or out of range", "buffer",
-                   (long)view_i);
+        return bad(g, "buffer view %2$ld: %1$s or byteLength missing or out of range", "buffer", (long)view_i);
     o = json_get(d, view, "byteOffset");
-    if (o >= 0 && !json_uint(d, o, &voff))
-        return bad(g, "buffer view %2$ld: bad %1$s", "byteOffset", (long)view_i);
+    if (o >= 0 && !json_uint(d, o, &voff)) return bad(g, "buffer view %2$ld: bad %1$s", "byteOffset", (long)view_i);
     o = json_get(d, view, "byteStride");
     if (o >= 0 && (!json_uint(d, o, &stride) || stride < 4 || stride > 252))
         return bad(g, "buffer view %2$ld: %1$s outside 4..252", "byteStride", (long)view_i);
     const gbuf *b = &g->buf[buf_i];
     if (voff > b->size || vlen > b->size - voff)
-        return prt__fail(
-            PRT_ERROR_FORMAT,
-            "%s: glTF: buffer view %llu (bytes %llu..+%llu) lies outside buffer %llu (%llu bytes)",
-            g->name, (unsigned long long)view_i, (unsigned long long)voff, (unsigned long long)vlen,
-            (unsigned long long)buf_i, (unsigned long long)b->size);
+        return prt__fail(PRT_ERROR_FORMAT,
+                         "%s: glTF: buffer view %llu (bytes %llu..+%llu) lies outside buffer %llu (%llu bytes)",
+                         g->name, (unsigned long long)view_i, (unsigned long long)voff, (unsigned long long)vlen,
+                         (unsigned long long)buf_i, (unsigned long long)b->size);
     uint64_t elem = (uint64_t)ncomp * (uint64_t)csize;
     if (!stride) stride = elem;
-    if (stride < elem)
-        return bad(g, "buffer view %2$ld: %1$s smaller than the element", "byteStride",
-                   (long)view_i);
-    if (count && (off > vlen || count > (vlen - off) / stride + 1 ||
-                  (count - 1) * stride + elem > vlen - off))
-        return prt__fail(
-            PRT_ERROR_FORMAT,
-            "%s: glTF: accessor %llu (%llu elements of %llu bytes, stride %llu, from byte %llu) "
-            "reaches past its buffer view %llu (%llu bytes)",
-            g->name, (unsigned long long)i, (unsigned long long)count, (unsigned long long)elem,
-            (unsigned long long)stride, (unsigned long long)off, (unsigned long long)view_i,
-            (unsigned long long)vlen);
+    if (stride < elem) return bad(g, "buffer view %2$ld: %1$s smaller than the element", "byteStride", (long)view_i);
+    if (count && (off > vlen || count > (vlen - off) / stride + 1 || (count - 1) * stride + elem > vlen - off))
+        return prt__fail(PRT_ERROR_FORMAT,
+                         "%s: glTF: accessor %llu (%llu elements of %llu bytes, stride %llu, from byte %llu) "
+                         "reaches past its buffer view %llu (%llu bytes)",
+                         g->name, (unsigned long long)i, (unsigned long long)count, (unsigned long long)elem,
+                         (unsigned long long)stride, (unsigned long long)off, (unsigned long long)view_i,
+                         (unsigned long long)vlen);
     out->base = b->data ? b->data + voff + off : NULL;
     out->file_off = b->file_off + voff + off;
     out->stride = (size_t)stride, out->count = (size_t)count;
     out->comp = (int)comp, out->ncomp = ncomp, out->csize = csize;
-    out->normalized = json_get(d, acc, "normalized") >= 0 &&
-                      d->tok[json_get(d, acc, "normalized")].type == JSON_TRUE;
+    out->normalized = json_get(d, acc, "normalized") >= 0 && d->tok[json_get(d, acc, "normalized")].type == JSON_TRUE;
     return PRT_OK;
 }
 
@@ -280,9 +255,7 @@ static prt_status fetch(gltf *g, gacc *A, void *dst, int slot) {
     size_t span = (A->count - 1) * A->stride + (size_t)A->ncomp * (size_t)A->csize;
     if (!dst) {
         dst = g->temp[slot] = prt__alloc(span);
-        if (!dst)
-            return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for %zu bytes of an accessor",
-                             g->name, span);
+        if (!dst) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for %zu bytes of an accessor", g->name, span);
     }
     for (size_t done = 0; done < span;) {
         ssize_t r = pread(g->fd, (uint8_t *)dst + done, span - done, (off_t)(A->file_off + done));
@@ -290,8 +263,7 @@ static prt_status fetch(gltf *g, gacc *A, void *dst, int slot) {
         if (r <= 0)
             return prt__fail(r < 0 ? PRT_ERROR_IO : PRT_ERROR_FORMAT, "%s: byte %llu: %s", g->name,
                              (unsigned long long)(A->file_off + done),
-                             r < 0 ? strerror(errno)
-                                   : "the file ends early (was it changed while read?)");
+                             r < 0 ? strerror(errno) : "the file ends early (was it changed while read?)");
         done += (size_t)r;
     }
     A->base = dst;
@@ -307,16 +279,11 @@ PRT_INLINE float comp_value(const gacc *a, size_t i, int k) {
         memcpy(&f, &b, 4);
         return f;
     }
-    case 5121:
-        return a->normalized ? p[0] / 255.0f : p[0];
-    case 5123:
-        return a->normalized ? (float)(p[0] | p[1] << 8) / 65535.0f : (float)(p[0] | p[1] << 8);
-    case 5120:
-        return (float)(int8_t)p[0];
-    case 5122:
-        return (float)(int16_t)(p[0] | p[1] << 8);
-    default:
-        return (float)le32(p);
+    case 5121: return a->normalized ? p[0] / 255.0f : p[0];
+    case 5123: return a->normalized ? (float)(p[0] | p[1] << 8) / 65535.0f : (float)(p[0] | p[1] << 8);
+    case 5120: return (float)(int8_t)p[0];
+    case 5122: return (float)(int16_t)(p[0] | p[1] << 8);
+    default: return (float)le32(p);
     }
 }
 
@@ -333,18 +300,15 @@ static prt_status base_color(gltf *g, long prim, float rgb[3], bool *set) {
     uint64_t mi;
     long m = json_get(d, prim, "material");
     if (m < 0) return PRT_OK;
-    if (!json_uint(d, m, &mi))
-        return bad(g, "a primitive's %s is not an index%.0ld", "material", 0);
-    long mat =
-        json_at(d, json_get(d, g->root, "materials"), (size_t)PRT_MIN(mi, (uint64_t)SIZE_MAX));
+    if (!json_uint(d, m, &mi)) return bad(g, "a primitive's %s is not an index%.0ld", "material", 0);
+    long mat = json_at(d, json_get(d, g->root, "materials"), (size_t)PRT_MIN(mi, (uint64_t)SIZE_MAX));
     if (mat < 0) return bad(g, "%s %ld does not exist", "material", (long)mi);
     long f = json_get(d, json_get(d, mat, "pbrMetallicRoughness"), "baseColorFactor");
     if (f < 0) return PRT_OK;
     for (int k = 0; k < 3; k++) {
         double v;
         if (!json_number(g->s, d, json_at(d, f, (size_t)k), &v) || !(v >= 0 && v <= 1))
-            return bad(g, "material %2$ld: %1$s values must be numbers in 0..1", "baseColorFactor",
-                       (long)mi);
+            return bad(g, "material %2$ld: %1$s values must be numbers in 0..1", "baseColorFactor", (long)mi);
         rgb[k] = (float)v;
     }
     *set = rgb[0] != 1.0f || rgb[1] != 1.0f || rgb[2] != 1.0f;
@@ -352,8 +316,7 @@ static prt_status base_color(gltf *g, long prim, float rgb[3], bool *set) {
 }
 
 /* One primitive of one instance, with transform M (column-major 4x4). */
-static prt_status primitive_body(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i,
-                                 size_t pi) {
+static prt_status primitive_body(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i, size_t pi) {
     json_doc *d = &g->d;
     mesh_arrays *a = g->a;
     uint64_t mode = 4, pos_i, idx_i, col_i;
@@ -378,18 +341,16 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
     if (has_idx) {
         if ((st = accessor(g, idx_i, 1u << 1, "indices", &I)) != PRT_OK) return st;
         if (I.comp != 5121 && I.comp != 5123 && I.comp != 5125)
-            return bad(g, "accessor %2$ld: %1$s must be unsigned byte, short or int", "indices",
-                       (long)idx_i);
+            return bad(g, "accessor %2$ld: %1$s must be unsigned byte, short or int", "indices", (long)idx_i);
     }
     bool has_col = json_uint(d, json_get(d, attrs, "COLOR_0"), &col_i);
     if (has_col) {
         if ((st = accessor(g, col_i, 1u << 3 | 1u << 4, "COLOR_0", &C)) != PRT_OK) return st;
         if (C.comp != 5126 && !((C.comp == 5121 || C.comp == 5123) && C.normalized))
-            return bad(g, "accessor %2$ld: %1$s must be float or normalized unsigned byte or short",
-                       "COLOR_0", (long)col_i);
-        if (C.count != P.count)
-            return bad(g, "accessor %2$ld: %1$s count differs from POSITION's", "COLOR_0",
+            return bad(g, "accessor %2$ld: %1$s must be float or normalized unsigned byte or short", "COLOR_0",
                        (long)col_i);
+        if (C.count != P.count)
+            return bad(g, "accessor %2$ld: %1$s count differs from POSITION's", "COLOR_0", (long)col_i);
     }
     float factor[3];
     bool factor_set;
@@ -397,8 +358,7 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
     size_t n = has_idx ? I.count : P.count;
     size_t tris = mode == 4 ? n / 3 : n >= 3 ? n - 2 : 0;
     if (mode == 4 && n % 3)
-        return prt__fail(PRT_ERROR_FORMAT,
-                         "%s: glTF: mesh %llu primitive %zu: %zu indices, not a multiple of 3",
+        return prt__fail(PRT_ERROR_FORMAT, "%s: glTF: mesh %llu primitive %zu: %zu indices, not a multiple of 3",
                          g->name, (unsigned long long)mesh_i, pi, n);
     if (!tris) return PRT_OK;
     if (!P.count) /* (and no vertex array to read into yet: a->v may be NULL) */
@@ -454,8 +414,7 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
                     return prt__fail(PRT_ERROR_MESH,
                                      "%s: glTF: mesh %llu primitive %zu: index %zu is %u, but "
                                      "POSITION has %zu vertices",
-                                     g->name, (unsigned long long)mesh_i, pi, i,
-                                     o[i] - (uint32_t)base, P.count);
+                                     g->name, (unsigned long long)mesh_i, pi, i, o[i] - (uint32_t)base, P.count);
         if (g->ids)
             for (size_t i = 0; i < tris; i++) a->tm[a->nt + i] = (uint16_t)g->instances;
         a->nt += tris;
@@ -465,12 +424,9 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
     }
     for (; t < tris; t++) {
         size_t c[3];
-        if (mode == 4)
-            c[0] = 3 * t, c[1] = 3 * t + 1, c[2] = 3 * t + 2;
-        else if (mode == 5)
-            c[0] = t, c[1] = t + 1 + t % 2, c[2] = t + 2 - t % 2;
-        else
-            c[0] = t + 1, c[1] = t + 2, c[2] = 0;
+        if (mode == 4) c[0] = 3 * t, c[1] = 3 * t + 1, c[2] = 3 * t + 2;
+        else if (mode == 5) c[0] = t, c[1] = t + 1 + t % 2, c[2] = t + 2 - t % 2;
+        else c[0] = t + 1, c[1] = t + 2, c[2] = 0;
         uint32_t tri[3];
         for (int k = 0; k < 3; k++) {
             uint32_t i = has_idx ? index_value(&I, c[k]) : (uint32_t)c[k];
@@ -485,8 +441,7 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
             uint32_t s = tri[1];
             tri[1] = tri[2], tri[2] = s;
         }
-        if ((a->nt == a->tcap || a->stream) && (st = mesh_arrays_triangle_room(a, 1, 0)) != PRT_OK)
-            return st;
+        if ((a->nt == a->tcap || a->stream) && (st = mesh_arrays_triangle_room(a, 1, 0)) != PRT_OK) return st;
         memcpy(a->t + 3 * a->nt, tri, sizeof tri);
         if (g->ids) a->tm[a->nt] = (uint16_t)g->instances;
         a->nt++;
@@ -495,8 +450,7 @@ static prt_status primitive_body(gltf *g, long prim, const double M[16], bool fl
     return PRT_OK;
 }
 
-static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i,
-                            size_t pi) {
+static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, uint64_t mesh_i, size_t pi) {
     prt_status st = primitive_body(g, prim, M, flip, mesh_i, pi);
     for (int k = 0; k < 3; k++) prt__free(g->temp[k]), g->temp[k] = NULL;
     return st;
@@ -504,16 +458,15 @@ static prt_status primitive(gltf *g, long prim, const double M[16], bool flip, u
 
 static prt_status mesh_instance(gltf *g, uint64_t mesh_i, const double M[16]) {
     json_doc *d = &g->d;
-    long mesh =
-        json_at(d, json_get(d, g->root, "meshes"), (size_t)PRT_MIN(mesh_i, (uint64_t)SIZE_MAX));
+    long mesh = json_at(d, json_get(d, g->root, "meshes"), (size_t)PRT_MIN(mesh_i, (uint64_t)SIZE_MAX));
     if (mesh < 0) return bad(g, "%s %ld does not exist", "mesh", (long)mesh_i);
     if (g->instances > UINT16_MAX)
         return prt__fail(PRT_ERROR_LIMIT,
                          "%s: glTF: more than 65536 mesh instances: packrt keeps a 16-bit geometry "
                          "id a triangle",
                          g->name);
-    double det = M[0] * (M[5] * M[10] - M[9] * M[6]) - M[4] * (M[1] * M[10] - M[9] * M[2]) +
-                 M[8] * (M[1] * M[6] - M[5] * M[2]);
+    double det =
+        M[0] * (M[5] * M[10] - M[9] * M[6]) - M[4] * (M[1] * M[10] - M[9] * M[2]) + M[8] * (M[1] * M[6] - M[5] * M[2]);
     long prims = json_get(d, mesh, "primitives");
     for (size_t p = 0; p < json_len(d, prims); p++) {
         prt_status st = primitive(g, json_at(d, prims, p), M, det < 0, mesh_i, p);
@@ -529,8 +482,7 @@ static prt_status node_matrix(gltf *g, long node, uint64_t ni, double L[16]) {
     memcpy(L, I, sizeof I);
     long m = json_get(d, node, "matrix");
     if (m >= 0) {
-        if (json_len(d, m) != 16)
-            return bad(g, "node %2$ld: %1$s needs 16 numbers", "matrix", (long)ni);
+        if (json_len(d, m) != 16) return bad(g, "node %2$ld: %1$s needs 16 numbers", "matrix", (long)ni);
         for (size_t k = 0; k < 16; k++)
             if (!json_number(g->s, d, json_at(d, m, k), &L[k]))
                 return bad(g, "node %2$ld: %1$s needs 16 numbers", "matrix", (long)ni);
@@ -545,8 +497,7 @@ static prt_status node_matrix(gltf *g, long node, uint64_t ni, double L[16]) {
     for (int i = 0; i < 3; i++) {
         long a = json_get(d, node, f[i].key);
         if (a < 0) continue;
-        if (json_len(d, a) != f[i].n)
-            return bad(g, "node %2$ld: malformed %1$s", f[i].key, (long)ni);
+        if (json_len(d, a) != f[i].n) return bad(g, "node %2$ld: malformed %1$s", f[i].key, (long)ni);
         for (size_t k = 0; k < f[i].n; k++)
             if (!json_number(g->s, d, json_at(d, a, k), &f[i].v[k]))
                 return bad(g, "node %2$ld: malformed %1$s", f[i].key, (long)ni);
@@ -575,8 +526,7 @@ static prt_status walk(gltf *g, uint64_t ni, const double parent[16], int depth)
     long nodes = json_get(d, g->root, "nodes");
     long node = json_at(d, nodes, (size_t)PRT_MIN(ni, (uint64_t)SIZE_MAX));
     if (node < 0) return bad(g, "%s %ld does not exist", "node", (long)ni);
-    if (g->visited[ni])
-        return bad(g, "%s %ld is reached twice (glTF nodes form disjoint trees)", "node", (long)ni);
+    if (g->visited[ni]) return bad(g, "%s %ld is reached twice (glTF nodes form disjoint trees)", "node", (long)ni);
     if (depth > MAX_DEPTH) return bad(g, "%s %ld: nested more than 64 deep", "node", (long)ni);
     g->visited[ni] = 1;
     double L[16], M[16];
@@ -586,8 +536,7 @@ static prt_status walk(gltf *g, uint64_t ni, const double parent[16], int depth)
     uint64_t mi;
     long m = json_get(d, node, "mesh");
     if (m >= 0) {
-        if (!json_uint(d, m, &mi))
-            return bad(g, "node %2$ld: %1$s is not an index", "mesh", (long)ni);
+        if (!json_uint(d, m, &mi)) return bad(g, "node %2$ld: %1$s is not an index", "mesh", (long)ni);
         if ((st = mesh_instance(g, mi, M)) != PRT_OK) return st;
     }
     long ch = json_get(d, node, "children");
@@ -672,11 +621,9 @@ static prt_status glb_head(gltf *g, const uint8_t **data, size_t *size) {
     if (st != PRT_OK || mesh_source_avail(s) < 20 || s->total > SIZE_MAX) return st;
     uint64_t want = 20 + (uint64_t)le32(s->cur + 12) + 8;
     if (want > s->total) want = s->total;
-    if (want > MESH_SOURCE_MAX_WINDOW || (st = mesh_source_fill(s, (size_t)want)) != PRT_OK)
-        return st;
+    if (want > MESH_SOURCE_MAX_WINDOW || (st = mesh_source_fill(s, (size_t)want)) != PRT_OK) return st;
     if (mesh_source_avail(s) < want)
-        return prt__fail(PRT_ERROR_FORMAT,
-                         "%s: truncated: the file ends at byte %zu, before its size %llu", g->name,
+        return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: the file ends at byte %zu, before its size %llu", g->name,
                          mesh_source_avail(s), (unsigned long long)s->total);
     if ((g->fd = open(g->path, O_RDONLY | O_CLOEXEC)) < 0)
         return prt__fail(PRT_ERROR_IO, "%s: cannot open: %s", g->name, strerror(errno));
@@ -687,17 +634,14 @@ static prt_status glb_head(gltf *g, const uint8_t **data, size_t *size) {
 static prt_status parse(gltf *g, bool glb) {
     const uint8_t *data = NULL;
     size_t size = 0;
-    bool from_file =
-        glb && g->path && g->s->total != UINT64_MAX && mesh_source_offset(g->s, g->s->cur) == 0;
-    prt_status st =
-        from_file ? glb_head(g, &data, &size) : mesh_source_read_all(g->s, &data, &size, &g->file);
+    bool from_file = glb && g->path && g->s->total != UINT64_MAX && mesh_source_offset(g->s, g->s->cur) == 0;
+    prt_status st = from_file ? glb_head(g, &data, &size) : mesh_source_read_all(g->s, &data, &size, &g->file);
     if (st != PRT_OK) return st;
     if (from_file && g->fd < 0) { /* too short for a header, or a JSON chunk past 1 GiB */
         if (mesh_source_avail(g->s) < 20)
-            return prt__fail(
-                PRT_ERROR_FORMAT,
-                "%s: truncated: a GLB needs a 12-byte header and a chunk, the file has %zu bytes",
-                g->name, mesh_source_avail(g->s));
+            return prt__fail(PRT_ERROR_FORMAT,
+                             "%s: truncated: a GLB needs a 12-byte header and a chunk, the file has %zu bytes", g->name,
+                             mesh_source_avail(g->s));
         from_file = false;
         if ((st = mesh_source_read_all(g->s, &data, &size, &g->file)) != PRT_OK) return st;
     }
@@ -706,63 +650,49 @@ static prt_status parse(gltf *g, bool glb) {
     uint64_t json_at_ = 0;
     if (glb) {
         if (size < 20)
-            return prt__fail(
-                PRT_ERROR_FORMAT,
-                "%s: truncated: a GLB needs a 12-byte header and a chunk, the file has %zu bytes",
-                g->name, size);
+            return prt__fail(PRT_ERROR_FORMAT,
+                             "%s: truncated: a GLB needs a 12-byte header and a chunk, the file has %zu bytes", g->name,
+                             size);
         uint32_t version = le32(data + 4), length = le32(data + 8), clen = le32(data + 12);
         if (version != 2)
-            return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: GLB version %u (only 2 is read)", g->name,
-                             version);
+            return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: GLB version %u (only 2 is read)", g->name, version);
         if (length != size)
-            return prt__fail(PRT_ERROR_FORMAT,
-                             "%s: the GLB header says %u bytes, the file has %zu: %s", g->name,
+            return prt__fail(PRT_ERROR_FORMAT, "%s: the GLB header says %u bytes, the file has %zu: %s", g->name,
                              length, size, length > size ? "truncated" : "data after the end");
         if (le32(data + 16) != GLB_JSON)
-            return prt__fail(PRT_ERROR_FORMAT, "%s: byte 16: the first GLB chunk is not JSON",
-                             g->name);
+            return prt__fail(PRT_ERROR_FORMAT, "%s: byte 16: the first GLB chunk is not JSON", g->name);
         if (clen > size - 20)
-            return prt__fail(
-                PRT_ERROR_FORMAT,
-                "%s: byte 12: the JSON chunk (%u bytes) reaches past the end of the file", g->name,
-                clen);
+            return prt__fail(PRT_ERROR_FORMAT,
+                             "%s: byte 12: the JSON chunk (%u bytes) reaches past the end of the file", g->name, clen);
         json = (const char *)data + 20, json_len_ = clen, json_at_ = 20;
         size_t at = 20 + (size_t)clen;
         if (size - at >= 8) {
             uint32_t blen = le32(data + at);
             if (le32(data + at + 4) == GLB_BIN) {
                 if (blen > size - at - 8)
-                    return prt__fail(
-                        PRT_ERROR_FORMAT,
-                        "%s: byte %zu: the BIN chunk (%u bytes) reaches past the end of the file",
-                        g->name, at, blen);
+                    return prt__fail(PRT_ERROR_FORMAT,
+                                     "%s: byte %zu: the BIN chunk (%u bytes) reaches past the end of the file", g->name,
+                                     at, blen);
                 g->bin_size = blen;
-                if (from_file)
-                    g->bin_off = at + 8;
-                else
-                    g->bin = data + at + 8;
+                if (from_file) g->bin_off = at + 8;
+                else g->bin = data + at + 8;
             }
         }
     }
     if ((st = json_parse(g->s, json, json_len_, json_at_, &g->d)) != PRT_OK) return st;
     json_doc *d = &g->d;
     g->root = 0;
-    if (d->tok[0].type != JSON_OBJECT)
-        return bad(g, "the top level is not an %s%.0ld", "object", 0);
+    if (d->tok[0].type != JSON_OBJECT) return bad(g, "the top level is not an %s%.0ld", "object", 0);
     long asset = json_get(d, 0, "asset"), ver = json_get(d, asset, "version");
     if (ver < 0 || d->tok[ver].type != JSON_STRING) return bad(g, "no %s.version%.0ld", "asset", 0);
-    if (!(d->tok[ver].end - d->tok[ver].start >= 2 &&
-          !memcmp(d->text + d->tok[ver].start, "2.", 2)))
-        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: glTF version '%.*s' (only 2.x is read)",
-                         g->name, (int)PRT_MIN(d->tok[ver].end - d->tok[ver].start, (size_t)16),
-                         d->text + d->tok[ver].start);
+    if (!(d->tok[ver].end - d->tok[ver].start >= 2 && !memcmp(d->text + d->tok[ver].start, "2.", 2)))
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: glTF version '%.*s' (only 2.x is read)", g->name,
+                         (int)PRT_MIN(d->tok[ver].end - d->tok[ver].start, (size_t)16), d->text + d->tok[ver].start);
     long req = json_get(d, 0, "extensionsRequired");
     if (json_len(d, req)) {
         long e = json_at(d, req, 0);
-        return prt__fail(PRT_ERROR_UNSUPPORTED,
-                         "%s: glTF: requires extension '%.*s', which packrt does not read", g->name,
-                         (int)PRT_MIN(d->tok[e].end - d->tok[e].start, (size_t)64),
-                         d->text + d->tok[e].start);
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: glTF: requires extension '%.*s', which packrt does not read",
+                         g->name, (int)PRT_MIN(d->tok[e].end - d->tok[e].start, (size_t)64), d->text + d->tok[e].start);
     }
     if ((st = load_buffers(g)) != PRT_OK || (st = any_colors(g, &g->colors)) != PRT_OK) return st;
     if (g->colors && (st = mesh_arrays_colors(g->a, true, false)) != PRT_OK) return st;
@@ -771,15 +701,12 @@ static prt_status parse(gltf *g, bool glb) {
      * triangle is a tenth of a mesh's memory. */
     long nodes = json_get(d, 0, "nodes");
     size_t with_mesh = 0;
-    for (size_t i = 0; i < json_len(d, nodes); i++)
-        with_mesh += json_get(d, json_at(d, nodes, i), "mesh") >= 0;
+    for (size_t i = 0; i < json_len(d, nodes); i++) with_mesh += json_get(d, json_at(d, nodes, i), "mesh") >= 0;
     if (!json_len(d, nodes)) with_mesh = json_len(d, json_get(d, 0, "meshes"));
     g->ids = with_mesh > 1;
-    if ((g->ids && (st = mesh_arrays_materials(g->a)) != PRT_OK) || (st = scene(g)) != PRT_OK)
-        return st;
+    if ((g->ids && (st = mesh_arrays_materials(g->a)) != PRT_OK) || (st = scene(g)) != PRT_OK) return st;
     if (g->triangles == 0)
-        return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the scene has no triangle primitives",
-                         g->name);
+        return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the scene has no triangle primitives", g->name);
     return PRT_OK;
 }
 

@@ -46,13 +46,11 @@ typedef prt_status (*iso_brick_fn)(void *user, iso_brick_out *bricks, size_t n);
 
 /* Flood fill the surface of p from the seeds, extracting at most `group` bricks at a time
  * (0: a whole round at once) and handing each group to fn. *triangles: the total. */
-prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_brick_fn fn,
-                     void *user, uint64_t *triangles);
+prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_brick_fn fn, void *user,
+                     uint64_t *triangles);
 
 /* Bricks per side of p's grid. */
-PRT_INLINE uint32_t iso_bricks_per_side(const gen_iso_params *p) {
-    return (p->resolution + GEN_BRICK - 1) / GEN_BRICK;
-}
+PRT_INLINE uint32_t iso_bricks_per_side(const gen_iso_params *p) { return (p->resolution + GEN_BRICK - 1) / GEN_BRICK; }
 
 /* Split extended slot e: which of the owners (o = dx | dy << 1 | dz << 2: the brick itself
  * or a +x/+y/+z neighbour) owns the edge, and its slot there. */
@@ -63,9 +61,7 @@ PRT_INLINE void iso_edge_owner(int e, int *o, int *slot) {
     *slot = ((a * b + (z & (b - 1))) * b + (y & (b - 1))) * b + (x & (b - 1));
 }
 
-PRT_INLINE bool iso_owns(const uint64_t *owned, int slot) {
-    return owned[slot >> 6] >> (slot & 63) & 1;
-}
+PRT_INLINE bool iso_owns(const uint64_t *owned, int slot) { return owned[slot >> 6] >> (slot & 63) & 1; }
 
 /* Index of an owned slot among the brick's vertices. */
 PRT_INLINE uint32_t iso_owned_rank(const uint64_t *owned, const uint16_t *rank, int slot) {

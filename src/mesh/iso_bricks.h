@@ -25,8 +25,8 @@ typedef prt_status (*gen_iso_bricks_fn)(void *user, const gen_iso_brick *bricks,
 
 /* The census: the flood fill of gen_isosurface_stream (same grid, same order, same memory
  * rules), handing on each brick with its triangles instead of a flat stream. */
-prt_status gen_isosurface_bricks(const gen_iso_params *p, size_t memory_budget,
-                                 gen_iso_bricks_fn fn, void *user, uint64_t *triangles);
+prt_status gen_isosurface_bricks(const gen_iso_params *p, size_t memory_budget, gen_iso_bricks_fn fn, void *user,
+                                 uint64_t *triangles);
 
 /* One brick's triangles regenerated from its own samples: the same corners, bit for bit and
  * in the same order, as the stream hands on for it. soup holds GEN_ISO_MAX_BRICK_TRIS * 9

@@ -42,8 +42,8 @@ typedef struct spill {
 
 static prt_status io_error(const spill *s, const char *what, uint64_t at, ssize_t k) {
     char eb[128];
-    return prt__fail(PRT_ERROR_IO, "%s: %s failed at byte %llu: %s", s->name, what,
-                     (unsigned long long)at, k < 0 ? strerror_r(errno, eb, sizeof eb) : "short");
+    return prt__fail(PRT_ERROR_IO, "%s: %s failed at byte %llu: %s", s->name, what, (unsigned long long)at,
+                     k < 0 ? strerror_r(errno, eb, sizeof eb) : "short");
 }
 
 static prt_status spill_flush(spill *s) {
@@ -123,10 +123,8 @@ static ptrdiff_t find_entry(const entry *e, size_t lo, size_t n, uint32_t id) {
     size_t hi = n;
     while (lo < hi) {
         size_t mid = lo + (hi - lo) / 2;
-        if (e[mid].id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
+        if (e[mid].id < id) lo = mid + 1;
+        else hi = mid;
     }
     return lo < n && e[lo].id == id ? (ptrdiff_t)lo : -1;
 }
@@ -138,9 +136,7 @@ typedef struct window {
     size_t cap, first, end; /* cap a power of two */
 } window;
 
-static disk_header *window_at(window *w, size_t pos) {
-    return &w->h[pos & (w->cap - 1)];
-}
+static disk_header *window_at(window *w, size_t pos) { return &w->h[pos & (w->cap - 1)]; }
 
 static prt_status window_push(window *w, const spill *s, size_t pos) {
     if (w->end - w->first == w->cap) {
@@ -162,8 +158,7 @@ static prt_status emit_vertices(spill *s, const gen_iso_indexed_out *out) {
     prt_status st = PRT_OK;
     for (size_t i = 0; i < s->ne && !st; i++) {
         const entry *e = &s->e[i];
-        st =
-            spill_read(s, v, (size_t)e->nvert * 3 * sizeof(float), e->offset + sizeof(disk_header));
+        st = spill_read(s, v, (size_t)e->nvert * 3 * sizeof(float), e->offset + sizeof(disk_header));
         if (!st && e->nvert) st = out->vertices(out->user, v, e->nvert);
     }
     prt__free(v);
@@ -183,8 +178,7 @@ static prt_status emit_triangles(spill *s, uint32_t nb, const gen_iso_indexed_ou
         /* Slide the window: drop records behind, read those up to the farthest owner. */
         w.first = PRT_MAX(w.first, i);
         if (w.end < w.first) w.end = w.first;
-        while (!st && w.end < s->ne && s->e[w.end].id <= e->id + reach)
-            st = window_push(&w, s, w.end);
+        while (!st && w.end < s->ne && s->e[w.end].id <= e->id + reach) st = window_push(&w, s, w.end);
         if (st) break;
         st = spill_read(s, slots, (size_t)e->ntri * 3 * sizeof *slots,
                         e->offset + sizeof(disk_header) + (uint64_t)e->nvert * 3 * sizeof(float));
@@ -193,21 +187,17 @@ static prt_status emit_triangles(spill *s, uint32_t nb, const gen_iso_indexed_ou
         uint32_t bx = e->id % nb, by = e->id / nb % nb, bz = e->id / nb / nb;
         for (int o = 0; o < 8; o++) {
             uint32_t x = bx + (o & 1), y = by + (o >> 1 & 1), z = bz + (o >> 2 & 1);
-            own[o] =
-                x < nb && y < nb && z < nb ? find_entry(s->e, i, w.end, (z * nb + y) * nb + x) : -1;
+            own[o] = x < nb && y < nb && z < nb ? find_entry(s->e, i, w.end, (z * nb + y) * nb + x) : -1;
         }
         for (uint32_t j = 0; j < 3 * e->ntri; j++) {
             int o, slot;
             iso_edge_owner(slots[j], &o, &slot);
             const disk_header *h = own[o] < 0 ? NULL : window_at(&w, (size_t)own[o]);
             if (!h || !iso_owns(h->owned, slot)) {
-                st =
-                    prt__fail(PRT_ERROR_MESH,
-                              "isosurface: a crossed edge has no vertex in its owning brick (bug)");
+                st = prt__fail(PRT_ERROR_MESH, "isosurface: a crossed edge has no vertex in its owning brick (bug)");
                 break;
             }
-            batch[3 * nbatch + j % 3] =
-                s->e[own[o]].vbase + iso_owned_rank(h->owned, h->rank, slot);
+            batch[3 * nbatch + j % 3] = s->e[own[o]].vbase + iso_owned_rank(h->owned, h->rank, slot);
             if (j % 3 == 2 && ++nbatch == TRI_BATCH) {
                 st = out->triangles(out->user, batch, nbatch);
                 nbatch = 0;
@@ -224,8 +214,7 @@ static prt_status emit_triangles(spill *s, uint32_t nb, const gen_iso_indexed_ou
 
 /* A temporary file beside `near` (or in $TMPDIR, else /tmp), unlinked at once. */
 static prt_status open_temp(const char *near, int *fd, char *name, size_t size) {
-    if (near)
-        snprintf(name, size, "%s.spill-XXXXXX", near);
+    if (near) snprintf(name, size, "%s.spill-XXXXXX", near);
     else {
         const char *dir = getenv("TMPDIR");
         snprintf(name, size, "%s/packrt-spill-XXXXXX", dir && *dir ? dir : "/tmp");
@@ -240,9 +229,8 @@ static prt_status open_temp(const char *near, int *fd, char *name, size_t size) 
     return PRT_OK;
 }
 
-prt_status gen_isosurface_indexed(const gen_iso_params *p, size_t memory_budget,
-                                  const char *temp_near, const gen_iso_indexed_out *out,
-                                  uint64_t *vertices, uint64_t *triangles) {
+prt_status gen_isosurface_indexed(const gen_iso_params *p, size_t memory_budget, const char *temp_near,
+                                  const gen_iso_indexed_out *out, uint64_t *vertices, uint64_t *triangles) {
     if (vertices) *vertices = 0;
     if (triangles) *triangles = 0;
     if (!out || !out->begin || !out->vertices || !out->triangles)
@@ -257,16 +245,15 @@ prt_status gen_isosurface_indexed(const gen_iso_params *p, size_t memory_budget,
     if (!s.buf) st = prt__fail(PRT_ERROR_NOMEM, "out of memory for the spill buffer");
     /* A group's worst case: every brick's record full (all edges crossed, all cells with
      * the most triangles). */
-    const size_t brick_bytes = sizeof(iso_brick) + ISO_OWN_SLOTS * 3 * sizeof(float) +
-                               ISO_MAX_BRICK_TRIS * 3 * sizeof(uint16_t) + 64;
+    const size_t brick_bytes =
+        sizeof(iso_brick) + ISO_OWN_SLOTS * 3 * sizeof(float) + ISO_MAX_BRICK_TRIS * 3 * sizeof(uint16_t) + 64;
     size_t budget = PRT_MAX(memory_budget, GEN_ISO_MIN_BUDGET);
     size_t group = PRT_MAX((budget - 2 * IO_BUFFER) / brick_bytes, (size_t)16);
     uint64_t total = 0;
     if (!st) st = iso_flood(p, ISO_RECORDS, group, spill_bricks, &s, &total);
     if (!st) st = spill_flush(&s);
     if (!st && s.vertices >= UINT32_MAX)
-        st = prt__fail(PRT_ERROR_LIMIT,
-                       "isosurface has %llu vertices: more than 32-bit indices hold",
+        st = prt__fail(PRT_ERROR_LIMIT, "isosurface has %llu vertices: more than 32-bit indices hold",
                        (unsigned long long)s.vertices);
     if (!st) {
         qsort(s.e, s.ne, sizeof *s.e, cmp_entry);

@@ -36,13 +36,9 @@ typedef struct iso {
     uint16_t ext_off[12]; /* extended-slot offset of each cell edge from the cell's origin */
 } iso;
 
-static inline size_t sidx(int x, int y, int z) {
-    return ((size_t)z * S + y) * S + x;
-}
+static inline size_t sidx(int x, int y, int z) { return ((size_t)z * S + y) * S + x; }
 
-static double coord(const iso *s, int axis, uint32_t g) {
-    return s->p->lo[axis] + (double)g * s->h;
-}
+static double coord(const iso *s, int axis, uint32_t g) { return s->p->lo[axis] + (double)g * s->h; }
 
 /* A batch of points for the field. */
 typedef struct batch {
@@ -50,8 +46,8 @@ typedef struct batch {
 } batch;
 
 /* Evaluate the listed samples of brick (bx, by, bz) into val (one batch for the field). */
-static void eval_samples(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, const uint16_t *list,
-                         int n, batch *q, float *val) {
+static void eval_samples(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, const uint16_t *list, int n, batch *q,
+                         float *val) {
     for (int i = 0; i < n; i++) {
         int j = list[i], x = j % S, y = j / S % S, z = j / (S * S);
         q->x[i] = coord(s, 0, bx * B + x);
@@ -64,8 +60,7 @@ static void eval_samples(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, co
 
 /* Set the brick's samples (those at multiples of step) on or past the domain's faces to
  * outside, so that every surface closes inside the domain. */
-static void force_outside_faces(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, float *val,
-                                int step) {
+static void force_outside_faces(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, float *val, int step) {
     uint32_t R = s->p->resolution;
     if (bx && by && bz && (bx + 1) * B < R && (by + 1) * B < R && (bz + 1) * B < R) return;
     for (int z = 0; z < S; z += step)
@@ -92,8 +87,7 @@ static void sample_brick(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, fl
 /* The corner on extended slot e (its crossing between the two samples at the edge's ends),
  * computed as the owner of the edge computes its vertex, so the bits agree whichever
  * brick computes it. */
-static void soup_corner(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, const float *val,
-                        int e, float *out) {
+static void soup_corner(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, const float *val, int e, float *out) {
     static const size_t stride[3] = {1, S, S * S};
     int x = e % S, y = e / S % S, z = e / (S * S) % S, a = e / (S * S * S);
     size_t p = sidx(x, y, z);
@@ -108,8 +102,7 @@ static void soup_corner(const iso *s, uint32_t bx, uint32_t by, uint32_t bz, con
 /* Sample brick id and run marching cubes over its cells: val receives the samples, tri the
  * triangles as extended slots; returns the triangle count, *neighbours the bricks sharing
  * a crossed edge (brick_result's bits). */
-static uint32_t brick_cells(const iso *s, uint32_t id, float *val, uint16_t *tri,
-                            uint32_t *neighbours_out) {
+static uint32_t brick_cells(const iso *s, uint32_t id, float *val, uint16_t *tri, uint32_t *neighbours_out) {
     uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
     sample_brick(s, bx, by, bz, val);
 
@@ -119,13 +112,11 @@ static uint32_t brick_cells(const iso *s, uint32_t id, float *val, uint16_t *tri
             for (int x = 0; x < B; x++) {
                 size_t o = sidx(x, y, z);
                 int m = 0;
-                for (int k = 0; k < 8; k++)
-                    m |= (val[o + sidx(k & 1, (k >> 1) & 1, (k >> 2) & 1)] < 0) << k;
+                for (int k = 0; k < 8; k++) m |= (val[o + sidx(k & 1, (k >> 1) & 1, (k >> 2) & 1)] < 0) << k;
                 int n = s->mc->count[m];
                 if (!n) continue;
                 const uint8_t *e = s->mc->edges[m];
-                for (int i = 0; i < 3 * n; i++)
-                    tri[3 * ntri + i] = (uint16_t)(s->ext_off[e[i]] + o);
+                for (int i = 0; i < 3 * n; i++) tri[3 * ntri + i] = (uint16_t)(s->ext_off[e[i]] + o);
                 /* Cells on the brick's boundary share edges with neighbouring bricks, which
                  * must be visited too, or the surface would stop at this brick's face. */
                 if (x == 0 || y == 0 || z == 0 || x == B - 1 || y == B - 1 || z == B - 1)
@@ -149,8 +140,7 @@ static uint32_t brick_cells(const iso *s, uint32_t id, float *val, uint16_t *tri
 }
 
 /* The corners of a brick's triangles (9 floats each) from its samples and slots. */
-static void brick_soup(const iso *s, uint32_t id, const float *val, const uint16_t *tri,
-                       uint32_t ntri, float *f) {
+static void brick_soup(const iso *s, uint32_t id, const float *val, const uint16_t *tri, uint32_t ntri, float *f) {
     uint32_t nb = s->nb, bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
     for (uint32_t i = 0; i < 3 * ntri; i++) soup_corner(s, bx, by, bz, val, tri[i], f + 3 * i);
 }
@@ -194,8 +184,7 @@ static void process_brick(const iso *s, uint32_t id, iso_brick_out *out, brick_r
                         nvert++;
                     }
                 }
-    size_t bytes =
-        sizeof(brick) + (size_t)nvert * 3 * sizeof(float) + (size_t)ntri * 3 * sizeof(uint16_t);
+    size_t bytes = sizeof(brick) + (size_t)nvert * 3 * sizeof(float) + (size_t)ntri * 3 * sizeof(uint16_t);
     brick *r = prt__alloc(bytes);
     if (!r) {
         res->failed = 1;
@@ -267,8 +256,7 @@ static prt_status idlist_push(idlist *l, uint32_t id) {
  * bricks, `size` bricks a side) are tested in parallel; for size > 1 *cur becomes the
  * children of the nodes kept (in order, so the result does not depend on the thread
  * count), for size 1 the kept bricks that see the surface are appended to seeds. */
-static prt_status seed_level(const iso *s, uint32_t **cur, size_t *n, uint32_t size,
-                             idlist *seeds) {
+static prt_status seed_level(const iso *s, uint32_t **cur, size_t *n, uint32_t size, idlist *seeds) {
     uint32_t nb = s->nb;
     uint8_t *keep = prt__alloc(*n ? *n : 1);
     if (!keep) return prt__fail(PRT_ERROR_NOMEM, "out of memory seeding the isosurface");
@@ -296,8 +284,7 @@ static prt_status seed_level(const iso *s, uint32_t **cur, size_t *n, uint32_t s
         bool filter = s->p->resolution >= 16 * B;
 #pragma omp parallel for schedule(dynamic, 16)
         for (size_t i = 0; i < cn; i++)
-            if (filter && keep[i] == 2 &&
-                !coarse_sign_change(s, c[i] & 1023, c[i] >> 10 & 1023, c[i] >> 20 & 1023))
+            if (filter && keep[i] == 2 && !coarse_sign_change(s, c[i] & 1023, c[i] >> 10 & 1023, c[i] >> 20 & 1023))
                 keep[i] = 0;
         for (size_t i = 0; i < cn && !st; i++)
             if (keep[i] == 2) {
@@ -391,10 +378,8 @@ static ptrdiff_t find_brick(brick *const *recs, size_t n, uint32_t id) {
     size_t lo = 0, hi = n;
     while (lo < hi) {
         size_t mid = lo + (hi - lo) / 2;
-        if (recs[mid]->id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
+        if (recs[mid]->id < id) lo = mid + 1;
+        else hi = mid;
     }
     return lo < n && recs[lo]->id == id ? (ptrdiff_t)lo : -1;
 }
@@ -403,8 +388,7 @@ static ptrdiff_t find_brick(brick *const *recs, size_t n, uint32_t id) {
  * extended slots resolved to the owning brick's vertex. */
 static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) {
     qsort(recs, n, sizeof *recs, cmp_brick);
-    size_t *vbase = prt__alloc((n + 1) * sizeof *vbase),
-           *tbase = prt__alloc((n + 1) * sizeof *tbase);
+    size_t *vbase = prt__alloc((n + 1) * sizeof *vbase), *tbase = prt__alloc((n + 1) * sizeof *tbase);
     if (!vbase || !tbase) {
         prt__free(vbase);
         prt__free(tbase);
@@ -417,8 +401,7 @@ static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) 
     }
     prt_status st = PRT_OK;
     if (vbase[n] >= UINT32_MAX)
-        st = prt__fail(PRT_ERROR_LIMIT,
-                       "isosurface has %zu vertices: more than 32-bit indices hold", vbase[n]);
+        st = prt__fail(PRT_ERROR_LIMIT, "isosurface has %zu vertices: more than 32-bit indices hold", vbase[n]);
     prt_mesh *m = NULL;
     if (!st) st = prt_mesh_create(vbase[n], tbase[n], &m);
     if (st) {
@@ -451,16 +434,14 @@ static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) 
                 t[j] = 0;
                 continue;
             }
-            t[j] = (uint32_t)(vbase[own[o]] +
-                              iso_owned_rank(recs[own[o]]->owned, recs[own[o]]->rank, slot));
+            t[j] = (uint32_t)(vbase[own[o]] + iso_owned_rank(recs[own[o]]->owned, recs[own[o]]->rank, slot));
         }
     }
     prt__free(vbase);
     prt__free(tbase);
     if (missing) {
         prt_mesh_free(m);
-        return prt__fail(PRT_ERROR_MESH,
-                         "isosurface: a crossed edge has no vertex in its owning brick (bug)");
+        return prt__fail(PRT_ERROR_MESH, "isosurface: a crossed edge has no vertex in its owning brick (bug)");
     }
     *out = m;
     return PRT_OK;
@@ -468,8 +449,8 @@ static prt_status assemble(brick **recs, size_t n, uint32_t nb, prt_mesh **out) 
 
 static prt_status check_params(const gen_iso_params *p) {
     if (!p || !p->field || p->resolution < 2 || p->resolution > GEN_ISO_MAX_RES || !(p->cell > 0))
-        return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: bad grid (%u cells per side; 2 to %u)",
-                         p ? p->resolution : 0, GEN_ISO_MAX_RES);
+        return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: bad grid (%u cells per side; 2 to %u)", p ? p->resolution : 0,
+                         GEN_ISO_MAX_RES);
     return PRT_OK;
 }
 
@@ -483,8 +464,8 @@ static void iso_init(iso *s, const gen_iso_params *p, gen_mc_table *mc, iso_mode
     }
 }
 
-prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_brick_fn fn,
-                     void *user, uint64_t *triangles) {
+prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_brick_fn fn, void *user,
+                     uint64_t *triangles) {
     if (triangles) *triangles = 0;
     prt_status st = check_params(p);
     if (st) return st;
@@ -500,8 +481,7 @@ prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_b
     uint64_t *visited = prt__calloc((nbricks + 63) / 64, sizeof *visited);
     uint64_t total = 0;
     if (!visited) st = prt__fail(PRT_ERROR_NOMEM, "out of memory for %zu bricks", nbricks);
-    for (size_t i = 0; !st && i < nfront; i++)
-        visited[frontier[i] >> 6] |= 1ull << (frontier[i] & 63);
+    for (size_t i = 0; !st && i < nfront; i++) visited[frontier[i] >> 6] |= 1ull << (frontier[i] & 63);
     size_t gmax = group ? group : SIZE_MAX, gcap = 0;
     iso_brick_out *out = NULL;
     brick_result *res = NULL;
@@ -538,8 +518,7 @@ prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_b
                 uint32_t id = frontier[g0 + i], bx = id % nb, by = id / nb % nb, bz = id / nb / nb;
                 for (uint32_t bits = res[i].neighbours; bits; bits &= bits - 1) {
                     int k = __builtin_ctz(bits);
-                    int64_t x = (int64_t)bx + k % 3 - 1, y = (int64_t)by + k / 3 % 3 - 1,
-                            z = (int64_t)bz + k / 9 - 1;
+                    int64_t x = (int64_t)bx + k % 3 - 1, y = (int64_t)by + k / 3 % 3 - 1, z = (int64_t)bz + k / 9 - 1;
                     if (x < 0 || y < 0 || z < 0 || x >= nb || y >= nb || z >= nb) continue;
                     uint32_t nid = (uint32_t)((z * nb + y) * nb + x);
                     if (visited[nid >> 6] >> (nid & 63) & 1) continue;
@@ -548,8 +527,7 @@ prt_status iso_flood(const gen_iso_params *p, iso_mode mode, size_t group, iso_b
                         size_t c = capnext ? 2 * capnext : 1024;
                         uint32_t *q = prt__realloc(next, c * sizeof *q);
                         if (!q) {
-                            st = prt__fail(PRT_ERROR_NOMEM,
-                                           "out of memory extracting the isosurface");
+                            st = prt__fail(PRT_ERROR_NOMEM, "out of memory extracting the isosurface");
                             break;
                         }
                         next = q;
@@ -650,8 +628,8 @@ static prt_status soup_bricks(void *user, iso_brick_out *b, size_t n) {
     return PRT_OK;
 }
 
-prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, tri_sink_fn sink,
-                                 void *user, uint64_t *triangles) {
+prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, tri_sink_fn sink, void *user,
+                                 uint64_t *triangles) {
     if (triangles) *triangles = 0;
     if (!sink) return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: the sink is NULL");
     /* A group's worst case: every brick full of triangles. */
@@ -691,8 +669,8 @@ static prt_status census_bricks(void *user, iso_brick_out *b, size_t n) {
     return m ? c->fn(c->user, c->b, m) : PRT_OK;
 }
 
-prt_status gen_isosurface_bricks(const gen_iso_params *p, size_t memory_budget,
-                                 gen_iso_bricks_fn fn, void *user, uint64_t *triangles) {
+prt_status gen_isosurface_bricks(const gen_iso_params *p, size_t memory_budget, gen_iso_bricks_fn fn, void *user,
+                                 uint64_t *triangles) {
     if (triangles) *triangles = 0;
     if (!fn) return prt__fail(PRT_ERROR_ARGUMENT, "isosurface: the brick callback is NULL");
     /* Groups as gen_isosurface_stream's: a brick's worst case is all of it triangles. */
@@ -732,6 +710,4 @@ uint32_t gen_iso_regen_brick(const gen_iso_regen *r, uint32_t id, float *soup) {
     return ntri;
 }
 
-void gen_iso_regen_free(gen_iso_regen *r) {
-    prt__free(r);
-}
+void gen_iso_regen_free(gen_iso_regen *r) { prt__free(r); }

@@ -14,8 +14,7 @@
  * distance to the surface, so a block whose centre is farther than its half-diagonal can
  * be skipped. Batches let the field use SIMD; a point's value must not depend on the
  * batch it comes in, since grid points shared by bricks are sampled once per brick. */
-typedef void (*gen_field_fn)(const void *ctx, size_t n, const double *x, const double *y,
-                             const double *z, double *out);
+typedef void (*gen_field_fn)(const void *ctx, size_t n, const double *x, const double *y, const double *z, double *out);
 
 typedef struct gen_iso_params {
     gen_field_fn field;
@@ -64,11 +63,10 @@ typedef struct gen_iso_indexed_out {
  * in flight within memory_budget (at least GEN_ISO_MIN_BUDGET), 24 bytes a brick that holds
  * surface (about 1/6 byte a triangle) and gen_isosurface_stream's bitmap and frontier.
  * *vertices, *triangles (may be NULL): the counts. Callback errors are returned as is. */
-prt_status gen_isosurface_indexed(const gen_iso_params *p, size_t memory_budget,
-                                  const char *temp_near, const gen_iso_indexed_out *out,
-                                  uint64_t *vertices, uint64_t *triangles);
+prt_status gen_isosurface_indexed(const gen_iso_params *p, size_t memory_budget, const char *temp_near,
+                                  const gen_iso_indexed_out *out, uint64_t *vertices, uint64_t *triangles);
 
-prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, tri_sink_fn sink,
-                                 void *user, uint64_t *triangles);
+prt_status gen_isosurface_stream(const gen_iso_params *p, size_t memory_budget, tri_sink_fn sink, void *user,
+                                 uint64_t *triangles);
 
 #endif

@@ -19,8 +19,7 @@ static prt_status fail(parser *ps, const char *at, const char *what) {
 }
 
 static void skip_ws(parser *ps) {
-    while (ps->p < ps->e && (*ps->p == ' ' || *ps->p == '\t' || *ps->p == '\n' || *ps->p == '\r'))
-        ps->p++;
+    while (ps->p < ps->e && (*ps->p == ' ' || *ps->p == '\t' || *ps->p == '\n' || *ps->p == '\r')) ps->p++;
 }
 
 static prt_status push(parser *ps, uint32_t type, size_t start, size_t end, long *idx) {
@@ -66,22 +65,18 @@ static prt_status string(parser *ps, long *idx) {
         }
         q++;
     }
-    prt_status st =
-        push(ps, JSON_STRING, (size_t)(ps->p + 1 - ps->text), (size_t)(q - ps->text), idx);
+    prt_status st = push(ps, JSON_STRING, (size_t)(ps->p + 1 - ps->text), (size_t)(q - ps->text), idx);
     ps->p = q + 1;
     return st;
 }
 
-static bool digit(char c) {
-    return c >= '0' && c <= '9';
-}
+static bool digit(char c) { return c >= '0' && c <= '9'; }
 
 static prt_status number(parser *ps, long *idx) {
     const char *q = ps->p;
     if (q < ps->e && *q == '-') q++;
     if (q >= ps->e || !digit(*q)) return fail(ps, ps->p, "malformed value");
-    if (*q == '0')
-        q++;
+    if (*q == '0') q++;
     else
         while (q < ps->e && digit(*q)) q++;
     if (q < ps->e && *q == '.') {
@@ -104,8 +99,7 @@ static prt_status literal(parser *ps, long *idx) {
     for (uint32_t k = 0; k < 3; k++) {
         size_t n = strlen(lit[k]);
         if ((size_t)(ps->e - ps->p) >= n && !memcmp(ps->p, lit[k], n)) {
-            prt_status st =
-                push(ps, k, (size_t)(ps->p - ps->text), (size_t)(ps->p + n - ps->text), idx);
+            prt_status st = push(ps, k, (size_t)(ps->p - ps->text), (size_t)(ps->p + n - ps->text), idx);
             ps->p += n;
             return st;
         }
@@ -183,8 +177,7 @@ prt_status json_parse(mesh_source *s, const char *text, size_t len, uint64_t bas
             ps.p++;
             skip_ws(&ps);
             if (ps.p >= ps.e) continue; /* reported as truncated above */
-        } else if (top && *ps.p == ']' && top->size == 0 &&
-                   doc->n == (size_t)stack[depth - 1] + 1) {
+        } else if (top && *ps.p == ']' && top->size == 0 && doc->n == (size_t)stack[depth - 1] + 1) {
             want_value = false;
             continue;
         }
@@ -195,16 +188,12 @@ prt_status json_parse(mesh_source *s, const char *text, size_t len, uint64_t bas
                 st = fail(&ps, ps.p, "nested more than 64 levels deep");
                 break;
             }
-            if ((st = push(&ps, c == '{' ? JSON_OBJECT : JSON_ARRAY, (size_t)(ps.p - text), 0,
-                           &idx)) != PRT_OK)
-                break;
+            if ((st = push(&ps, c == '{' ? JSON_OBJECT : JSON_ARRAY, (size_t)(ps.p - text), 0, &idx)) != PRT_OK) break;
             stack[depth++] = idx;
             ps.p++;
             continue; /* want_value stays: the first key or element (or the close) */
         }
-        st = c == '"'                 ? string(&ps, &idx)
-             : (c == '-' || digit(c)) ? number(&ps, &idx)
-                                      : literal(&ps, &idx);
+        st = c == '"' ? string(&ps, &idx) : (c == '-' || digit(c)) ? number(&ps, &idx) : literal(&ps, &idx);
         if (st != PRT_OK) break;
         if (!depth) break;
         want_value = false;
@@ -259,9 +248,7 @@ bool json_uint(const json_doc *d, long tok, uint64_t *out) {
     if (tok < 0 || d->tok[tok].type != JSON_NUMBER) return false;
     const json_tok *t = &d->tok[tok];
     int64_t v;
-    if (!mesh_parse_int(d->text + t->start, t->end - t->start, &v) || v < 0 ||
-        v > ((int64_t)1 << 53))
-        return false;
+    if (!mesh_parse_int(d->text + t->start, t->end - t->start, &v) || v < 0 || v > ((int64_t)1 << 53)) return false;
     *out = (uint64_t)v;
     return true;
 }

@@ -7,8 +7,8 @@
 
 #include <stdio.h>
 
-static prt_status grow(const char *name, void **p, size_t *cap, size_t need, size_t expect,
-                       size_t elem, const char *what) {
+static prt_status grow(const char *name, void **p, size_t *cap, size_t need, size_t expect, size_t elem,
+                       const char *what) {
     if (need <= *cap) return PRT_OK;
     size_t n = PRT_MAX(need, PRT_MAX(*cap * 2, (size_t)1024));
     if (expect >= need && n > expect) n = expect; /* the announced total is enough */
@@ -23,8 +23,7 @@ static prt_status grow(const char *name, void **p, size_t *cap, size_t need, siz
 
 /* Give a colour (3 bytes an entry) or material (2 bytes) array the capacity of the array
  * it belongs to. */
-static prt_status side_room(const char *name, void **c, size_t *ccap, size_t cap, size_t elem,
-                            const char *what) {
+static prt_status side_room(const char *name, void **c, size_t *ccap, size_t cap, size_t elem, const char *what) {
     if (*ccap == cap) return PRT_OK;
     size_t bytes = prt__mul_size(PRT_MAX(cap, (size_t)1), elem);
     void *q = bytes == SIZE_MAX ? NULL : prt__realloc(*c, bytes);
@@ -36,40 +35,32 @@ static prt_status side_room(const char *name, void **c, size_t *ccap, size_t cap
     return PRT_OK;
 }
 
-static prt_status color_room(const char *name, uint8_t **c, size_t *ccap, size_t cap,
-                             const char *what) {
+static prt_status color_room(const char *name, uint8_t **c, size_t *ccap, size_t cap, const char *what) {
     return side_room(name, (void **)c, ccap, cap, 3, what);
 }
 
 prt_status mesh_arrays_vertex_room(mesh_arrays *a, size_t extra, size_t expect) {
     if (extra > UINT32_MAX || a->nv + extra > UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT,
-                         "%s: more than %u vertices: packrt indexes vertices with 32 bits", a->name,
+        return prt__fail(PRT_ERROR_LIMIT, "%s: more than %u vertices: packrt indexes vertices with 32 bits", a->name,
                          UINT32_MAX);
     if (a->stream) { /* may move the vertices to a file; grow then finds room */
         prt_status st = mesh_stream_vertex_room(a, a->nv + extra, expect);
         if (st != PRT_OK) return st;
     }
-    prt_status st = grow(a->name, (void **)&a->v, &a->vcap, a->nv + extra, expect,
-                         3 * sizeof(float), "vertices");
-    if (st == PRT_OK && a->want_vc)
-        st = color_room(a->name, &a->vc, &a->vccap, a->vcap, "vertices");
+    prt_status st = grow(a->name, (void **)&a->v, &a->vcap, a->nv + extra, expect, 3 * sizeof(float), "vertices");
+    if (st == PRT_OK && a->want_vc) st = color_room(a->name, &a->vc, &a->vccap, a->vcap, "vertices");
     return st;
 }
 
 prt_status mesh_arrays_triangle_room(mesh_arrays *a, size_t extra, size_t expect) {
-    if (extra > SIZE_MAX - a->nt)
-        return prt__fail(PRT_ERROR_NOMEM, "%s: triangle count overflows", a->name);
+    if (extra > SIZE_MAX - a->nt) return prt__fail(PRT_ERROR_NOMEM, "%s: triangle count overflows", a->name);
     if (a->stream) { /* hands the held triangles on when a batch is full */
         prt_status st = mesh_stream_triangle_room(a, extra);
         if (st != PRT_OK) return st;
     }
-    prt_status st = grow(a->name, (void **)&a->t, &a->tcap, a->nt + extra, expect,
-                         3 * sizeof(uint32_t), "triangles");
-    if (st == PRT_OK && a->want_tc)
-        st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
-    if (st == PRT_OK && a->want_tm)
-        st = side_room(a->name, (void **)&a->tm, &a->tmcap, a->tcap, 2, "triangles");
+    prt_status st = grow(a->name, (void **)&a->t, &a->tcap, a->nt + extra, expect, 3 * sizeof(uint32_t), "triangles");
+    if (st == PRT_OK && a->want_tc) st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
+    if (st == PRT_OK && a->want_tm) st = side_room(a->name, (void **)&a->tm, &a->tmcap, a->tcap, 2, "triangles");
     return st;
 }
 
@@ -89,8 +80,7 @@ prt_status mesh_arrays_colors(mesh_arrays *a, bool vertex, bool triangle) {
     }
     prt_status st = PRT_OK;
     if (vertex) a->want_vc = true, st = color_room(a->name, &a->vc, &a->vccap, a->vcap, "vertices");
-    if (triangle && st == PRT_OK)
-        a->want_tc = true, st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
+    if (triangle && st == PRT_OK) a->want_tc = true, st = color_room(a->name, &a->tc, &a->tccap, a->tcap, "triangles");
     return st;
 }
 
@@ -182,8 +172,7 @@ prt_status prt_mesh_load(const char *path, prt_mesh **out) {
 prt_status prt_mesh_load_memory(const void *data, size_t size, const char *name, prt_mesh **out) {
     if (!out) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_load_memory: out is NULL");
     *out = NULL;
-    if (!data && size)
-        return prt__fail(PRT_ERROR_ARGUMENT, "%s: data is NULL", name ? name : "<memory>");
+    if (!data && size) return prt__fail(PRT_ERROR_ARGUMENT, "%s: data is NULL", name ? name : "<memory>");
     mesh_source s;
     prt_status st = mesh_source_open_memory(&s, data, size, name);
     if (st != PRT_OK) return finish(&s, st);

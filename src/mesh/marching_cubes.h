@@ -18,9 +18,7 @@ typedef struct gen_mc_table {
 } gen_mc_table;
 
 /* Origin offset (o[0..2] in {0, 1}) and axis of edge e. */
-static inline int gen_mc_edge_axis(int e) {
-    return e >> 2;
-}
+static inline int gen_mc_edge_axis(int e) { return e >> 2; }
 static inline void gen_mc_edge_origin(int e, int o[3]) {
     int a = e >> 2, u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
     o[a] = 0;

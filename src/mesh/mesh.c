@@ -33,15 +33,12 @@ prt_status prt_mesh_create(size_t vertex_count, size_t triangle_count, prt_mesh 
 prt_status prt_mesh_add_colors(prt_mesh *m, bool per_vertex, bool per_triangle) {
     if (!m) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_add_colors: mesh is NULL");
     uint8_t *vc = NULL, *tc = NULL;
-    if (per_vertex && !m->vertex_colors)
-        vc = prt__alloc(PRT_MAX(prt__mul_size(m->vertex_count, 3), (size_t)1));
-    if (per_triangle && !m->triangle_colors)
-        tc = prt__alloc(PRT_MAX(prt__mul_size(m->triangle_count, 3), (size_t)1));
+    if (per_vertex && !m->vertex_colors) vc = prt__alloc(PRT_MAX(prt__mul_size(m->vertex_count, 3), (size_t)1));
+    if (per_triangle && !m->triangle_colors) tc = prt__alloc(PRT_MAX(prt__mul_size(m->triangle_count, 3), (size_t)1));
     if ((per_vertex && !m->vertex_colors && !vc) || (per_triangle && !m->triangle_colors && !tc)) {
         prt__free(vc);
         prt__free(tc);
-        return prt__fail(PRT_ERROR_NOMEM,
-                         "out of memory for the colours of %zu vertices, %zu triangles",
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for the colours of %zu vertices, %zu triangles",
                          m->vertex_count, m->triangle_count);
     }
     if (vc) m->vertex_colors = vc;
@@ -53,7 +50,8 @@ prt_status prt_mesh_add_materials(prt_mesh *m) {
     if (!m) return prt__fail(PRT_ERROR_ARGUMENT, "prt_mesh_add_materials: mesh is NULL");
     if (m->materials) return PRT_OK;
     m->materials = prt__calloc(PRT_MAX(m->triangle_count, (size_t)1), sizeof *m->materials);
-    if (!m->materials) return prt__fail(PRT_ERROR_NOMEM, "out of memory for the materials of %zu triangles", m->triangle_count);
+    if (!m->materials)
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for the materials of %zu triangles", m->triangle_count);
     return PRT_OK;
 }
 
@@ -77,8 +75,8 @@ prt_status prt_mesh_validate(const prt_mesh *m) {
                              (double)m->vertices[i]);
     for (size_t i = 0; i < 3 * m->triangle_count; i++)
         if (m->triangles[i] >= m->vertex_count)
-            return prt__fail(PRT_ERROR_MESH, "triangle %zu references vertex %u, but the mesh has %zu vertices",
-                             i / 3, m->triangles[i], m->vertex_count);
+            return prt__fail(PRT_ERROR_MESH, "triangle %zu references vertex %u, but the mesh has %zu vertices", i / 3,
+                             m->triangles[i], m->vertex_count);
     return PRT_OK;
 }
 
@@ -97,8 +95,10 @@ prt_status prt__check_extent(const float lo[3], const float hi[3]) {
     double d2 = 0.0;
     for (int k = 0; k < 3; k++) d2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
     if (sqrt(d2) >= PRT_MIN_EXTENT) return PRT_OK;
-    return prt__fail(PRT_ERROR_LIMIT, "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g: "
-                     "scale it up", sqrt(d2), (double)PRT_MIN_EXTENT);
+    return prt__fail(PRT_ERROR_LIMIT,
+                     "the mesh spans %g (its bounding box diagonal); packrt builds meshes spanning at least %g: "
+                     "scale it up",
+                     sqrt(d2), (double)PRT_MIN_EXTENT);
 }
 
 bool prt__triangle_degenerate(const float *a, const float *b, const float *c) {

@@ -20,14 +20,11 @@ static inline uint32_t hash3(uint32_t x, uint32_t y, uint32_t s) {
 /* Dot product of the lattice point's unit gradient (one of 8 directions) with (dx, dy). */
 static inline float grad(uint32_t h, float dx, float dy) {
     const float d = 0.70710678f;
-    static const float g[8][2] = {{1, 0}, {-1, 0}, {0, 1},  {0, -1},
-                                  {d, d}, {-d, d}, {d, -d}, {-d, -d}};
+    static const float g[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {d, d}, {-d, d}, {d, -d}, {-d, -d}};
     return g[h & 7][0] * dx + g[h & 7][1] * dy;
 }
 
-static inline float fade(float t) {
-    return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
-}
+static inline float fade(float t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
 
 float gen_noise2(float x, float y, uint32_t seed) {
     float fx0 = floorf(x), fy0 = floorf(y);
@@ -51,8 +48,7 @@ float gen_fbm2(float x, float y, uint64_t seed, int octaves) {
         uint64_t h = prt_splitmix64(&state);
         /* A per-octave offset keeps the lattices of different octaves from lining up at
          * the origin, where every octave would otherwise be 0. */
-        float ox = (float)(h >> 40) * 0x1.0p-24f * 256.0f,
-              oy = (float)(h >> 16 & 0xffffff) * 0x1.0p-24f * 256.0f;
+        float ox = (float)(h >> 40) * 0x1.0p-24f * 256.0f, oy = (float)(h >> 16 & 0xffffff) * 0x1.0p-24f * 256.0f;
         sum += amp * gen_noise2(x * freq + ox, y * freq + oy, (uint32_t)h);
         amp *= 0.5f;
         freq *= 2.0f;

@@ -51,35 +51,28 @@ static prt_status header(off_reader *r) {
     if (n > i + 3) p = t + i + 3;
     const char *q = p;
     if (mesh_next_token(&q, e, &t, &n) && n == 6 && !memcmp(t, "BINARY", 6))
-        return prt__fail(PRT_ERROR_UNSUPPORTED,
-                         "%s: binary OFF is not supported (write it as text)", r->name);
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: binary OFF is not supported (write it as text)", r->name);
     if (!mesh_next_token(&q, e, &t, &n)) { /* the counts are on the next line */
         if ((st = mesh_source_data_line(r->s, '#', &p, &e, &got)) != PRT_OK) return st;
-        if (!got)
-            return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: no counts after the keyword",
-                             r->name);
+        if (!got) return prt__fail(PRT_ERROR_FORMAT, "%s: truncated: no counts after the keyword", r->name);
     }
     int64_t c[3] = {0, 0, 0};
     int k = 0;
     for (; k < 4 && mesh_next_token(&p, e, &t, &n); k++) {
-        if (k == 3)
-            return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: more than 3 counts", r->name,
-                             r->s->line);
+        if (k == 3) return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: more than 3 counts", r->name, r->s->line);
         if (!mesh_parse_int(t, n, &c[k])) return malformed(r, "count", t, n);
         if (c[k] < 0)
-            return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: negative count %lld", r->name,
-                             r->s->line, (long long)c[k]);
+            return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: negative count %lld", r->name, r->s->line,
+                             (long long)c[k]);
     }
     if (k < 2)
-        return prt__fail(PRT_ERROR_FORMAT,
-                         "%s: line %zu: expected the counts 'vertices faces edges'", r->name,
+        return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: expected the counts 'vertices faces edges'", r->name,
                          r->s->line);
     r->nv = (uint64_t)c[0], r->nf = (uint64_t)c[1];
     if (r->nv > UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT, "%s: %llu vertices: packrt indexes vertices with 32 bits",
-                         r->name, (unsigned long long)r->nv);
-    if (r->nf == 0)
-        return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the header announces 0 faces", r->name);
+        return prt__fail(PRT_ERROR_LIMIT, "%s: %llu vertices: packrt indexes vertices with 32 bits", r->name,
+                         (unsigned long long)r->nv);
+    if (r->nf == 0) return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the header announces 0 faces", r->name);
     return PRT_OK;
 }
 
@@ -97,8 +90,8 @@ static prt_status check_size(off_reader *r, size_t *vreserve, size_t *freserve) 
         return prt__fail(PRT_ERROR_FORMAT,
                          "%s: truncated: the header announces %llu vertices and %llu faces, which "
                          "need at least %llu more bytes, but the file has %llu",
-                         r->name, (unsigned long long)r->nv, (unsigned long long)r->nf,
-                         (unsigned long long)need, (unsigned long long)left);
+                         r->name, (unsigned long long)r->nv, (unsigned long long)r->nf, (unsigned long long)need,
+                         (unsigned long long)left);
     *vreserve = (size_t)r->nv, *freserve = (size_t)r->nf;
     return PRT_OK;
 }
@@ -132,31 +125,24 @@ static prt_status vertices(off_reader *r) {
         size_t want = base + extra;
         bool ok = r->colors ? (n == want + 3 || n == want + 4) : n == want;
         if (!ok || mesh_next_token(&p, e, &tok[0], &len[0]))
-            return prt__fail(PRT_ERROR_FORMAT,
-                             "%s: line %zu: vertex %llu has %s%zu values, expected %zu%s", r->name,
-                             r->s->line, (unsigned long long)v, n == 12 ? "more than " : "", n,
-                             want, r->colors ? " plus 3 or 4 colour values" : "");
-        if (a->nv == a->vcap && (st = mesh_arrays_vertex_room(a, 1, (size_t)r->nv)) != PRT_OK)
-            return st;
+            return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: vertex %llu has %s%zu values, expected %zu%s", r->name,
+                             r->s->line, (unsigned long long)v, n == 12 ? "more than " : "", n, want,
+                             r->colors ? " plus 3 or 4 colour values" : "");
+        if (a->nv == a->vcap && (st = mesh_arrays_vertex_room(a, 1, (size_t)r->nv)) != PRT_OK) return st;
         float *x = a->v + 3 * a->nv;
         for (int k = 0; k < 3; k++) {
-            if (!mesh_parse_float(r->s, tok[k], len[k], &x[k]))
-                return malformed(r, "number", tok[k], len[k]);
+            if (!mesh_parse_float(r->s, tok[k], len[k], &x[k])) return malformed(r, "number", tok[k], len[k]);
             if (!isfinite(x[k]))
-                return prt__fail(PRT_ERROR_MESH,
-                                 "%s: line %zu: vertex %llu has a non-finite %c coordinate (%g)",
+                return prt__fail(PRT_ERROR_MESH, "%s: line %zu: vertex %llu has a non-finite %c coordinate (%g)",
                                  r->name, r->s->line, (unsigned long long)v, 'x' + k, (double)x[k]);
         }
         for (size_t k = 3; k < base; k++) {
             float f;
-            if (!mesh_parse_float(r->s, tok[k], len[k], &f))
-                return malformed(r, "number", tok[k], len[k]);
+            if (!mesh_parse_float(r->s, tok[k], len[k], &f)) return malformed(r, "number", tok[k], len[k]);
         }
         if (r->colors)
             for (int k = 0; k < 3; k++)
-                if ((st = color_value(r, tok[base + k], len[base + k], a->vc + 3 * a->nv + k)) !=
-                    PRT_OK)
-                    return st;
+                if ((st = color_value(r, tok[base + k], len[base + k], a->vc + 3 * a->nv + k)) != PRT_OK) return st;
         a->nv++;
     }
     return PRT_OK;
@@ -175,9 +161,8 @@ static prt_status faces(off_reader *r) {
         mesh_next_token(&p, e, &t, &n);
         if (!mesh_parse_int(t, n, &c)) return malformed(r, "vertex count", t, n);
         if (c < 3)
-            return prt__fail(PRT_ERROR_MESH,
-                             "%s: line %zu: face %llu has %lld vertices (at least 3 needed)",
-                             r->name, r->s->line, (unsigned long long)f, (long long)c);
+            return prt__fail(PRT_ERROR_MESH, "%s: line %zu: face %llu has %lld vertices (at least 3 needed)", r->name,
+                             r->s->line, (unsigned long long)f, (long long)c);
         if (c > (int64_t)MESH_SOURCE_MAX_LINE / 2) return malformed(r, "vertex count", t, n);
         if ((st = mesh_arrays_triangle_room(a, (size_t)c - 2, (size_t)r->nf)) != PRT_OK) return st;
         size_t first_tri = a->nt;
@@ -185,17 +170,14 @@ static prt_status faces(off_reader *r) {
         for (int64_t j = 0; j < c; j++) {
             int64_t i;
             if (!mesh_next_token(&p, e, &t, &n))
-                return prt__fail(PRT_ERROR_FORMAT,
-                                 "%s: line %zu: face %llu announces %lld vertices but lists %lld",
-                                 r->name, r->s->line, (unsigned long long)f, (long long)c,
-                                 (long long)j);
+                return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: face %llu announces %lld vertices but lists %lld",
+                                 r->name, r->s->line, (unsigned long long)f, (long long)c, (long long)j);
             if (!mesh_parse_int(t, n, &i)) return malformed(r, "vertex index", t, n);
             if (i < 0 || (uint64_t)i >= r->nv)
                 return prt__fail(PRT_ERROR_MESH,
                                  "%s: line %zu: face %llu references vertex %lld, but the file has "
                                  "%llu vertices",
-                                 r->name, r->s->line, (unsigned long long)f, (long long)i,
-                                 (unsigned long long)r->nv);
+                                 r->name, r->s->line, (unsigned long long)f, (long long)i, (unsigned long long)r->nv);
             if (j >= 2) {
                 uint32_t *tri = a->t + 3 * a->nt++;
                 tri[0] = (uint32_t)first, tri[1] = (uint32_t)prev, tri[2] = (uint32_t)i;
@@ -211,8 +193,7 @@ static prt_status faces(off_reader *r) {
             return prt__fail(PRT_ERROR_FORMAT,
                              "%s: line %zu: face %llu: %s values after its %lld indices "
                              "(a colour is 3 or 4)",
-                             r->name, r->s->line, (unsigned long long)f, cn == 5 ? "too many" : "2",
-                             (long long)c);
+                             r->name, r->s->line, (unsigned long long)f, cn == 5 ? "too many" : "2", (long long)c);
         if (cn >= 3) {
             if (!a->want_tc) { /* the first coloured face: earlier ones are white */
                 if ((st = mesh_arrays_colors(a, a->want_vc, true)) != PRT_OK) return st;
@@ -236,8 +217,8 @@ static prt_status parse(off_reader *r) {
     if (st != PRT_OK) return st;
     if (r->colors && (st = mesh_arrays_colors(r->a, true, false)) != PRT_OK) return st;
     if ((st = mesh_arrays_vertex_room(r->a, vres, (size_t)r->nv)) != PRT_OK ||
-        (st = mesh_arrays_reserve_triangles(r->a, fres, (size_t)r->nf)) != PRT_OK ||
-        (st = vertices(r)) != PRT_OK || (st = faces(r)) != PRT_OK)
+        (st = mesh_arrays_reserve_triangles(r->a, fres, (size_t)r->nf)) != PRT_OK || (st = vertices(r)) != PRT_OK ||
+        (st = faces(r)) != PRT_OK)
         return st;
     const char *p, *e, *t = "";
     size_t n = 0;

@@ -10,8 +10,7 @@ prt_status prt_mesh_save_off(const prt_mesh *m, const char *path) {
     if (st != PRT_OK) return st;
     const bool vc = m->vertex_colors != NULL, tc = m->triangle_colors != NULL;
     char line[160];
-    int n = snprintf(line, sizeof line, "%s\n%zu %zu 0\n", vc ? "COFF" : "OFF", m->vertex_count,
-                     m->triangle_count);
+    int n = snprintf(line, sizeof line, "%s\n%zu %zu 0\n", vc ? "COFF" : "OFF", m->vertex_count, m->triangle_count);
     mesh_writer_put(&w, line, (size_t)n);
     for (size_t v = 0; v < m->vertex_count && !w.failed; v++) {
         const float *p = m->vertices + 3 * v;

@@ -5,8 +5,8 @@
 #include "mesh/ply_stream.h"
 #include "mesh/stream_arrays.h"
 
-static prt_status stream(mesh_source *s, const char *path, size_t memory_budget, tri_sink_fn sink,
-                         void *user, uint64_t *triangle_count) {
+static prt_status stream(mesh_source *s, const char *path, size_t memory_budget, tri_sink_fn sink, void *user,
+                         uint64_t *triangle_count) {
     mesh_format f; /* as prt_mesh_load picks it */
     prt_status st = mesh_format_detect(s, &f);
     if (st != PRT_OK) return st;
@@ -36,9 +36,8 @@ prt_status mesh_ply_stream(const char *path, size_t memory_budget, tri_sink_fn s
     return st;
 }
 
-prt_status mesh_ply_stream_memory(const void *data, size_t size, const char *name,
-                                  size_t memory_budget, tri_sink_fn sink, void *user,
-                                  uint64_t *triangle_count) {
+prt_status mesh_ply_stream_memory(const void *data, size_t size, const char *name, size_t memory_budget,
+                                  tri_sink_fn sink, void *user, uint64_t *triangle_count) {
     if (!name) name = "<memory>";
     prt_status st = check_args(name, sink, triangle_count);
     if (st != PRT_OK) return st;

@@ -26,8 +26,7 @@ prt_status mesh_ply_stream(const char *path, size_t memory_budget, tri_sink_fn s
                            uint64_t *triangle_count);
 
 /* The same over a caller's buffer (name for messages), for tests and fuzzing. */
-prt_status mesh_ply_stream_memory(const void *data, size_t size, const char *name,
-                                  size_t memory_budget, tri_sink_fn sink, void *user,
-                                  uint64_t *triangle_count);
+prt_status mesh_ply_stream_memory(const void *data, size_t size, const char *name, size_t memory_budget,
+                                  tri_sink_fn sink, void *user, uint64_t *triangle_count);
 
 #endif

@@ -33,8 +33,7 @@ static prt_status flush(ply_writer *w) {
 }
 
 PRT_INLINE void put_u32le(uint8_t *p, uint32_t v) {
-    p[0] = (uint8_t)v, p[1] = (uint8_t)(v >> 8), p[2] = (uint8_t)(v >> 16),
-    p[3] = (uint8_t)(v >> 24);
+    p[0] = (uint8_t)v, p[1] = (uint8_t)(v >> 8), p[2] = (uint8_t)(v >> 16), p[3] = (uint8_t)(v >> 24);
 }
 
 prt_status ply_writer_open(const char *path, ply_writer **out) {
@@ -69,22 +68,19 @@ prt_status ply_writer_begin(ply_writer *w, uint64_t vertices, uint64_t triangles
 prt_status ply_writer_begin_materials(ply_writer *w, uint64_t vertices, uint64_t triangles, bool vertex_colors,
                                       bool triangle_colors, bool materials) {
     if (w->failed) return w->failed;
-    if (w->begun)
-        return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
+    if (w->begun) return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: header written twice", w->path);
     if (vertices > UINT32_MAX)
-        return w->failed = prt__fail(PRT_ERROR_LIMIT,
-                                     "%s: %llu vertices: packrt indexes vertices with 32 bits",
+        return w->failed = prt__fail(PRT_ERROR_LIMIT, "%s: %llu vertices: packrt indexes vertices with 32 bits",
                                      w->path, (unsigned long long)vertices);
     /* Indices above INT32_MAX do not fit the customary `int`: say `uint` then. */
     const char *itype = vertices > (uint64_t)INT32_MAX + 1 ? "uint" : "int";
     const char *rgb = "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-    w->n = (size_t)snprintf(
-        (char *)w->buf, WRITE_BUFFER,
-        "ply\nformat binary_little_endian 1.0\ncomment written by packrt\nelement vertex %llu\n"
-        "property float x\nproperty float y\nproperty float z\n%selement face %llu\n"
-        "property list uchar %s vertex_indices\n%s%send_header\n",
-        (unsigned long long)vertices, vertex_colors ? rgb : "", (unsigned long long)triangles, itype,
-        triangle_colors ? rgb : "", materials ? "property ushort material_index\n" : "");
+    w->n = (size_t)snprintf((char *)w->buf, WRITE_BUFFER,
+                            "ply\nformat binary_little_endian 1.0\ncomment written by packrt\nelement vertex %llu\n"
+                            "property float x\nproperty float y\nproperty float z\n%selement face %llu\n"
+                            "property list uchar %s vertex_indices\n%s%send_header\n",
+                            (unsigned long long)vertices, vertex_colors ? rgb : "", (unsigned long long)triangles,
+                            itype, triangle_colors ? rgb : "", materials ? "property ushort material_index\n" : "");
     w->vrgb = vertex_colors, w->trgb = triangle_colors, w->tmat = materials;
     w->nv = vertices;
     w->nt = triangles;
@@ -143,22 +139,19 @@ prt_status ply_writer_triangles(ply_writer *w, const uint32_t *idx, const uint8_
     return ply_writer_faces(w, idx, rgb, NULL, count);
 }
 
-prt_status ply_writer_faces(ply_writer *w, const uint32_t *idx, const uint8_t *rgb, const uint16_t *mat,
-                            size_t count) {
+prt_status ply_writer_faces(ply_writer *w, const uint32_t *idx, const uint8_t *rgb, const uint16_t *mat, size_t count) {
     if (w->failed) return w->failed;
     if (!w->begun || w->vdone != w->nv || count > w->nt - w->tdone || !rgb != !w->trgb || !mat != !w->tmat)
-        return w->failed =
-                   prt__fail(PRT_ERROR_ARGUMENT,
-                             "%s: %zu triangles past the %llu announced (or before all "
-                             "%llu vertices, or colours or materials not as announced)",
-                             w->path, count, (unsigned long long)w->nt, (unsigned long long)w->nv);
+        return w->failed = prt__fail(PRT_ERROR_ARGUMENT,
+                                     "%s: %zu triangles past the %llu announced (or before all "
+                                     "%llu vertices, or colours or materials not as announced)",
+                                     w->path, count, (unsigned long long)w->nt, (unsigned long long)w->nv);
     for (size_t t = 0; t < count; t++) {
         const uint32_t *i = idx + 3 * t;
         if (i[0] >= w->nv || i[1] >= w->nv || i[2] >= w->nv)
-            return w->failed = prt__fail(
-                       PRT_ERROR_ARGUMENT, "%s: triangle %llu references vertex %u of %llu",
-                       w->path, (unsigned long long)(w->tdone + t),
-                       PRT_MAX(i[0], PRT_MAX(i[1], i[2])), (unsigned long long)w->nv);
+            return w->failed = prt__fail(PRT_ERROR_ARGUMENT, "%s: triangle %llu references vertex %u of %llu", w->path,
+                                         (unsigned long long)(w->tdone + t), PRT_MAX(i[0], PRT_MAX(i[1], i[2])),
+                                         (unsigned long long)w->nv);
         if (w->n + 18 > WRITE_BUFFER) { /* room for the longest row (vertices may leave less) */
             prt_status st = flush(w);
             if (st) return st;
@@ -180,10 +173,9 @@ prt_status ply_writer_faces(ply_writer *w, const uint32_t *idx, const uint8_t *r
 prt_status ply_writer_close(ply_writer *w, bool ok) {
     prt_status st = w->failed;
     if (ok && !st && (!w->begun || w->vdone != w->nv || w->tdone != w->nt))
-        st = prt__fail(PRT_ERROR_ARGUMENT,
-                       "%s: closed after %llu of %llu vertices and %llu of %llu triangles", w->path,
-                       (unsigned long long)w->vdone, (unsigned long long)w->nv,
-                       (unsigned long long)w->tdone, (unsigned long long)w->nt);
+        st = prt__fail(PRT_ERROR_ARGUMENT, "%s: closed after %llu of %llu vertices and %llu of %llu triangles", w->path,
+                       (unsigned long long)w->vdone, (unsigned long long)w->nv, (unsigned long long)w->tdone,
+                       (unsigned long long)w->nt);
     if (ok && !st) st = flush(w);
     /* No half-written mesh is left behind, and a previous file stays until this one is whole. */
     if (ok && !st) st = prt__afile_commit(&w->out);

@@ -78,8 +78,7 @@ static prt_status read_some(mesh_source *s, uint8_t *dst, size_t n, size_t *got)
         if (r < 0 && errno == EINTR) continue;
         if (r < 0) {
             char eb[128];
-            return prt__fail(PRT_ERROR_IO, "%s: read failed: %s", s->name,
-                             errno_text(errno, eb, sizeof eb));
+            return prt__fail(PRT_ERROR_IO, "%s: read failed: %s", s->name, errno_text(errno, eb, sizeof eb));
         }
         if (r == 0) im->raw_eof = true;
         *got += (size_t)r;
@@ -117,12 +116,9 @@ static uint64_t gzip_size_hint(mesh_source *s, const uint8_t *first, size_t n, u
     struct mesh_source_impl *im = s->impl;
     uint8_t b[4];
     if (total == UINT64_MAX || total < 18) return 0;
-    if (im->fd < 0)
-        memcpy(b, first + n - 4, 4);
-    else if (pread(im->fd, b, 4, (off_t)(total - 4)) != 4)
-        return 0;
-    uint64_t isize =
-        (uint64_t)b[0] | (uint64_t)b[1] << 8 | (uint64_t)b[2] << 16 | (uint64_t)b[3] << 24;
+    if (im->fd < 0) memcpy(b, first + n - 4, 4);
+    else if (pread(im->fd, b, 4, (off_t)(total - 4)) != 4) return 0;
+    uint64_t isize = (uint64_t)b[0] | (uint64_t)b[1] << 8 | (uint64_t)b[2] << 16 | (uint64_t)b[3] << 24;
     return PRT_MIN(isize, PRT_MAX(GZIP_MIN_LIMIT, total * GZIP_MAX_RATIO));
 }
 
@@ -151,8 +147,7 @@ static prt_status start(mesh_source *s, const uint8_t *first, size_t n, uint64_t
         }
         im->cap = WINDOW_CHUNK;
         im->buf = prt__alloc(im->cap);
-        if (!im->buf)
-            return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the gzip window", s->name);
+        if (!im->buf) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for the gzip window", s->name);
         s->cur = s->end = im->buf;
         s->end_offset = 0;
         s->total = UINT64_MAX;
@@ -177,8 +172,7 @@ static prt_status open_impl(mesh_source *s, const char *name) {
     return PRT_OK;
 }
 
-prt_status mesh_source_open_memory(mesh_source *s, const void *data, size_t size,
-                                   const char *name) {
+prt_status mesh_source_open_memory(mesh_source *s, const void *data, size_t size, const char *name) {
     prt_status st = open_impl(s, name);
     if (st != PRT_OK) return st;
     if (!data && size) return prt__fail(PRT_ERROR_ARGUMENT, "%s: data is NULL", s->name);
@@ -194,13 +188,10 @@ prt_status mesh_source_open_file(mesh_source *s, const char *path) {
     struct mesh_source_impl *im = s->impl;
     char eb[128];
     im->fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (im->fd < 0)
-        return prt__fail(PRT_ERROR_IO, "%s: cannot open: %s", path,
-                         errno_text(errno, eb, sizeof eb));
+    if (im->fd < 0) return prt__fail(PRT_ERROR_IO, "%s: cannot open: %s", path, errno_text(errno, eb, sizeof eb));
     struct stat sb;
     if (fstat(im->fd, &sb) != 0)
-        return prt__fail(PRT_ERROR_IO, "%s: cannot stat: %s", path,
-                         errno_text(errno, eb, sizeof eb));
+        return prt__fail(PRT_ERROR_IO, "%s: cannot stat: %s", path, errno_text(errno, eb, sizeof eb));
     if (S_ISDIR(sb.st_mode)) return prt__fail(PRT_ERROR_IO, "%s: is a directory", path);
     /* Pipes and devices have no size: parsers then grow their arrays with the data. */
     uint64_t total = S_ISREG(sb.st_mode) ? (uint64_t)sb.st_size : UINT64_MAX;
@@ -214,9 +205,7 @@ prt_status mesh_source_open_file(mesh_source *s, const char *path) {
     return start(s, im->buf, got, total);
 }
 
-bool mesh_source_can_rewind(const mesh_source *s) {
-    return !s->impl->gzip && s->total != UINT64_MAX;
-}
+bool mesh_source_can_rewind(const mesh_source *s) { return !s->impl->gzip && s->total != UINT64_MAX; }
 
 prt_status mesh_source_rewind(mesh_source *s) {
     struct mesh_source_impl *im = s->impl;
@@ -278,8 +267,7 @@ static prt_status inflate_more(mesh_source *s) {
             st = prt__fail(PRT_ERROR_FORMAT,
                            "%s: gzip data expands to more than %dx its %llu compressed bytes "
                            "(%llu bytes so far): refusing it as a likely gzip bomb",
-                           s->name, GZIP_MAX_RATIO, (unsigned long long)consumed,
-                           (unsigned long long)s->end_offset);
+                           s->name, GZIP_MAX_RATIO, (unsigned long long)consumed, (unsigned long long)s->end_offset);
         } else if (r == Z_STREAM_END) {
             /* Another member may follow (pigz, cat a.gz b.gz): one stream, as gzip -d. */
             if (z->avail_in < 2 && !im->raw_eof) st = feed_zlib(s);
@@ -289,22 +277,19 @@ static prt_status inflate_more(mesh_source *s) {
             } else if (z->avail_in >= 2 && z->next_in[0] == 0x1f && z->next_in[1] == 0x8b) {
                 inflateReset(z);
             } else {
-                st = prt__fail(PRT_ERROR_FORMAT,
-                               "%s: compressed byte %llu: garbage after the gzip stream", s->name,
+                st = prt__fail(PRT_ERROR_FORMAT, "%s: compressed byte %llu: garbage after the gzip stream", s->name,
                                (unsigned long long)consumed);
             }
         } else if (r == Z_BUF_ERROR && z->avail_in == 0 && im->raw_eof) {
-            st =
-                prt__fail(PRT_ERROR_FORMAT,
-                          "%s: truncated gzip stream: input ends after %llu compressed bytes "
-                          "(%llu inflated)",
-                          s->name, (unsigned long long)consumed, (unsigned long long)s->end_offset);
+            st = prt__fail(PRT_ERROR_FORMAT,
+                           "%s: truncated gzip stream: input ends after %llu compressed bytes "
+                           "(%llu inflated)",
+                           s->name, (unsigned long long)consumed, (unsigned long long)s->end_offset);
         } else if (r == Z_MEM_ERROR) {
             st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory inflating gzip data", s->name);
         } else if (r != Z_OK && r != Z_BUF_ERROR) {
-            st = prt__fail(PRT_ERROR_FORMAT, "%s: compressed byte %llu: corrupt gzip data (%s)",
-                           s->name, (unsigned long long)consumed,
-                           z->msg ? z->msg : "inflate failed");
+            st = prt__fail(PRT_ERROR_FORMAT, "%s: compressed byte %llu: corrupt gzip data (%s)", s->name,
+                           (unsigned long long)consumed, z->msg ? z->msg : "inflate failed");
         }
     }
     s->end = wend;
@@ -318,8 +303,7 @@ prt_status mesh_source_fill(mesh_source *s, size_t need) {
         return prt__fail(PRT_ERROR_FORMAT,
                          "%s: byte %llu: one item needs %zu bytes, more than the %zu this reader "
                          "holds at once",
-                         s->name, (unsigned long long)mesh_source_offset(s, s->cur), need,
-                         MESH_SOURCE_MAX_WINDOW);
+                         s->name, (unsigned long long)mesh_source_offset(s, s->cur), need, MESH_SOURCE_MAX_WINDOW);
     /* Keep the unread tail, move it to the front, grow only for an item larger than the
      * window, then fill a whole window's worth. */
     size_t avail = mesh_source_avail(s);
@@ -327,9 +311,7 @@ prt_status mesh_source_fill(mesh_source *s, size_t need) {
     if (need > im->cap) {
         size_t cap = PRT_MAX(need, PRT_MIN(2 * im->cap, MESH_SOURCE_MAX_WINDOW));
         uint8_t *b = prt__realloc(im->buf, cap);
-        if (!b)
-            return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for a %zu-byte window", s->name,
-                             cap);
+        if (!b) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory for a %zu-byte window", s->name, cap);
         im->buf = b;
         im->cap = cap;
     }
@@ -390,13 +372,10 @@ prt_status mesh_source_line(mesh_source *s, const char **line, size_t *len, bool
 
 /* ---- numbers ---------------------------------------------------------------------- */
 
-static const double k_pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                   1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-                                   1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+static const double k_pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                   1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
-PRT_INLINE bool is_digit(char c) {
-    return (unsigned)(c - '0') < 10u;
-}
+PRT_INLINE bool is_digit(char c) { return (unsigned)(c - '0') < 10u; }
 
 /* strtof on a NUL-terminated copy (the token may end at the last byte of a mapping),
  * with the "C" locale so a program's setlocale() cannot turn "0.5" into 0. */
@@ -452,8 +431,7 @@ bool mesh_parse_float(mesh_source *s, const char *p, size_t len, float *out) {
         *out = neg ? -0.0f : 0.0f;
         return true;
     }
-    if (m > ((uint64_t)1 << 53) || exp10 < -22 || exp10 > 22)
-        return parse_float_slow(s, p, len, out);
+    if (m > ((uint64_t)1 << 53) || exp10 < -22 || exp10 > 22) return parse_float_slow(s, p, len, out);
     double d = (double)m;
     d = exp10 < 0 ? d / k_pow10[-exp10] : d * k_pow10[exp10];
     uint64_t bits;

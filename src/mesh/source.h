@@ -12,15 +12,15 @@
  * the whole input, so fills never copy; for a file or gzip it is a buffer that
  * mesh_source_fill refills with the next large read or inflated chunk. */
 typedef struct mesh_source {
-    const char *name;    /* for error messages */
-    const uint8_t *cur;  /* next unread byte */
-    const uint8_t *end;  /* end of the bytes available now */
-    uint64_t end_offset; /* stream offset of `end` (so offset(p) = end_offset - (end - p)) */
-    uint64_t total;      /* stream size when known up front; UINT64_MAX for gzip, pipes */
-    uint64_t hint;       /* gzip: likely size (trailer, bounded by the bomb guard), else 0 */
-    bool eof;            /* nothing beyond `end` */
-    size_t line;         /* line number of the last line returned by mesh_source_line */
-    bool unterminated;   /* that line ended at the end of the stream, without a newline */
+    const char *name;              /* for error messages */
+    const uint8_t *cur;            /* next unread byte */
+    const uint8_t *end;            /* end of the bytes available now */
+    uint64_t end_offset;           /* stream offset of `end` (so offset(p) = end_offset - (end - p)) */
+    uint64_t total;                /* stream size when known up front; UINT64_MAX for gzip, pipes */
+    uint64_t hint;                 /* gzip: likely size (trailer, bounded by the bomb guard), else 0 */
+    bool eof;                      /* nothing beyond `end` */
+    size_t line;                   /* line number of the last line returned by mesh_source_line */
+    bool unterminated;             /* that line ended at the end of the stream, without a newline */
     struct mesh_source_impl *impl; /* file, inflate state, window buffer */
 } mesh_source;
 
@@ -39,9 +39,7 @@ prt_status mesh_source_fill(mesh_source *s, size_t need);
 
 #define MESH_SOURCE_MAX_WINDOW ((size_t)1 << 30)
 
-PRT_INLINE size_t mesh_source_avail(const mesh_source *s) {
-    return (size_t)(s->end - s->cur);
-}
+PRT_INLINE size_t mesh_source_avail(const mesh_source *s) { return (size_t)(s->end - s->cur); }
 PRT_INLINE uint64_t mesh_source_offset(const mesh_source *s, const uint8_t *p) {
     return s->end_offset - (uint64_t)(s->end - p);
 }

@@ -3,8 +3,7 @@
  * character cut off, the UTF-8 byte-order mark of the first line dropped. */
 #include "mesh/source.h"
 
-prt_status mesh_source_data_line(mesh_source *s, char comment, const char **p, const char **e,
-                                 bool *got) {
+prt_status mesh_source_data_line(mesh_source *s, char comment, const char **p, const char **e, bool *got) {
     for (;;) {
         const char *line, *t;
         size_t len, n;

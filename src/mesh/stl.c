@@ -15,17 +15,15 @@ PRT_INLINE uint32_t load_le32(const uint8_t *p) {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
-static prt_status nonfinite(mesh_source *s, const char *where, uint64_t pos, uint64_t tri,
-                            int corner, int axis, float value) {
-    return prt__fail(PRT_ERROR_MESH,
-                     "%s: %s %llu: triangle %llu: corner %d has a non-finite %c coordinate (%g)",
-                     s->name, where, (unsigned long long)pos, (unsigned long long)tri, corner,
-                     'x' + axis, (double)value);
+static prt_status nonfinite(mesh_source *s, const char *where, uint64_t pos, uint64_t tri, int corner, int axis,
+                            float value) {
+    return prt__fail(PRT_ERROR_MESH, "%s: %s %llu: triangle %llu: corner %d has a non-finite %c coordinate (%g)",
+                     s->name, where, (unsigned long long)pos, (unsigned long long)tri, corner, 'x' + axis,
+                     (double)value);
 }
 
 /* Append the triangle of corners c (9 floats, finite), welded; h: their weld_table_hash. */
-PRT_INLINE prt_status emit(weld_table *w, mesh_arrays *a, const float *c, const uint64_t *h,
-                           size_t expect) {
+PRT_INLINE prt_status emit(weld_table *w, mesh_arrays *a, const float *c, const uint64_t *h, size_t expect) {
     if (PRT_UNLIKELY(a->nt == a->tcap) || a->stream) {
         prt_status st = mesh_arrays_triangle_room(a, 1, expect);
         if (st != PRT_OK) return st;
@@ -45,8 +43,8 @@ PRT_INLINE prt_status emit(weld_table *w, mesh_arrays *a, const float *c, const 
 
 /* The count triangles after the header, a batch at a time: decoded and checked, hashed,
  * then welded. c, h, idx: room for BATCH triangles' corners. */
-static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w, uint32_t count,
-                                   float *c, uint64_t *h, uint32_t *idx) {
+static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w, uint32_t count, float *c, uint64_t *h,
+                                   uint32_t *idx) {
     prt_status st;
     for (uint32_t t = 0; t < count;) {
         if (mesh_source_avail(s) < 50) {
@@ -55,8 +53,7 @@ static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w
                 return prt__fail(PRT_ERROR_FORMAT,
                                  "%s: byte %llu: truncated: the data ends in triangle %u of the %u "
                                  "the header announces",
-                                 s->name, (unsigned long long)mesh_source_offset(s, s->end), t,
-                                 count);
+                                 s->name, (unsigned long long)mesh_source_offset(s, s->end), t, count);
         }
         uint32_t batch = (uint32_t)PRT_MIN((size_t)(count - t), mesh_source_avail(s) / 50);
         batch = PRT_MIN(batch, (uint32_t)BATCH);
@@ -72,9 +69,8 @@ static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w
         if (PRT_UNLIKELY(bad))
             for (uint32_t i = 0; i < 9 * batch; i++)
                 if (!isfinite(c[i]))
-                    return nonfinite(
-                        s, "byte", mesh_source_offset(s, s->cur + 50 * (i / 9) + 12 + 4 * (i % 9)),
-                        t + i / 9, (int)(i % 9 / 3), (int)(i % 3), c[i]);
+                    return nonfinite(s, "byte", mesh_source_offset(s, s->cur + 50 * (i / 9) + 12 + 4 * (i % 9)),
+                                     t + i / 9, (int)(i % 9 / 3), (int)(i % 3), c[i]);
         /* Corners the cache knows are resolved at once; the others' slots are prefetched
          * here, a batch ahead of the sequential pass that welds them. */
         for (uint32_t i = 0; i < 3 * batch; i++) {
@@ -86,8 +82,7 @@ static prt_status binary_triangles(mesh_source *s, mesh_arrays *a, weld_table *w
                 if ((st = mesh_arrays_triangle_room(a, 1, count)) != PRT_OK) return st;
             }
             for (uint32_t k = 3 * i; k < 3 * i + 3; k++)
-                if (idx[k] == UINT32_MAX &&
-                    (st = weld_table_corner(w, a, c + 3 * k, h[k], &idx[k])) != PRT_OK)
+                if (idx[k] == UINT32_MAX && (st = weld_table_corner(w, a, c + 3 * k, h[k], &idx[k])) != PRT_OK)
                     return st;
             memcpy(a->t + 3 * a->nt++, idx + 3 * i, 3 * sizeof(uint32_t));
         }
@@ -115,8 +110,7 @@ static prt_status binary(mesh_source *s, mesh_arrays *a, weld_table *w) {
                          s->name, count, (unsigned long long)need, (unsigned long long)s->total,
                          s->total < need ? "truncated or a lying count"
                                          : "data after the last triangle or a lying count");
-    if (count == 0)
-        return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the header announces 0", s->name);
+    if (count == 0) return prt__fail(PRT_ERROR_MESH, "%s: no triangles: the header announces 0", s->name);
     size_t reserve = s->total != UINT64_MAX ? count : PRT_MIN((size_t)count, UNPROVEN_TRIANGLES);
     /* Closed meshes have about half as many vertices as triangles (a little more when
      * open): reserving a bit over half spares most meshes a doubling. */
@@ -128,10 +122,8 @@ static prt_status binary(mesh_source *s, mesh_arrays *a, weld_table *w) {
     float *c = prt__alloc(BATCH * 9 * sizeof *c);
     uint64_t *h = prt__alloc(BATCH * 3 * sizeof *h);
     uint32_t *idx = prt__alloc(BATCH * 3 * sizeof *idx);
-    if (!c || !h || !idx)
-        st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory", s->name);
-    else
-        st = binary_triangles(s, a, w, count, c, h, idx);
+    if (!c || !h || !idx) st = prt__fail(PRT_ERROR_NOMEM, "%s: out of memory", s->name);
+    else st = binary_triangles(s, a, w, count, c, h, idx);
     prt__free(c), prt__free(h), prt__free(idx);
     if (st != PRT_OK) return st;
     if ((st = mesh_source_fill(s, 1)) != PRT_OK) return st;
@@ -145,23 +137,20 @@ static prt_status binary(mesh_source *s, mesh_arrays *a, weld_table *w) {
 
 /* ---- ASCII ------------------------------------------------------------------------- */
 
-static bool kw_is(const char *t, size_t n, const char *lit) {
-    return n == strlen(lit) && !strncasecmp(t, lit, n);
-}
+static bool kw_is(const char *t, size_t n, const char *lit) { return n == strlen(lit) && !strncasecmp(t, lit, n); }
 
 static prt_status unexpected(mesh_source *s, const char *t, size_t n, const char *expected) {
     char q[MESH_QUOTE_SIZE];
     if (s->unterminated) /* the last line, without its newline: most likely cut short */
-        return prt__fail(PRT_ERROR_FORMAT,
-                         "%s: line %zu: truncated: the file ends in '%s' (expected %s)", s->name,
+        return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: truncated: the file ends in '%s' (expected %s)", s->name,
                          s->line, mesh_quote(t, n, q), expected);
-    return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: unexpected '%s' (expected %s)", s->name,
-                     s->line, n ? mesh_quote(t, n, q) : "end of line", expected);
+    return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: unexpected '%s' (expected %s)", s->name, s->line,
+                     n ? mesh_quote(t, n, q) : "end of line", expected);
 }
 
 enum { OUTSIDE, IN_SOLID, IN_FACET, IN_LOOP, LOOP_DONE };
-static const char *const k_expected[] = {"'solid'", "'facet' or 'endsolid'", "'outer loop'",
-                                         "'vertex' or 'endloop'", "'endfacet'"};
+static const char *const k_expected[] = {"'solid'", "'facet' or 'endsolid'", "'outer loop'", "'vertex' or 'endloop'",
+                                         "'endfacet'"};
 
 static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
     int state = OUTSIDE, corners = 0;
@@ -190,8 +179,7 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
         if (state == IN_FACET && kw_is(t, n, "outer")) {
             const char *t2 = NULL;
             size_t n2 = 0;
-            if (!mesh_next_token(&p, e, &t2, &n2) || !kw_is(t2, n2, "loop"))
-                return unexpected(s, t2, n2, "'loop'");
+            if (!mesh_next_token(&p, e, &t2, &n2) || !kw_is(t2, n2, "loop")) return unexpected(s, t2, n2, "'loop'");
             state = IN_LOOP, corners = 0;
             continue;
         }
@@ -204,27 +192,23 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
             for (int k = 0; k < 3; k++) {
                 char q[MESH_QUOTE_SIZE];
                 if (!mesh_next_token(&p, e, &t, &n))
-                    return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: vertex with %d coordinates",
-                                     s->name, s->line, k);
+                    return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: vertex with %d coordinates", s->name, s->line, k);
                 float *f = &c[3 * corners + k];
                 if (!mesh_parse_float(s, t, n, f))
-                    return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: malformed number '%s'",
-                                     s->name, s->line, mesh_quote(t, n, q));
+                    return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: malformed number '%s'", s->name, s->line,
+                                     mesh_quote(t, n, q));
                 if (!isfinite(*f)) return nonfinite(s, "line", s->line, facets, corners, k, *f);
             }
             if (mesh_next_token(&p, e, &t, &n))
-                return prt__fail(PRT_ERROR_FORMAT,
-                                 "%s: line %zu: vertex with more than 3 coordinates", s->name,
+                return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: vertex with more than 3 coordinates", s->name,
                                  s->line);
             corners++;
             continue;
         }
         if (state == IN_LOOP && kw_is(t, n, "endloop")) {
             if (corners != 3)
-                return prt__fail(
-                    PRT_ERROR_FORMAT,
-                    "%s: line %zu: a facet with %d vertices (STL facets are triangles)", s->name,
-                    s->line, corners);
+                return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: a facet with %d vertices (STL facets are triangles)",
+                                 s->name, s->line, corners);
             state = LOOP_DONE;
             continue;
         }
@@ -238,10 +222,9 @@ static prt_status ascii(mesh_source *s, mesh_arrays *a, weld_table *w) {
         return unexpected(s, t, n, k_expected[state]);
     }
     if (state != OUTSIDE)
-        return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: truncated: the file ends before %s",
-                         s->name, s->line, state == IN_SOLID ? "'endsolid'" : "the facet ends");
-    if (facets == 0)
-        return prt__fail(PRT_ERROR_MESH, "%s: no triangles: no facet in the file", s->name);
+        return prt__fail(PRT_ERROR_FORMAT, "%s: line %zu: truncated: the file ends before %s", s->name, s->line,
+                         state == IN_SOLID ? "'endsolid'" : "the facet ends");
+    if (facets == 0) return prt__fail(PRT_ERROR_MESH, "%s: no triangles: no facet in the file", s->name);
     return PRT_OK;
 }
 

@@ -11,8 +11,8 @@ prt_status prt_mesh_save_stl(const prt_mesh *m, const char *path) {
     if (st != PRT_OK) return st;
     if (m->triangle_count > UINT32_MAX) {
         mesh_writer_close(&w, false);
-        return prt__fail(PRT_ERROR_LIMIT, "%s: %zu triangles: binary STL holds at most %u", path,
-                         m->triangle_count, UINT32_MAX);
+        return prt__fail(PRT_ERROR_LIMIT, "%s: %zu triangles: binary STL holds at most %u", path, m->triangle_count,
+                         UINT32_MAX);
     }
     uint8_t head[84] = {0};
     static const char title[] = "binary STL written by packrt";

@@ -41,9 +41,7 @@ prt_status mesh_stream_begin(mesh_arrays *a, size_t memory_budget, tri_sink_fn s
 }
 
 /* Bytes a vertex costs on the heap (its colour too, when the parser keeps colours). */
-static size_t vertex_bytes(const mesh_arrays *a) {
-    return 3 * sizeof(float) + (a->want_vc ? 3 : 0);
-}
+static size_t vertex_bytes(const mesh_arrays *a) { return 3 * sizeof(float) + (a->want_vc ? 3 : 0); }
 
 static size_t heap_vertex_budget(const struct mesh_stream *m) {
     return m->budget > MESH_STREAM_OVERHEAD ? m->budget - MESH_STREAM_OVERHEAD : 0;
@@ -55,13 +53,12 @@ static prt_status map_vertices(mesh_arrays *a, size_t cap) {
     size_t bytes = prt__mul_size(cap, 3 * sizeof(float));
     char eb[128];
     if (bytes == SIZE_MAX || ftruncate(m->fd, (off_t)bytes) != 0)
-        return prt__fail(PRT_ERROR_IO, "%s: cannot make the temporary vertex file %s %zu bytes: %s",
-                         a->name, m->path, bytes, strerror_r(errno, eb, sizeof eb));
+        return prt__fail(PRT_ERROR_IO, "%s: cannot make the temporary vertex file %s %zu bytes: %s", a->name, m->path,
+                         bytes, strerror_r(errno, eb, sizeof eb));
     void *p = m->mapped ? mremap(a->v, m->mapped, bytes, MREMAP_MAYMOVE)
                         : mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, m->fd, 0);
     if (p == MAP_FAILED)
-        return prt__fail(PRT_ERROR_NOMEM,
-                         "%s: cannot map %zu bytes of the temporary vertex file %s: %s", a->name,
+        return prt__fail(PRT_ERROR_NOMEM, "%s: cannot map %zu bytes of the temporary vertex file %s: %s", a->name,
                          bytes, m->path, strerror_r(errno, eb, sizeof eb));
     a->v = p;
     a->vcap = cap;
@@ -110,8 +107,7 @@ prt_status mesh_stream_vertex_room(mesh_arrays *a, size_t need, size_t expect) {
  * vertex not read yet (a PLY whose faces come before its vertices). */
 static prt_status flush(mesh_arrays *a, bool *held) {
     struct mesh_stream *m = a->stream;
-    for (size_t i = 3 * m->scanned; i < 3 * a->nt; i++)
-        m->max_index = PRT_MAX(m->max_index, a->t[i]);
+    for (size_t i = 3 * m->scanned; i < 3 * a->nt; i++) m->max_index = PRT_MAX(m->max_index, a->t[i]);
     m->scanned = a->nt;
     *held = a->nt && m->max_index >= a->nv;
     if (*held) return PRT_OK;
@@ -119,8 +115,7 @@ static prt_status flush(mesh_arrays *a, bool *held) {
         size_t n = PRT_MIN(a->nt - t0, (size_t)MESH_STREAM_BATCH);
         for (size_t t = 0; t < n; t++)
             for (int k = 0; k < 3; k++)
-                memcpy(m->batch + 9 * t + 3 * k, a->v + 3 * (size_t)a->t[3 * (t0 + t) + k],
-                       3 * sizeof(float));
+                memcpy(m->batch + 9 * t + 3 * k, a->v + 3 * (size_t)a->t[3 * (t0 + t) + k], 3 * sizeof(float));
         prt_status st = m->sink(m->user, m->batch, n, m->next_id);
         m->next_id += n;
         if (st != PRT_OK) return st;
@@ -153,8 +148,7 @@ prt_status mesh_stream_end(mesh_arrays *a, uint64_t *triangles) {
     bool held;
     prt_status st = flush(a, &held);
     if (st == PRT_OK && held) /* the parser checked every index against the vertices */
-        st = prt__fail(PRT_ERROR_MESH, "%s: a face names vertex %u of %zu (bug)", a->name,
-                       a->stream->max_index, a->nv);
+        st = prt__fail(PRT_ERROR_MESH, "%s: a face names vertex %u of %zu (bug)", a->name, a->stream->max_index, a->nv);
     if (st == PRT_OK && triangles) *triangles = a->stream->next_id;
     return st;
 }

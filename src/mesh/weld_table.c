@@ -10,8 +10,7 @@ void weld_table_free(weld_table *w) {
 
 static prt_status resize(weld_table *w, size_t cap, const char *name) {
     weld_slot *slot = prt__calloc(cap, sizeof *slot);
-    if (!slot)
-        return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory welding %zu vertices", name, w->count);
+    if (!slot) return prt__fail(PRT_ERROR_NOMEM, "%s: out of memory welding %zu vertices", name, w->count);
     for (size_t i = 0; i < w->cap; i++) {
         const weld_slot *e = &w->slot[i];
         if (!e->index1) continue;
@@ -35,8 +34,7 @@ prt_status weld_table_reserve(weld_table *w, size_t n, const char *name) {
     return cap > w->cap ? resize(w, cap, name) : PRT_OK;
 }
 
-prt_status weld_table_corner(weld_table *w, mesh_arrays *a, const float p[3], uint64_t hash,
-                             uint32_t *index) {
+prt_status weld_table_corner(weld_table *w, mesh_arrays *a, const float p[3], uint64_t hash, uint32_t *index) {
     if (PRT_UNLIKELY(!w->cache)) {
         prt_status st = weld_table_reserve(w, 0, a->name);
         if (st != PRT_OK) return st;

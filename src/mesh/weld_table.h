@@ -57,15 +57,13 @@ PRT_INLINE uint32_t weld_table_cached(const weld_table *w, const float *p, uint6
         float x = p[k] == 0.0f ? 0.0f : p[k];
         memcpy(&b[k], &x, 4);
     }
-    if (e->index1 && e->bits[0] == b[0] && e->bits[1] == b[1] && e->bits[2] == b[2])
-        return e->index1 - 1;
+    if (e->index1 && e->bits[0] == b[0] && e->bits[1] == b[1] && e->bits[2] == b[2]) return e->index1 - 1;
     weld_table_prefetch(w, hash);
     return UINT32_MAX;
 }
 
 /* The index of the vertex at p (hash: weld_table_hash(p)) in a, appending it to a when no
  * vertex there has p's exact position; remembered in the cache. */
-prt_status weld_table_corner(weld_table *w, mesh_arrays *a, const float p[3], uint64_t hash,
-                             uint32_t *index);
+prt_status weld_table_corner(weld_table *w, mesh_arrays *a, const float p[3], uint64_t hash, uint32_t *index);
 
 #endif

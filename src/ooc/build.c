@@ -35,8 +35,8 @@ typedef struct ooc_brick {
 } ooc_brick;
 
 typedef struct spool {
-    FILE *f;        /* a temporary file, or NULL while the spool is in memory */
-    ooc_btri *mem;  /* in memory (a root that fits the budget) */
+    FILE *f;       /* a temporary file, or NULL while the spool is in memory */
+    ooc_btri *mem; /* in memory (a root that fits the budget) */
     uint64_t cap;
     char path[4096];
     uint64_t count;
@@ -48,7 +48,7 @@ typedef struct builder {
     ooc_writer *w;
     const char *tmp_prefix;
     unsigned tmp_seq;
-    uint64_t incore_max; /* triangles */
+    uint64_t incore_max;  /* triangles */
     uint64_t done, total; /* for progress */
     void (*progress)(void *, float);
     void *progress_user;
@@ -144,7 +144,8 @@ static prt_status spool_write(spool *s, const ooc_btri *t, size_t n) {
         return PRT_OK;
     }
     if (n && fwrite(t, sizeof *t, n, s->f) != n)
-        return prt__fail(PRT_ERROR_IO, "%s: writing a temporary file failed: %s (is the disk full?)", s->path, strerror(errno));
+        return prt__fail(PRT_ERROR_IO, "%s: writing a temporary file failed: %s (is the disk full?)", s->path,
+                         strerror(errno));
     s->count += n;
     return PRT_OK;
 }
@@ -158,10 +159,12 @@ static bool tri_finite(const float *v) {
 
 static prt_status bad_triangle(const float *v, uint64_t id) {
     for (int k = 0; k < 9; k++)
-        if (!isfinite(v[k])) return prt__fail(PRT_ERROR_MESH, "triangle %llu has a non-finite coordinate", (unsigned long long)id);
+        if (!isfinite(v[k]))
+            return prt__fail(PRT_ERROR_MESH, "triangle %llu has a non-finite coordinate", (unsigned long long)id);
     for (int k = 0; k < 9; k++)
         if (fabsf(v[k]) > PRT_MAX_COORDINATE)
-            return prt__fail(PRT_ERROR_LIMIT, "triangle %llu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
+            return prt__fail(PRT_ERROR_LIMIT,
+                             "triangle %llu has a coordinate of magnitude %g; packrt builds meshes within +-%g",
                              (unsigned long long)id, (double)v[k], (double)PRT_MAX_COORDINATE);
     return PRT_OK;
 }
@@ -218,7 +221,8 @@ static prt_status read_all(spool *s, ooc_btri *out) {
 
 static void report(builder *b, uint64_t tris) {
     b->done += tris;
-    if (b->progress && b->total) b->progress(b->progress_user, 0.05f + 0.9f * (float)fmin(1.0, (double)b->done / (double)b->total));
+    if (b->progress && b->total)
+        b->progress(b->progress_user, 0.05f + 0.9f * (float)fmin(1.0, (double)b->done / (double)b->total));
 }
 
 /* Where an out-of-core node splits: an empty-space cut, or the middle of the longest axis. */
@@ -240,7 +244,8 @@ static void ooc_split(const builder *b, const float bounds[6], const float cell[
 }
 
 /* Build the in-core subtree over n triangles (cell, at depth) and lay it out; frees tris. */
-static prt_status build_tris(builder *b, ooc_btri *tris, uint64_t n, const float cell[6], uint32_t depth, ooc_frag *out) {
+static prt_status build_tris(builder *b, ooc_btri *tris, uint64_t n, const float cell[6], uint32_t depth,
+                             ooc_frag *out) {
     double c1 = cpu_now();
     ooc_tree t;
     long f1 = faults_now();
@@ -262,7 +267,9 @@ static prt_status build_tris(builder *b, ooc_btri *tris, uint64_t n, const float
 
 static prt_status build_incore(builder *b, spool *s, const float cell[6], uint32_t depth, ooc_frag *out) {
     ooc_btri *tris = prt__alloc(prt__mul_size(PRT_MAX(s->count, 1), sizeof *tris));
-    if (!tris) return prt__fail(PRT_ERROR_NOMEM, "out of memory reading %llu triangles for an in-core subtree", (unsigned long long)s->count);
+    if (!tris)
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory reading %llu triangles for an in-core subtree",
+                         (unsigned long long)s->count);
     double c0 = cpu_now();
     prt_status st = read_all(s, tris);
     spool_close(s);
@@ -316,7 +323,8 @@ static prt_status build_node(builder *b, spool *s, const float cell[6], uint32_t
     spool_close(s);
     b->cpu_sift += cpu_now() - c0;
     if (!st && kid[0].count == n && kid[1].count == n)
-        st = prt__fail(PRT_ERROR_LIMIT, "a kd cell of %llu triangles cannot be split out of core (every triangle spans it)",
+        st = prt__fail(PRT_ERROR_LIMIT,
+                       "a kd cell of %llu triangles cannot be split out of core (every triangle spans it)",
                        (unsigned long long)n);
     ooc_frag *f = st ? NULL : prt__alloc(2 * sizeof *f);
     if (!st && !f) st = prt__fail(PRT_ERROR_NOMEM, "out of memory in the out-of-core build");
@@ -340,19 +348,23 @@ static void print_stats(const builder *b, uint64_t built, double c0) {
             "kd %.2f %.3f | layout+looks %.2f %.3f | compression %.2f %.3f | finish %.2f | all %.2f %.3f\n"
             "ooc build page faults: kd %ld | layout+looks %ld | all %ld\n",
             produce, b->cpu_produce, b->cpu_produce * per, b->bricks ? "brick splits" : "sift", b->sift_passes,
-            (double)b->sifted / (double)PRT_MAX(built, 1), b->cpu_sift, b->cpu_sift * per, b->bricks ? "regenerate" : "read",
-            b->cpu_read, b->cpu_read * per, b->cpu_kd, b->cpu_kd * per, b->cpu_layout + b->cpu_finish - lz4,
-            (b->cpu_layout + b->cpu_finish - lz4) * per, lz4, lz4 * per, b->cpu_finish, all, all * per, b->faults_kd,
-            b->faults_layout, faults_now());
+            (double)b->sifted / (double)PRT_MAX(built, 1), b->cpu_sift, b->cpu_sift * per,
+            b->bricks ? "regenerate" : "read", b->cpu_read, b->cpu_read * per, b->cpu_kd, b->cpu_kd * per,
+            b->cpu_layout + b->cpu_finish - lz4, (b->cpu_layout + b->cpu_finish - lz4) * per, lz4, lz4 * per,
+            b->cpu_finish, all, all * per, b->faults_kd, b->faults_layout, faults_now());
     if (b->bricks)
-        fprintf(stderr, "ooc build bricks: %zu with surface (%.1f MB), %.3f triangles regenerated a triangle\n", b->nbricks,
-                (double)b->nbricks * sizeof *b->bricks / 1e6, (double)b->regenerated / (double)PRT_MAX(b->total, 1));
+        fprintf(stderr, "ooc build bricks: %zu with surface (%.1f MB), %.3f triangles regenerated a triangle\n",
+                b->nbricks, (double)b->nbricks * sizeof *b->bricks / 1e6,
+                (double)b->regenerated / (double)PRT_MAX(b->total, 1));
 }
 
-prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build_job *job, ooc_header *h,
-                     void **image, size_t *image_size) {
+prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build_job *job, ooc_header *h, void **image,
+                     size_t *image_size) {
     const double t0 = prt__now();
-    builder b = {.p = &job->params, .tmp_prefix = job->tmp_prefix, .progress = job->progress, .progress_user = job->progress_user};
+    builder b = {.p = &job->params,
+                 .tmp_prefix = job->tmp_prefix,
+                 .progress = job->progress,
+                 .progress_user = job->progress_user};
     const char *env = getenv("PRT_OOC_STATS");
     b.stats = env && *env && strcmp(env, "0");
     double c0 = cpu_now();
@@ -368,7 +380,8 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
     if (!s) s = spool_write(&b.root, b.batch, b.nbatch);
     b.cpu_produce = cpu_now() - c0;
     if (!s && b.root.count == 0)
-        s = prt__fail(PRT_ERROR_MESH, "the mesh has no triangle that can be hit (%llu degenerate)", (unsigned long long)b.degenerate);
+        s = prt__fail(PRT_ERROR_MESH, "the mesh has no triangle that can be hit (%llu degenerate)",
+                      (unsigned long long)b.degenerate);
     float cell[6];
     if (!s) {
         memcpy(cell, b.root.bounds, sizeof cell);
@@ -404,7 +417,6 @@ prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build
  * a brick goes to a child when its box (the union of its triangles') does, a superset.
  * A node whose bricks' triangles fit the budget regenerates them, keeps those that touch
  * its cell, in stream order, and continues in core as build_incore does. */
-
 
 /* Lists of at most this many bricks are counted exactly (by regenerating them) before a
  * node is split: a node of a few bricks that all touch its split plane would otherwise
@@ -485,7 +497,8 @@ static inline bool box_touches(const float tb[6], const float cell[6]) {
 
 /* Regenerate the listed bricks and keep the hittable triangles whose boxes touch cell, in
  * stream order: into out (room for the bricks' counts) when not NULL, else only counted. */
-static prt_status regen_bricks(builder *b, const uint32_t *list, size_t n, const float cell[6], ooc_btri *out, uint64_t *kept) {
+static prt_status regen_bricks(builder *b, const uint32_t *list, size_t n, const float cell[6], ooc_btri *out,
+                               uint64_t *kept) {
     const ooc_brick_source *src = b->src;
     uint64_t *off = prt__alloc((n + 1) * sizeof *off);
     uint32_t *got = prt__alloc((n ? n : 1) * sizeof *got);
@@ -532,7 +545,8 @@ static prt_status regen_bricks(builder *b, const uint32_t *list, size_t n, const
         prt__free(soup);
     }
     if (!st && failed == 1) st = prt__fail(PRT_ERROR_NOMEM, "out of memory regenerating bricks");
-    if (!st && failed == 2) st = prt__fail(PRT_ERROR_MESH, "a brick regenerated with another triangle count than its census (bug)");
+    if (!st && failed == 2)
+        st = prt__fail(PRT_ERROR_MESH, "a brick regenerated with another triangle count than its census (bug)");
     uint64_t m = 0;
     for (size_t i = 0; !st && i < n; i++) {
         if (out && m != off[i]) memmove(out + m, out + off[i], got[i] * sizeof *out);
@@ -546,13 +560,15 @@ static prt_status regen_bricks(builder *b, const uint32_t *list, size_t n, const
     return st;
 }
 
-static prt_status brick_incore(builder *b, uint32_t *list, size_t n, const float cell[6], uint32_t depth, ooc_frag *out) {
+static prt_status brick_incore(builder *b, uint32_t *list, size_t n, const float cell[6], uint32_t depth,
+                               ooc_frag *out) {
     uint64_t tris = 0; /* room for every triangle of the bricks: regen_bricks places them so */
     for (size_t i = 0; i < n; i++) tris += b->bricks[list[i]].ntri;
     ooc_btri *t = prt__alloc(prt__mul_size(PRT_MAX(tris, 1), sizeof *t));
     if (!t) {
         prt__free(list);
-        return prt__fail(PRT_ERROR_NOMEM, "out of memory regenerating %llu triangles for an in-core subtree", (unsigned long long)tris);
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory regenerating %llu triangles for an in-core subtree",
+                         (unsigned long long)tris);
     }
     uint64_t kept;
     prt_status st = regen_bricks(b, list, n, cell, t, &kept);
@@ -566,8 +582,8 @@ static prt_status brick_incore(builder *b, uint32_t *list, size_t n, const float
 
 /* Node over the listed bricks (the list is the node's to free): bounds is the union of
  * their boxes clipped to cell, tris the sum of their counts (at least the node's). */
-static prt_status brick_node(builder *b, uint32_t *list, size_t n, const float cell[6], const float bounds[6], uint64_t tris,
-                             uint32_t depth, ooc_frag *out) {
+static prt_status brick_node(builder *b, uint32_t *list, size_t n, const float cell[6], const float bounds[6],
+                             uint64_t tris, uint32_t depth, ooc_frag *out) {
     memset(out, 0, sizeof *out);
     if (tris > b->incore_max && n <= EXACT_COUNT_BRICKS && depth + 1 < OOC_MAX_DEPTH) {
         prt_status st = regen_bricks(b, list, n, cell, NULL, &tris);
@@ -645,7 +661,8 @@ prt_status ooc_build_bricks(const ooc_brick_source *src, const ooc_build_job *jo
     b.bricks = c.v, b.nbricks = c.n;
     uint64_t built = b.root.count;
     if (!s && built == 0)
-        s = prt__fail(PRT_ERROR_MESH, "the mesh has no triangle that can be hit (%llu degenerate)", (unsigned long long)b.degenerate);
+        s = prt__fail(PRT_ERROR_MESH, "the mesh has no triangle that can be hit (%llu degenerate)",
+                      (unsigned long long)b.degenerate);
     /* What the build holds besides in-core subtrees: the census's quarter (its freed
      * memory may stay in the heap), the table and two levels of lists. */
     uint64_t held = budget / 4 + (uint64_t)c.n * (sizeof *c.v + 3 * sizeof(uint32_t));

@@ -52,7 +52,8 @@ static bool load_block(ooc_cache *c, uint32_t b, uint8_t *dst) {
         uint16_t h[2];
         if (e->raw < 4) return false;
         memcpy(h, dst, 4);
-        if (h[0] < 4 || h[0] > h[1] || h[1] > e->raw || (h[1] - h[0]) % sizeof(ooc_tri) || (e->raw - h[1]) % 12) return false;
+        if (h[0] < 4 || h[0] > h[1] || h[1] > e->raw || (h[1] - h[0]) % sizeof(ooc_tri) || (e->raw - h[1]) % 12)
+            return false;
     }
     atomic_fetch_add(&c->loads, 1);
     atomic_fetch_add(&c->bytes_read, e->size);
@@ -250,7 +251,8 @@ void ooc_cache_frame(ooc_cache *c, ooc_frame_info *info) {
     fi.requested = n;
     /* Highest priority first (§5.3: how many rays asked), then by block id. */
     for (uint32_t i = 0; i < n; i++)
-        c->order[i] = (uint64_t)(UINT32_MAX - atomic_load_explicit(&c->want[c->requests[i]], memory_order_relaxed)) << 32 |
+        c->order[i] = (uint64_t)(UINT32_MAX - atomic_load_explicit(&c->want[c->requests[i]], memory_order_relaxed))
+                          << 32 |
                       c->requests[i];
     qsort(c->order, n, sizeof *c->order, by_key);
     for (uint32_t i = 0; i < n; i++) c->requests[i] = (uint32_t)c->order[i];
@@ -275,8 +277,8 @@ void ooc_cache_frame(ooc_cache *c, ooc_frame_info *info) {
     if (info) *info = fi;
 }
 
-prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_block_entry *table,
-                          uint32_t nblocks, uint32_t nslots, int fetchers) {
+prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_block_entry *table, uint32_t nblocks,
+                          uint32_t nslots, int fetchers) {
     memset(c, 0, sizeof *c);
     pthread_mutex_init(&c->mu, NULL);
     pthread_cond_init(&c->loaded, NULL);
@@ -298,7 +300,8 @@ prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_bl
     c->order = prt__calloc(PRT_MAX(nblocks, 1), sizeof *c->order);
     c->job_block = prt__calloc(c->max_jobs, sizeof *c->job_block);
     c->job_slot = prt__calloc(c->max_jobs, sizeof *c->job_slot);
-    if (!c->slot_mem || !c->slots || !c->map || !c->bstate || !c->want || !c->requests || !c->order || !c->job_block || !c->job_slot) {
+    if (!c->slot_mem || !c->slots || !c->map || !c->bstate || !c->want || !c->requests || !c->order || !c->job_block ||
+        !c->job_slot) {
         ooc_cache_free(c);
         return prt__fail(PRT_ERROR_NOMEM, "out of memory for a block cache of %u slots", nslots);
     }

@@ -25,19 +25,19 @@ typedef struct ooc_slot {
 } ooc_slot;
 
 typedef struct ooc_cache {
-    int fd;                    /* file source, or -1 */
-    const uint8_t *mem;        /* memory source (a whole block file image), or NULL */
+    int fd;             /* file source, or -1 */
+    const uint8_t *mem; /* memory source (a whole block file image), or NULL */
     const ooc_block_entry *table;
     uint32_t nblocks;
     uint32_t nslots;
     bool pinning; /* fewer slots than blocks: exact queries pin what they use */
     uint8_t *slot_mem;
     ooc_slot *slots;
-    _Atomic uint32_t *map;     /* block -> slot + 1 when published, else 0 */
-    _Atomic uint8_t *bstate;   /* block: BLOCK_* */
-    _Atomic uint32_t *want;    /* requests since the last update (priority, §5.3) */
-    uint32_t *requests;        /* blocks with want > 0, appended lock-free */
-    uint64_t *order;           /* sort keys of the requests */
+    _Atomic uint32_t *map;   /* block -> slot + 1 when published, else 0 */
+    _Atomic uint8_t *bstate; /* block: BLOCK_* */
+    _Atomic uint32_t *want;  /* requests since the last update (priority, §5.3) */
+    uint32_t *requests;      /* blocks with want > 0, appended lock-free */
+    uint64_t *order;         /* sort keys of the requests */
     _Atomic uint32_t nrequests;
     uint32_t request_cap;
     _Atomic uint32_t frame;
@@ -53,7 +53,7 @@ typedef struct ooc_cache {
     int want_fetchers; /* started by the first cache update */
     bool quit;
     bool sync_ready;
-    bool verify; /* check each block's crc32 (off only for fuzzing) */
+    bool verify;       /* check each block's crc32 (off only for fuzzing) */
     uint32_t max_jobs; /* per update, from the expected bandwidth */
     /* Counters. */
     _Atomic uint64_t loads, bytes_read, bytes_raw, failures;
@@ -63,8 +63,8 @@ typedef struct ooc_cache {
 #define OOC_MIN_SLOTS 64u /* a few per thread in flight, pinned, plus fetch jobs */
 
 /* slots: at least OOC_MIN_SLOTS; fetchers: threads for ooc_cache_try's requests (0: none). */
-prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_block_entry *table,
-                          uint32_t nblocks, uint32_t nslots, int fetchers);
+prt_status ooc_cache_init(ooc_cache *c, int fd, const uint8_t *mem, const ooc_block_entry *table, uint32_t nblocks,
+                          uint32_t nslots, int fetchers);
 void ooc_cache_free(ooc_cache *c);
 /* Start want_fetchers fetcher threads unless running (LOD rendering needs them). */
 void ooc_cache_start_fetchers(ooc_cache *c);
@@ -106,10 +106,10 @@ static inline const uint8_t *ooc_cache_try_inline(ooc_cache *c, uint32_t b, uint
 
 /* The cache update between frames. */
 typedef struct ooc_frame_info {
-    uint32_t working_set;  /* blocks touched in the frame that ended */
-    uint32_t resident;     /* blocks in the cache */
-    uint32_t requested;    /* distinct blocks requested in that frame */
-    uint32_t pending;      /* fetch jobs not finished */
+    uint32_t working_set; /* blocks touched in the frame that ended */
+    uint32_t resident;    /* blocks in the cache */
+    uint32_t requested;   /* distinct blocks requested in that frame */
+    uint32_t pending;     /* fetch jobs not finished */
 } ooc_frame_info;
 void ooc_cache_frame(ooc_cache *c, ooc_frame_info *info);
 

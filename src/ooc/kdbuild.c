@@ -46,7 +46,6 @@ static float half_area(const float b[6]) {
     return dx * dy + dy * dz + dz * dx;
 }
 
-
 static float volume(const float b[6]) { return (b[3] - b[0]) * (b[4] - b[1]) * (b[5] - b[2]); }
 
 static prt_status push_node(ooc_tree *t, int32_t *idx) {
@@ -159,8 +158,8 @@ static inline void prefix_sums(const uint32_t in[BINS], uint32_t out[BINS]) {
 /* Where to split: an empty-space cut when one leaves at least empty_cut of the cell's
  * volume empty, else the best SAH plane, else (over the leaf limit) the spatial median.
  * m summarises the n items over this cell. Returns false for a leaf. */
-static bool choose_split(const ctx *c, const summary *m, size_t n, const float cell[6], int *axis_out,
-                         float *split_out, int *empty_side) {
+static bool choose_split(const ctx *c, const summary *m, size_t n, const float cell[6], int *axis_out, float *split_out,
+                         int *empty_side) {
     *empty_side = -1;
     const float *b = m->b;
     const float vol = volume(cell);
@@ -207,7 +206,8 @@ static bool choose_split(const ctx *c, const summary *m, size_t n, const float c
             /* A plane that separates nothing never wins, nor does a NaN. */
             cost[i] = (nl < n || nr < n) && sah < INFINITY ? sah : INFINITY;
         }
-        vf8 c8 = vf8_min(vf8_min(vf8_load(cost), vf8_load(cost + 8)), vf8_min(vf8_load(cost + 16), vf8_load(cost + 24)));
+        vf8 c8 =
+            vf8_min(vf8_min(vf8_load(cost), vf8_load(cost + 8)), vf8_min(vf8_load(cost + 16), vf8_load(cost + 24)));
         const float least = vf8_hmin(c8);
         if (least < best_cost) { /* the first boundary at that cost, as a scan in order picks */
             int i = 1;
@@ -399,7 +399,8 @@ prt_status ooc_kd_build(const ooc_btri *tris, size_t n, const float box[6], uint
     gather_end(&g, m);
     prt_status s = PRT_OK;
     int32_t root = -1;
-#pragma omp parallel num_threads(threads) if (n >= c.task_min) default(none) shared(s, c, refs, n, box, m, root_depth, out, root)
+#pragma omp parallel num_threads(threads) if (n >= c.task_min) default(none) \
+    shared(s, c, refs, n, box, m, root_depth, out, root)
 #pragma omp single
     s = build_node(&c, out, refs, n, box, m, root_depth, &root);
     prt__free(m);

@@ -14,8 +14,8 @@
 
 #include <math.h>
 
-#define GREY 0.72f              /* the renderer's albedo for meshes without colours */
-#define SINGLE_NORMAL_TOL 0.2f  /* 1-sample voxel when all six normals are this close */
+#define GREY 0.72f             /* the renderer's albedo for meshes without colours */
+#define SINGLE_NORMAL_TOL 0.2f /* 1-sample voxel when all six normals are this close */
 #define SINGLE_COLOR_TOL 0.1f
 
 static void unpack_color(uint16_t c, float rgb[3]) {
@@ -48,7 +48,7 @@ uint32_t ooc_sample_pack(const float n[3], const float rgb[3], bool single) {
 
 /* q / 31 for the 6-bit two's complement q = j (j < 32) or j - 64: folded by the compiler,
  * correctly rounded as the division at run time, so a lookup gives the same bits. */
-#define Q31(j) ((float)((j) < 32 ? (j) : (j) - 64) / 31.0f)
+#define Q31(j) ((float)((j) < 32 ? (j) : (j)-64) / 31.0f)
 #define Q31x8(j) Q31(j), Q31(j + 1), Q31(j + 2), Q31(j + 3), Q31(j + 4), Q31(j + 5), Q31(j + 6), Q31(j + 7)
 const float ooc_q31[64] = {Q31x8(0), Q31x8(8), Q31x8(16), Q31x8(24), Q31x8(32), Q31x8(40), Q31x8(48), Q31x8(56)};
 #undef Q31x8

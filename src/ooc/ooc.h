@@ -13,22 +13,22 @@
 
 #define OOC_MAGIC "PRTOOC1\n"
 #define OOC_VERSION 1u
-#define OOC_BLOCK 65536u      /* raw (decompressed) block size, §4 */
-#define OOC_HEADER_BYTES 256u /* followed by the blocks; the block table is at the end */
-#define OOC_MAX_BLOCKS (1u << 26) /* block ids are 26 bits in LOD nodes: 4 TiB of blocks */
-#define OOC_MAX_DEPTH 96       /* kd depth limit (build and traversal stack) */
-#define OOC_MAX_LEAF 255       /* triangles a leaf can name (8-bit count, Table 4) */
+#define OOC_BLOCK 65536u                   /* raw (decompressed) block size, §4 */
+#define OOC_HEADER_BYTES 256u              /* followed by the blocks; the block table is at the end */
+#define OOC_MAX_BLOCKS (1u << 26)          /* block ids are 26 bits in LOD nodes: 4 TiB of blocks */
+#define OOC_MAX_DEPTH 96                   /* kd depth limit (build and traversal stack) */
+#define OOC_MAX_LEAF 255                   /* triangles a leaf can name (8-bit count, Table 4) */
 #define OOC_LEVELS (OOC_MAX_DEPTH / 3 + 2) /* treelet levels */
-#define OOC_TREELET_MAX 256    /* bytes: 7 nodes of at most 16 bytes and 4 voxels of 24 */
+#define OOC_TREELET_MAX 256                /* bytes: 7 nodes of at most 16 bytes and 4 voxels of 24 */
 
 enum { OOC_BLOCK_NODES = 1, OOC_BLOCK_TRIS = 2 };
 
 typedef struct ooc_header {
     char magic[8];
     uint32_t version;
-    uint32_t block_size;   /* OOC_BLOCK */
+    uint32_t block_size; /* OOC_BLOCK */
     uint32_t block_count;
-    uint32_t root_block;   /* the root treelet: block and byte offset */
+    uint32_t root_block; /* the root treelet: block and byte offset */
     uint32_t root_offset;
     uint32_t depth;        /* kd-tree depth */
     uint64_t table_offset; /* file offset of block_count ooc_block_entry */
@@ -38,17 +38,17 @@ typedef struct ooc_header {
     float bounds[6];
     double build_seconds;
     char spec[64];
-    uint32_t table_crc;    /* crc32 of the block table */
-    uint32_t header_crc;   /* crc32 of this header up to here */
+    uint32_t table_crc;  /* crc32 of the block table */
+    uint32_t header_crc; /* crc32 of this header up to here */
     uint8_t reserved[256 - 208];
 } ooc_header;
 
 typedef struct ooc_block_entry {
-    uint64_t offset;     /* file offset of the LZ4 data */
-    uint32_t size;       /* compressed bytes; == raw when stored uncompressed */
-    uint32_t raw;        /* decompressed bytes, <= OOC_BLOCK */
-    uint32_t crc;        /* crc32 of the stored bytes */
-    uint32_t kind;       /* OOC_BLOCK_NODES or OOC_BLOCK_TRIS */
+    uint64_t offset; /* file offset of the LZ4 data */
+    uint32_t size;   /* compressed bytes; == raw when stored uncompressed */
+    uint32_t raw;    /* decompressed bytes, <= OOC_BLOCK */
+    uint32_t crc;    /* crc32 of the stored bytes */
+    uint32_t kind;   /* OOC_BLOCK_NODES or OOC_BLOCK_TRIS */
 } ooc_block_entry;
 
 /* --- Node records (Tables 2-4, with the changes of docs/formats-ooc.md) ---------------
@@ -93,8 +93,8 @@ typedef struct ooc_look {
 } ooc_look;
 
 typedef struct ooc_bnode {
-    float box[6];        /* the kd cell */
-    int32_t child[2];    /* build node index, -1 when empty; both -1 for a leaf */
+    float box[6];     /* the kd cell */
+    int32_t child[2]; /* build node index, -1 when empty; both -1 for a leaf */
     uint8_t axis;
     float split;
     uint32_t first, count; /* leaf: range in the build's reference array */
@@ -108,10 +108,10 @@ typedef struct ooc_btri {
 } ooc_btri;
 
 typedef struct ooc_build_params {
-    int leaf_max;       /* SAH leaves up to this many triangles (128, §4.1) */
-    float empty_cut;    /* empty-space cutting volume threshold (0.15) */
+    int leaf_max;    /* SAH leaves up to this many triangles (128, §4.1) */
+    float empty_cut; /* empty-space cutting volume threshold (0.15) */
     int threads;
-    int lz4hc;          /* blocks' LZ4HC level 1-12; 0: the default (4); -1: plain LZ4 */
+    int lz4hc; /* blocks' LZ4HC level 1-12; 0: the default (4); -1: plain LZ4 */
 } ooc_build_params;
 
 /* Build an in-core kd-tree over tris (cell = box) with SAH, empty-space cutting and the
@@ -166,7 +166,7 @@ typedef struct ooc_fnode {
 #define OOC_FRAG_NODES 15 /* 7 nodes of one treelet above 8 roots of the next */
 typedef struct ooc_frag {
     ooc_fnode node[OOC_FRAG_NODES];
-    int count;       /* 0: an empty subtree; else node[0] is the root */
+    int count; /* 0: an empty subtree; else node[0] is the root */
     ooc_pending pend[8];
     int npend;
 } ooc_frag;
@@ -185,13 +185,11 @@ prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, 
 prt_status ooc_writer_inner(ooc_writer *w, uint32_t depth, const float box[6], int axis, float split,
                             const ooc_frag *lo, const ooc_frag *hi, ooc_frag *out);
 /* Lay out a whole in-core build tree whose root is at kd depth `depth`. */
-prt_status ooc_writer_tree(ooc_writer *w, const ooc_tree *t, const ooc_btri *tris, uint32_t depth,
-                           ooc_frag *out);
+prt_status ooc_writer_tree(ooc_writer *w, const ooc_tree *t, const ooc_btri *tris, uint32_t depth, ooc_frag *out);
 /* Place the root and finish: header and block table written; for a memory writer the
  * image (64-byte aligned, prt__free it) goes to *image. info supplies the header fields the
  * writer does not know (bounds, counts, spec). */
-prt_status ooc_writer_finish(ooc_writer *w, const ooc_frag *root, ooc_header *info, void **image,
-                             size_t *image_size);
+prt_status ooc_writer_finish(ooc_writer *w, const ooc_frag *root, ooc_header *info, void **image, size_t *image_size);
 void ooc_writer_free(ooc_writer *w);
 /* CPU seconds spent compressing blocks so far. */
 double ooc_writer_compress_seconds(const ooc_writer *w);

@@ -28,11 +28,12 @@ _Static_assert(sizeof(ooc_tri) == 12, "triangles are 12 bytes (§4.6)");
 prt_status ooc_parse_spec(prt_spec *spec, ooc_build_params *p) {
     int leaf, cut, lz4;
     prt_status s;
-    if ((s = prt__spec_int(spec, "leaf", 128, 1, OOC_MAX_LEAF, &leaf)) || (s = prt__spec_int(spec, "cut", 15, 0, 100, &cut)) ||
-        (s = prt__spec_int(spec, "lz4", 4, 0, 12, &lz4)) || (s = prt__spec_check_unused(spec)))
+    if ((s = prt__spec_int(spec, "leaf", 128, 1, OOC_MAX_LEAF, &leaf)) ||
+        (s = prt__spec_int(spec, "cut", 15, 0, 100, &cut)) || (s = prt__spec_int(spec, "lz4", 4, 0, 12, &lz4)) ||
+        (s = prt__spec_check_unused(spec)))
         return s;
     p->leaf_max = leaf;
-    p->lz4hc = lz4 ? lz4 : -1; /* lz4=0: plain LZ4 */
+    p->lz4hc = lz4 ? lz4 : -1;                           /* lz4=0: plain LZ4 */
     p->empty_cut = cut > 0 ? (float)cut / 100.0f : 2.0f; /* 0: never cut */
     prt_spec canon;
     memset(&canon, 0, sizeof canon);
@@ -60,7 +61,9 @@ static bool zero_header(const void *head, size_t n) {
     return true;
 }
 
-bool ooc_is_block_file(const void *head, size_t n) { return (n >= 8 && !memcmp(head, OOC_MAGIC, 8)) || zero_header(head, n); }
+bool ooc_is_block_file(const void *head, size_t n) {
+    return (n >= 8 && !memcmp(head, OOC_MAGIC, 8)) || zero_header(head, n);
+}
 
 static void ooc_destroy(prt_accel *a) {
     ooc_accel *o = (ooc_accel *)a;
@@ -75,7 +78,8 @@ static prt_status corrupt(const char *name, const char *what) {
     return prt__fail(PRT_ERROR_CORRUPT, "%s: not a valid packrt block file: %s", name, what);
 }
 
-static prt_status read_at(int fd, const uint8_t *mem, uint64_t size, uint64_t off, void *dst, size_t n, const char *name) {
+static prt_status read_at(int fd, const uint8_t *mem, uint64_t size, uint64_t off, void *dst, size_t n,
+                          const char *name) {
     if (off > size || n > size - off) return corrupt(name, "truncated");
     if (mem) {
         memcpy(dst, mem + off, n);
@@ -99,10 +103,13 @@ prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file
     prt_status s = read_at(fd, mem, size, 0, &h, sizeof h, name);
     if (s) return s;
     if (zero_header(&h, sizeof h))
-        return prt__fail(PRT_ERROR_CORRUPT, "%s: incomplete packrt block file: the build was interrupted (its header was never written)", name);
+        return prt__fail(PRT_ERROR_CORRUPT,
+                         "%s: incomplete packrt block file: the build was interrupted (its header was never written)",
+                         name);
     if (memcmp(h.magic, OOC_MAGIC, 8)) return corrupt(name, "bad magic");
     if (h.version != OOC_VERSION)
-        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: block file version %u; this packrt reads version %u", name, h.version, OOC_VERSION);
+        return prt__fail(PRT_ERROR_UNSUPPORTED, "%s: block file version %u; this packrt reads version %u", name,
+                         h.version, OOC_VERSION);
     if (verify_crc && (uint32_t)crc32(0L, (const Bytef *)&h, (uInt)offsetof(ooc_header, header_crc)) != h.header_crc)
         return corrupt(name, "header checksum mismatch");
     if (h.block_size != OOC_BLOCK) return corrupt(name, "block size is not 64 KiB");
@@ -229,7 +236,8 @@ static prt_status ooc_build_op(const prt_mesh *m, prt_spec *spec, const prt_buil
 }
 
 /* The streaming builds (prt_build_file, prt_build_generated): the mesh never held. */
-static prt_status build_file_op(const char *mesh_path, prt_spec *spec, const char *out_path, const prt_build_options *o) {
+static prt_status build_file_op(const char *mesh_path, prt_spec *spec, const char *out_path,
+                                const prt_build_options *o) {
     ooc_build_job job;
     ooc_header h;
     prt_status s = job_init(spec, o, out_path, &job, &h);
@@ -266,8 +274,8 @@ static void ooc_stats(const prt_accel *a, prt_stats *st) {
              "block file %.1f MB (%.0f%% of %.1f MB raw), %u blocks of 64 KB, %llu LOD nodes, %llu voxel samples; "
              "cache %u slots (%.0f MB)",
              (double)o->file_bytes / 1e6, raw ? 100.0 * (double)o->file_bytes / (double)raw : 0.0, (double)raw / 1e6,
-             o->h.block_count, (unsigned long long)o->h.lod_nodes, (unsigned long long)o->h.voxel_samples, o->cache.nslots,
-             (double)o->cache.nslots * OOC_BLOCK / 1e6);
+             o->h.block_count, (unsigned long long)o->h.lod_nodes, (unsigned long long)o->h.voxel_samples,
+             o->cache.nslots, (double)o->cache.nslots * OOC_BLOCK / 1e6);
 }
 
 /* Write the block file: the image when it was built in memory, else a copy of the file. */
@@ -308,7 +316,9 @@ static void ooc_frame(prt_accel *a, prt_cache_info *info) {
 static prt_status ooc_check(const prt_accel *a) {
     const ooc_accel *o = (const ooc_accel *)a;
     uint64_t f = atomic_load(&((ooc_accel *)o)->cache.failures);
-    if (f) return prt__fail(PRT_ERROR_CORRUPT, "%llu block reads or records failed their checks (corrupt block file?)", (unsigned long long)f);
+    if (f)
+        return prt__fail(PRT_ERROR_CORRUPT, "%llu block reads or records failed their checks (corrupt block file?)",
+                         (unsigned long long)f);
     return PRT_OK;
 }
 

@@ -10,8 +10,8 @@ typedef struct ooc_accel {
     ooc_header h;
     ooc_block_entry *table; /* owned copy (file) or pointer into the image */
     ooc_cache cache;
-    void *image;            /* a block file built in memory, owned; NULL for a file */
-    const uint8_t *mem;     /* the image's bytes (built, or the caller's memory) */
+    void *image;        /* a block file built in memory, owned; NULL for a file */
+    const uint8_t *mem; /* the image's bytes (built, or the caller's memory) */
     int fd;
     uint64_t file_bytes;
 } ooc_accel;

@@ -47,8 +47,8 @@ prt_status ooc_build_bricks(const ooc_brick_source *src, const ooc_build_job *jo
 /* Build the block file. h receives the header as written (spec is the caller's to fill
  * before: it is copied into the file). For a memory build *image receives the file image
  * (prt__free it). */
-prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build_job *job, ooc_header *h,
-                     void **image, size_t *image_size);
+prt_status ooc_build(tri_producer_fn produce, void *produce_ctx, const ooc_build_job *job, ooc_header *h, void **image,
+                     size_t *image_size);
 
 /* Build from a prt_mesh (in memory when it fits the budget), or stream a mesh file or a
  * generated kind; out_path NULL builds an image in memory. */

@@ -17,7 +17,8 @@ static prt_status mesh_producer(void *ctx, tri_sink_fn sink, void *user) {
     for (size_t t0 = 0; t0 < m->triangle_count; t0 += MESH_BATCH) {
         size_t n = PRT_MIN((size_t)MESH_BATCH, m->triangle_count - t0);
         for (size_t i = 0; i < n; i++)
-            for (int c = 0; c < 3; c++) memcpy(buf + 9 * i + 3 * c, m->vertices + 3 * (size_t)m->triangles[3 * (t0 + i) + c], 12);
+            for (int c = 0; c < 3; c++)
+                memcpy(buf + 9 * i + 3 * c, m->vertices + 3 * (size_t)m->triangles[3 * (t0 + i) + c], 12);
         prt_status s = sink(user, buf, n, t0);
         if (s) return s;
     }
@@ -95,7 +96,9 @@ static prt_status bulb_census(void *ctx, size_t memory_budget, gen_iso_bricks_fn
     if (!s) s = gen_iso_regen_open(&g->grid, &g->regen);
     uint64_t n = 0;
     if (!s) s = gen_isosurface_bricks(&g->grid, memory_budget, fn, user, &n);
-    if (!s && n == 0) s = prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found for %llu triangles", (unsigned long long)g->triangles);
+    if (!s && n == 0)
+        s = prt__fail(PRT_ERROR_MESH, "mandelbulb: no surface found for %llu triangles",
+                      (unsigned long long)g->triangles);
     return s;
 }
 

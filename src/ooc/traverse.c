@@ -25,9 +25,9 @@
 
 typedef struct walker {
     ooc_accel *a;
-    bool lod;       /* LOD query: never wait for a block */
-    float C;        /* error bound: a voxel of radius R stops the ray at t when R <= t C */
-    uint32_t held;  /* node block held (exact queries pin it), UINT32_MAX none */
+    bool lod;      /* LOD query: never wait for a block */
+    float C;       /* error bound: a voxel of radius R stops the ray at t when R <= t C */
+    uint32_t held; /* node block held (exact queries pin it), UINT32_MAX none */
     const uint8_t *blk;
     uint32_t size;
 } walker;
@@ -123,8 +123,8 @@ static bool leaf_list(const uint8_t *p, uint32_t size, uint32_t w0, uint32_t *li
 
 /* The ray's segment inside the root cell, and the axis of the slab it enters last (the
  * entry axis). False when it misses the cell. */
-static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, float tfar, float *tmin_out, float *tmax_out,
-                      int *axis_out) {
+static bool clip_root(const ooc_accel *a, const prt__rayx *rx, float tnear, float tfar, float *tmin_out,
+                      float *tmax_out, int *axis_out) {
     float tmin = tnear, tmax = tfar, best_near = -INFINITY;
     int axis = 0;
     for (int k = 0; k < 3; k++) {
@@ -213,11 +213,11 @@ typedef struct pentry16 {
 typedef struct packet16 {
     vf16 org[3], inv[3];
     float hit_t[PK] __attribute__((aligned(64))); /* ps->hit[i].t of the rays of tri */
-    uint32_t tri;  /* rays with a triangle hit */
-    uint32_t done; /* rays stopped at a voxel, and for any-hit walks rays with any hit */
-    bool any;      /* any-hit (shadow packets): a ray's first hit ends its walk */
-    bool lod;      /* LOD walk: rays stop at voxels (exact walks wait for every block) */
-    int front[3];  /* the child a ray meets first on each axis (all rays share their signs) */
+    uint32_t tri;                                 /* rays with a triangle hit */
+    uint32_t done;                                /* rays stopped at a voxel, and for any-hit walks rays with any hit */
+    bool any;                                     /* any-hit (shadow packets): a ray's first hit ends its walk */
+    bool lod;                                     /* LOD walk: rays stop at voxels (exact walks wait for every block) */
+    int front[3]; /* the child a ray meets first on each axis (all rays share their signs) */
     /* Axes the ray of a one-lane walk runs parallel to (or as good as: its reciprocal
      * overflows); packets of several rays leave such rays alone, so never theirs. */
     bool flat[3];
@@ -315,7 +315,8 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
             h->t = tt[best], h->u = uu[best], h->v = vv[best], h->prim = prim[best];
             float e1[3], e2[3];
             for (int k = 0; k < 3; k++)
-                e1[k] = soa[(3 + k) * 8 + best] - soa[k * 8 + best], e2[k] = soa[(6 + k) * 8 + best] - soa[k * 8 + best];
+                e1[k] = soa[(3 + k) * 8 + best] - soa[k * 8 + best],
+                e2[k] = soa[(6 + k) * 8 + best] - soa[k * 8 + best];
             ps->tn[i][0] = e1[1] * e2[2] - e1[2] * e2[1];
             ps->tn[i][1] = e1[2] * e2[0] - e1[0] * e2[2];
             ps->tn[i][2] = e1[0] * e2[1] - e1[1] * e2[0];
@@ -384,8 +385,16 @@ typedef struct pwalk16 {
  * root; stack holds OOC_MAX_DEPTH + 2 entries. */
 static void pwalk16_init(pwalk16 *s, const walker *w, packet_state *ps, packet16 *pk, pentry16 *stack, uint32_t mask,
                          vf16 tmin, vf16 tmax, vi16 axis_in) {
-    *s = (pwalk16){.tmin = tmin, .tmax = tmax, .axis_in = axis_in, .w = *w, .ps = ps, .pk = pk, .stack = stack,
-                   .block = w->a->h.root_block, .off = w->a->h.root_offset, .mask = mask};
+    *s = (pwalk16){.tmin = tmin,
+                   .tmax = tmax,
+                   .axis_in = axis_in,
+                   .w = *w,
+                   .ps = ps,
+                   .pk = pk,
+                   .stack = stack,
+                   .block = w->a->h.root_block,
+                   .off = w->a->h.root_offset,
+                   .mask = mask};
 }
 
 enum { WALK_YIELDS, WALK_ENDS };
@@ -440,8 +449,7 @@ static int walk16_run(pwalk16 *s, bool alone) {
                 s->leaf_p = NULL;
                 if (!packet_leaf16(w, ps, pk, mask, w0, w1, lp, lsize))
                     mask &= ~voxel_hits16(ps, pk, mask, tmin, axis_in, nvox, vox, vox_radius);
-                else if (pk->any) { /* any hit ends a shadow ray's walk */
-                    pk->done |= pk->tri;
+                else if (pk->any) { /* any hit ends a shadow ray's walk */ pk->done |= pk->tri;
                     mask &= ~pk->tri;
                 } else /* rays with a hit before their segment's end are done */
                     mask &= ~(pk->tri & vi16_mask(vf16_lt(vf16_load(pk->hit_t), tmax)));
@@ -685,9 +693,9 @@ _Static_assert(offsetof(prt__rayx, inv) == 24 && offsetof(prt__rayx, kx) == 40 &
  * set-up as scalar code). Fills ps's rays and hits, and returns the rays the packet takes
  * (clipped to the root cell: tmin, tmax, axis, org and inv; 0 in the other lanes), *alone
  * the rays it leaves to single queries and sign their direction signs. */
-static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t cnt, packet_state *ps,
-                             uint32_t *alone, int sign[3], float org[3][PK], float inv[3][PK], float tmin[PK],
-                             float tmax[PK], int32_t axis[PK]) {
+static uint32_t packet_setup(const ooc_accel *a, const prt_ray *rays, uint32_t cnt, packet_state *ps, uint32_t *alone,
+                             int sign[3], float org[3][PK], float inv[3][PK], float tmin[PK], float tmax[PK],
+                             int32_t axis[PK]) {
     float o[3][PK] __attribute__((aligned(32))), d[3][PK] __attribute__((aligned(32)));
     float tn[PK] __attribute__((aligned(32))), tf[PK] __attribute__((aligned(32)));
 #if defined(__AVX__)
@@ -860,21 +868,24 @@ static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lo
     const __m256 a2 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(ax, _mm256_set1_epi32(2))); /* axis 3 (corrupt) is 1 */
     const __m256 w = _mm256_blendv_ps(one, _mm256_set1_ps(-1.0f),
                                       _mm256_castsi256_ps(_mm256_slli_epi32(s, 16))); /* bit 15 to the sign */
-    const __m256 u = q31x8(_mm256_sub_epi32(_mm256_xor_si256(_mm256_and_si256(_mm256_srli_epi32(s, 18), m6), s32), s32));
-    const __m256 v = q31x8(_mm256_sub_epi32(_mm256_xor_si256(_mm256_and_si256(_mm256_srli_epi32(s, 24), m6), s32), s32));
+    const __m256 u =
+        q31x8(_mm256_sub_epi32(_mm256_xor_si256(_mm256_and_si256(_mm256_srli_epi32(s, 18), m6), s32), s32));
+    const __m256 v =
+        q31x8(_mm256_sub_epi32(_mm256_xor_si256(_mm256_and_si256(_mm256_srli_epi32(s, 24), m6), s32), s32));
     /* a == 0: (w, u, v); 1: (v, w, u); 2: (u, v, w). */
     const __m256 x0 = _mm256_blendv_ps(_mm256_blendv_ps(v, u, a2), w, a0);
     const __m256 x1 = _mm256_blendv_ps(_mm256_blendv_ps(w, v, a2), u, a0);
     const __m256 x2 = _mm256_blendv_ps(_mm256_blendv_ps(u, w, a2), v, a0);
-    const __m256 il = _mm256_div_ps(one, _mm256_sqrt_ps(_mm256_add_ps(
-                                             _mm256_add_ps(_mm256_mul_ps(x0, x0), _mm256_mul_ps(x1, x1)), _mm256_mul_ps(x2, x2))));
+    const __m256 il =
+        _mm256_div_ps(one, _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(x0, x0), _mm256_mul_ps(x1, x1)),
+                                                        _mm256_mul_ps(x2, x2))));
     const __m256 vn[3] = {_mm256_mul_ps(x0, il), _mm256_mul_ps(x1, il), _mm256_mul_ps(x2, il)};
     /* The triangle's normal: its cross product over its length (0 when that is 0). Lanes of
      * voxels and misses take 1s, so that no stale value costs a slow path. */
     __m256 tv[3];
     for (int k = 0; k < 3; k++) tv[k] = _mm256_blendv_ps(tnv[k], one, _mm256_or_ps(vox, miss));
-    const __m256 len = _mm256_sqrt_ps(
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(tv[0], tv[0]), _mm256_mul_ps(tv[1], tv[1])), _mm256_mul_ps(tv[2], tv[2])));
+    const __m256 len = _mm256_sqrt_ps(_mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(tv[0], tv[0]), _mm256_mul_ps(tv[1], tv[1])), _mm256_mul_ps(tv[2], tv[2])));
     const __m256 pos = _mm256_cmp_ps(len, zero, _CMP_GT_OQ);
     __m256 nrm[3];
     for (int k = 0; k < 3; k++)
@@ -883,8 +894,14 @@ static void packet_answers8(const packet_state *ps, int h, prt_ray *rays, prt_lo
     const __m256 radius = _mm256_and_ps(vox, radv);
     const __m256 tt = _mm256_blendv_ps(ht, _mm256_set1_ps(INFINITY), miss);
     /* Rows of 8 fields a ray: t, u, v, prim, geom, normal; then colour and radius. */
-    vf8 m[8] = {(vf8)tt, (vf8)_mm256_andnot_ps(miss, hu), (vf8)_mm256_andnot_ps(miss, hv), (vf8)_mm256_castsi256_ps(pr),
-                (vf8)zero, (vf8)nrm[0], (vf8)nrm[1], (vf8)nrm[2]};
+    vf8 m[8] = {(vf8)tt,
+                (vf8)_mm256_andnot_ps(miss, hu),
+                (vf8)_mm256_andnot_ps(miss, hv),
+                (vf8)_mm256_castsi256_ps(pr),
+                (vf8)zero,
+                (vf8)nrm[0],
+                (vf8)nrm[1],
+                (vf8)nrm[2]};
     vf8 q[8] = {(vf8)rgb[0], (vf8)rgb[1], (vf8)rgb[2], (vf8)radius, (vf8)zero, (vf8)zero, (vf8)zero, (vf8)zero};
     vf8_transpose8(m), vf8_transpose8(q);
     for (int l = 0; l < 8; l++) {
@@ -935,8 +952,7 @@ static void lod_packets(const prt_accel *acc, prt_ray *rays, prt_lod_hit *out, u
             p->any = occluded != NULL;
             p->lod = true;
             for (int k = 0; k < 3; k++) p->flat[k] = false;
-            pwalk16_init(&walks[g], &w, &ps[g], p, stacks[g], mask, vf16_load(tmin), vf16_load(tmax),
-                         vi16_load(ax));
+            pwalk16_init(&walks[g], &w, &ps[g], p, stacks[g], mask, vf16_load(tmin), vf16_load(tmax), vi16_load(ax));
             live |= 1u << g;
         }
         /* Round after round, each live packet to its next miss. */

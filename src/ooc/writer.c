@@ -34,10 +34,10 @@ typedef struct open_tris {
 } open_tris;
 
 struct ooc_writer {
-    prt__afile out;        /* out.f NULL: memory; else the temporary renamed in by finish */
-    uint8_t *mem;          /* memory image (header, blocks; the table is appended) */
+    prt__afile out; /* out.f NULL: memory; else the temporary renamed in by finish */
+    uint8_t *mem;   /* memory image (header, blocks; the table is appended) */
     size_t mem_size, mem_cap;
-    uint64_t offset;       /* next block's file offset */
+    uint64_t offset; /* next block's file offset */
     ooc_block_entry *table;
     uint32_t nblocks, tcap;
     /* One open node block per treelet level (kd depth / 3), as §4.3 groups blocks by LOD
@@ -242,7 +242,8 @@ prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, 
     frag_clear(out);
     if (n == 0) return PRT_OK;
     if (n > 1200) /* a leaf must fit one block; only a pile of triangles through one point gets here */
-        return prt__fail(PRT_ERROR_LIMIT, "%u triangles overlap one kd cell that cannot be split; the block file holds at most 1200", n);
+        return prt__fail(PRT_ERROR_LIMIT,
+                         "%u triangles overlap one kd cell that cannot be split; the block file holds at most 1200", n);
     open_tris *t = w->tris;
     prt_status s;
     if (need_with(t, tris, refs, n) + 8 > OOC_BLOCK && (s = flush_tris(w))) return s;
@@ -266,9 +267,7 @@ prt_status ooc_writer_leaf(ooc_writer *w, uint32_t depth, const ooc_btri *tris, 
 }
 
 /* Bytes of a fragment node in a treelet at level (0-2). */
-static uint32_t node_bytes(const ooc_fnode *n, int level) {
-    return n->kind == OOC_F_INNER && level == 2 ? 16 : 8;
-}
+static uint32_t node_bytes(const ooc_fnode *n, int level) { return n->kind == OOC_F_INNER && level == 2 ? 16 : 8; }
 
 /* Place a pair of pending treelets (either may be empty) side by side in the open node
  * block of their level. */
@@ -277,7 +276,8 @@ static prt_status place_pair(ooc_writer *w, int L, const ooc_pending *a, const o
     uint32_t need = (a ? a->size : 0) + (b ? b->size : 0);
     struct open_nodes *o = &w->level[L];
     prt_status s;
-    if (!o->bytes && !(o->bytes = prt__alloc(OOC_BLOCK))) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a node block");
+    if (!o->bytes && !(o->bytes = prt__alloc(OOC_BLOCK)))
+        return prt__fail(PRT_ERROR_NOMEM, "out of memory for a node block");
     if (o->used + need > OOC_BLOCK && (s = flush_nodes(w, L))) return s;
     if (o->used == 0 && (s = new_block(w, OOC_BLOCK_NODES, &w->level_id[L]))) return s;
     *block = w->level_id[L];
@@ -294,7 +294,7 @@ typedef struct lay {
     int child_level; /* treelet level of the LOD nodes' children */
     const ooc_frag *f;
     ooc_pending *out;
-    uint32_t pos; /* next node byte; the voxels follow the nodes */
+    uint32_t pos;                                  /* next node byte; the voxels follow the nodes */
     uint32_t vox_at[4], vox_words[4][6], vox_n[4]; /* each LOD node's offset and voxel */
     int nvox;
 } lay;
@@ -315,7 +315,8 @@ static prt_status lay_node(lay *L, int i, int level) {
         memcpy(dst, n->rec, 8);
         return PRT_OK;
     }
-    if (n->kind != OOC_F_INNER) return prt__fail(PRT_ERROR_LIMIT, "ooc writer: a treelet is malformed (internal error)");
+    if (n->kind != OOC_F_INNER)
+        return prt__fail(PRT_ERROR_LIMIT, "ooc writer: a treelet is malformed (internal error)");
     uint32_t w0 = OOC_INNER | n->axis;
     uint32_t words[4];
     memcpy(&words[1], &n->split, 4);
@@ -353,7 +354,8 @@ static prt_status lay_node(lay *L, int i, int level) {
     if (s) return s;
     uint32_t left = p[0] ? off[0] : off[1];
     w0 |= OOC_LOD | left | ((off[1] - left) / 4) << 18 | (p[0] ? OOC_LEFT : 0) | (p[1] ? OOC_RIGHT : 0);
-    float r = 0.5f * sqrtf((n->box[3] - n->box[0]) * (n->box[3] - n->box[0]) + (n->box[4] - n->box[1]) * (n->box[4] - n->box[1]) +
+    float r = 0.5f * sqrtf((n->box[3] - n->box[0]) * (n->box[3] - n->box[0]) +
+                           (n->box[4] - n->box[1]) * (n->box[4] - n->box[1]) +
                            (n->box[5] - n->box[2]) * (n->box[5] - n->box[2]));
     words[0] = w0;
     memcpy(&words[2], &r, 4);
@@ -376,7 +378,8 @@ static prt_status lay_treelet(ooc_writer *w, uint32_t depth, const ooc_frag *f, 
     if (s) return s;
     for (int v = 0; v < L.nvox; v++) {
         uint32_t rel = L.pos - L.vox_at[v];
-        if (rel / 4 > 63) return prt__fail(PRT_ERROR_LIMIT, "ooc writer: voxel beyond its node's reach (internal error)");
+        if (rel / 4 > 63)
+            return prt__fail(PRT_ERROR_LIMIT, "ooc writer: voxel beyond its node's reach (internal error)");
         uint32_t w3;
         memcpy(&w3, out->bytes + L.vox_at[v] + 12, 4);
         w3 |= (rel / 4) << 26;
@@ -443,13 +446,14 @@ prt_status ooc_writer_inner(ooc_writer *w, uint32_t depth, const float box[6], i
     float lb[6], hb[6];
     memcpy(lb, box, sizeof lb), memcpy(hb, box, sizeof hb);
     lb[3 + axis] = split, hb[axis] = split;
-    ooc_look_compose(&n->look, box, axis, lo->count ? &lo->node[0].look : &none, lb, hi->count ? &hi->node[0].look : &none, hb);
+    ooc_look_compose(&n->look, box, axis, lo->count ? &lo->node[0].look : &none, lb,
+                     hi->count ? &hi->node[0].look : &none, hb);
     return wrap(w, depth, out);
 }
 
 /* Lay out subtree i; kids holds two fragments per level below depth (allocated once). */
-static prt_status tree_frag(ooc_writer *w, const ooc_tree *t, const ooc_btri *tris, int32_t i, uint32_t depth, ooc_frag *kids,
-                            ooc_frag *out) {
+static prt_status tree_frag(ooc_writer *w, const ooc_tree *t, const ooc_btri *tris, int32_t i, uint32_t depth,
+                            ooc_frag *kids, ooc_frag *out) {
     frag_clear(out);
     if (i < 0) return PRT_OK;
     const ooc_bnode *n = &t->nodes[i];

@@ -22,34 +22,28 @@ void prt_camera_default(const float lo[3], const float hi[3], prt_camera *c) {
     c->up[0] = 0.0f, c->up[1] = 1.0f, c->up[2] = 0.0f;
 }
 
-static bool finite3(const float *v) {
-    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
-}
+static bool finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 
-prt_status render_camera_setup(const prt_camera *c, uint32_t width, uint32_t height,
-                               render_camera *out) {
+prt_status render_camera_setup(const prt_camera *c, uint32_t width, uint32_t height, render_camera *out) {
     if (!finite3(c->eye) || !finite3(c->target) || !finite3(c->up))
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: camera has a non-finite coordinate");
     if (!(c->fov_y_deg > 0.0f && c->fov_y_deg < 180.0f))
-        return prt__fail(PRT_ERROR_ARGUMENT,
-                         "prt_render: field of view %g is not in (0, 180) degrees",
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: field of view %g is not in (0, 180) degrees",
                          (double)c->fov_y_deg);
     prt_vec3 eye = prt_v3_load(c->eye);
     prt_vec3 view = prt_v3_sub(prt_v3_load(c->target), eye);
     float vl = prt_v3_len(view);
     if (!(vl > 0.0f) || !isfinite(vl))
-        return prt__fail(PRT_ERROR_ARGUMENT,
-                         "prt_render: camera eye and target are the same point");
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: camera eye and target are the same point");
     prt_vec3 fwd = prt_v3_scale(view, 1.0f / vl);
     prt_vec3 side = prt_v3_cross(fwd, prt_v3_load(c->up));
     float sl = prt_v3_len(side), ul = prt_v3_len(prt_v3_load(c->up));
     /* sin of the angle between up and the view direction: below ~0.06 degrees the basis
      * would be mostly rounding error. */
     if (!(sl > 1e-6f * ul))
-        return prt__fail(
-            PRT_ERROR_ARGUMENT,
-            "prt_render: camera up (%g, %g, %g) is zero or parallel to the view direction",
-            (double)c->up[0], (double)c->up[1], (double)c->up[2]);
+        return prt__fail(PRT_ERROR_ARGUMENT,
+                         "prt_render: camera up (%g, %g, %g) is zero or parallel to the view direction",
+                         (double)c->up[0], (double)c->up[1], (double)c->up[2]);
     out->eye = eye;
     out->fwd = fwd;
     out->right = prt_v3_scale(side, 1.0f / sl);
@@ -65,8 +59,7 @@ void render_camera_ray(const render_camera *c, float px, float py, prt_ray *r) {
     /* The same expression as bench_rays_primary, so pixel centres give the benchmark's rays. */
     float sx = (2.0f * px / (float)c->width - 1.0f) * c->half_w;
     float sy = (1.0f - 2.0f * py / (float)c->height) * c->half_h;
-    prt_vec3 d = prt_v3_norm(
-        prt_v3_add(c->fwd, prt_v3_add(prt_v3_scale(c->right, sx), prt_v3_scale(c->up, sy))));
+    prt_vec3 d = prt_v3_norm(prt_v3_add(c->fwd, prt_v3_add(prt_v3_scale(c->right, sx), prt_v3_scale(c->up, sy))));
     r->org[0] = c->eye.x, r->org[1] = c->eye.y, r->org[2] = c->eye.z, r->tnear = 0.0f;
     r->dir[0] = d.x, r->dir[1] = d.y, r->dir[2] = d.z, r->tfar = INFINITY;
 }
@@ -104,6 +97,4 @@ void render_camera_rays(const render_camera *c, const float *px, const float *py
     for (; i < n; i++) render_camera_ray(c, px[i], py[i], &r[i]);
 }
 
-float render_camera_pixel_size(const render_camera *c, float d) {
-    return d * 2.0f * c->half_h / (float)c->height;
-}
+float render_camera_pixel_size(const render_camera *c, float d) { return d * 2.0f * c->half_h / (float)c->height; }

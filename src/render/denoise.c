@@ -21,8 +21,8 @@ static float dist2(const float *a, const float *b) {
     return dx * dx + dy * dy + dz * dz;
 }
 
-static void pass(const render_framebuffer *fb, const render_camera *cam, const float *in,
-                 float *out, int step, float sigma_c, int threads) {
+static void pass(const render_framebuffer *fb, const render_camera *cam, const float *in, float *out, int step,
+                 float sigma_c, int threads) {
     int w = (int)fb->width, h = (int)fb->height;
     float inv_c = 1.0f / (sigma_c * sigma_c), inv_n = 1.0f / (SIGMA_NORMAL * SIGMA_NORMAL);
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -30,14 +30,12 @@ static void pass(const render_framebuffer *fb, const render_camera *cam, const f
         for (int x = 0; x < w; x++) {
             size_t i = (size_t)y * w + x;
             if (fb->coverage[i] <= 0.0f) {
-                out[3 * i] = in[3 * i], out[3 * i + 1] = in[3 * i + 1],
-                        out[3 * i + 2] = in[3 * i + 2];
+                out[3 * i] = in[3 * i], out[3 * i + 1] = in[3 * i + 1], out[3 * i + 2] = in[3 * i + 2];
                 continue;
             }
             const float *ci = &in[3 * i], *ni = &fb->normal[3 * i], *pi = &fb->position[3 * i];
             float eye[3] = {cam->eye.x, cam->eye.y, cam->eye.z};
-            float sp =
-                SIGMA_POSITION * (float)step * render_camera_pixel_size(cam, sqrtf(dist2(pi, eye)));
+            float sp = SIGMA_POSITION * (float)step * render_camera_pixel_size(cam, sqrtf(dist2(pi, eye)));
             float inv_p = 1.0f / prt_maxf(sp * sp, 1e-30f);
             float sum[3] = {0, 0, 0}, wsum = 0.0f;
             for (int dy = -2; dy <= 2; dy++) {

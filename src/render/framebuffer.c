@@ -5,13 +5,11 @@
 #include <math.h>
 #include <pthread.h>
 
-prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height,
-                                   bool guides, bool albedo) {
+prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height, bool guides, bool albedo) {
     memset(fb, 0, sizeof *fb);
     fb->width = width, fb->height = height;
     size_t n = (size_t)width * height, n3 = prt__mul_size(n, 3 * sizeof(float));
-    if (!n3)
-        return prt__fail(PRT_ERROR_NOMEM, "prt_render: %ux%u image is too large", width, height);
+    if (!n3) return prt__fail(PRT_ERROR_NOMEM, "prt_render: %ux%u image is too large", width, height);
     fb->direct = prt__calloc(1, n3);
     bool ok = fb->direct != NULL;
     if (guides) {
@@ -27,8 +25,7 @@ prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint3
     }
     if (!ok) {
         render_framebuffer_free(fb);
-        return prt__fail(PRT_ERROR_NOMEM, "prt_render: no memory for a %ux%u framebuffer", width,
-                         height);
+        return prt__fail(PRT_ERROR_NOMEM, "prt_render: no memory for a %ux%u framebuffer", width, height);
     }
     return PRT_OK;
 }
@@ -106,8 +103,7 @@ void render_encode(const float *v, size_t n, bool srgb, uint8_t *out) {
         for (size_t i = 0; i < n; i++) out[i] = encode_linear(v[i]);
 }
 
-void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
-                                prt_image *img) {
+void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads, prt_image *img) {
     const bool srgb = render_shade_is_srgb(shade);
     render_encode_init();
     long rows = (long)fb->height;
@@ -116,9 +112,7 @@ void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, i
         for (size_t i = (size_t)y * fb->width; i < (size_t)(y + 1) * fb->width; i++)
             for (int k = 0; k < 3; k++) {
                 float v = fb->direct[3 * i + k];
-                if (fb->indirect)
-                    v += (fb->albedo ? fb->albedo[3 * i + k] : RENDER_ALBEDO) *
-                         fb->indirect[3 * i + k];
+                if (fb->indirect) v += (fb->albedo ? fb->albedo[3 * i + k] : RENDER_ALBEDO) * fb->indirect[3 * i + k];
                 img->rgb[3 * i + k] = srgb ? encode_srgb(v) : encode_linear(v);
             }
 }

@@ -128,8 +128,7 @@ static uint64_t render_tile(const render_frame *j, uint32_t tx, uint32_t ty) {
             /* 0 + x for the first sample, as sums that started at 0 (-0 becomes +0); the last
              * sample writes the mean, in pixel order (rereading the sums as a vector waited on
              * their three stores). */
-            const float d0 = (s ? direct[q][0] : 0.0f) + smp->direct.x,
-                        d1 = (s ? direct[q][1] : 0.0f) + smp->direct.y,
+            const float d0 = (s ? direct[q][0] : 0.0f) + smp->direct.x, d1 = (s ? direct[q][1] : 0.0f) + smp->direct.y,
                         d2 = (s ? direct[q][2] : 0.0f) + smp->direct.z;
             if (s + 1 < j->spp) {
                 direct[q][0] = d0, direct[q][1] = d1, direct[q][2] = d2;
@@ -152,7 +151,8 @@ static uint64_t render_tile(const render_frame *j, uint32_t tx, uint32_t ty) {
     if (j->tile_img) {
         /* The pixel values render_framebuffer_resolve would read, encoded row by row. */
         for (uint32_t y = 0; y < h; y++)
-            render_encode(mean + 3 * y * w, 3 * w, j->srgb, j->tile_img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
+            render_encode(mean + 3 * y * w, 3 * w, j->srgb,
+                          j->tile_img->rgb + 3 * ((size_t)(y0 + y) * cam->width + x0));
         return cast;
     }
     const render_framebuffer *fb = &j->fb;
@@ -175,21 +175,18 @@ static uint64_t render_tile(const render_frame *j, uint32_t tx, uint32_t ty) {
     return cast;
 }
 
-static prt_status check_arguments(const prt_accel *a, const prt_mesh *m, const prt_image *img,
-                                  uint32_t w, uint32_t h) {
+static prt_status check_arguments(const prt_accel *a, const prt_mesh *m, const prt_image *img, uint32_t w, uint32_t h) {
     if (!a || !img) return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: NULL accel or image");
     if (w > MAX_SIDE || h > MAX_SIDE)
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: %ux%u image exceeds %u pixels a side", w,
-                         h, MAX_SIDE);
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: %ux%u image exceeds %u pixels a side", w, h, MAX_SIDE);
     if (m) {
         prt_stats st;
         prt_accel_stats(a, &st);
         if (!m->vertices || !m->triangles || m->triangle_count != st.triangles)
-            return prt__fail(
-                PRT_ERROR_ARGUMENT,
-                "prt_render: the mesh has %zu triangles, the accel was built from %zu: "
-                "not its mesh",
-                m->triangle_count, st.triangles);
+            return prt__fail(PRT_ERROR_ARGUMENT,
+                             "prt_render: the mesh has %zu triangles, the accel was built from %zu: "
+                             "not its mesh",
+                             m->triangle_count, st.triangles);
     }
     return PRT_OK;
 }
@@ -199,8 +196,7 @@ static prt_status size_image(prt_image *img, uint32_t w, uint32_t h) {
     if (img->rgb && img->width == w && img->height == h) return PRT_OK;
     prt_image_free(img);
     img->rgb = prt__alloc((size_t)w * h * 3);
-    if (!img->rgb)
-        return prt__fail(PRT_ERROR_NOMEM, "prt_render: no memory for a %ux%u image", w, h);
+    if (!img->rgb) return prt__fail(PRT_ERROR_NOMEM, "prt_render: no memory for a %ux%u image", w, h);
     img->width = w, img->height = h;
     return PRT_OK;
 }
@@ -220,8 +216,7 @@ prt_status render_frame_begin(render_frame *f, const prt_accel *a, const prt_mes
     }
     if ((unsigned)o.shade >= PRT_SHADE_COUNT) {
         prt_image_free(img);
-        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: shading mode %d does not exist",
-                         (int)o.shade);
+        return prt__fail(PRT_ERROR_ARGUMENT, "prt_render: shading mode %d does not exist", (int)o.shade);
     }
 
     float lo[3], hi[3];
@@ -254,8 +249,7 @@ prt_status render_frame_begin(render_frame *f, const prt_accel *a, const prt_mes
     prt_accel_stats(a, &stats);
     if (stats.vertex_error > 0) scene->offset += 2.0f * (float)stats.vertex_error;
     scene->fd_step = 1e-4f * diag;
-    if (o.use_light)
-        scene->light = prt_v3_load(o.light);
+    if (o.use_light) scene->light = prt_v3_load(o.light);
     else {
         /* As bench_light_default: above, in front, to the left, 2.5 bounding radii out. */
         prt_vec3 dir = prt_v3_norm(prt_v3(-0.5f, 1.0f, 0.6f));
@@ -321,8 +315,7 @@ uint64_t render_frame_tiles(render_frame *f, long first, long count) {
 #pragma omp atomic capture
             d = ++done;
             /* Thread 0 is the caller: the callback never runs on a worker. */
-            if (o->progress && omp_get_thread_num() == 0)
-                o->progress(o->progress_user, (float)d / (float)f->tiles);
+            if (o->progress && omp_get_thread_num() == 0) o->progress(o->progress_user, (float)d / (float)f->tiles);
         }
     }
     f->done = done;
@@ -348,8 +341,8 @@ prt_status render_frame_end(render_frame *f) {
 
 void render_frame_free(render_frame *f) { render_framebuffer_free(&f->fb); }
 
-prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c,
-                      const prt_render_options *options, prt_image *img) {
+prt_status prt_render(const prt_accel *a, const prt_mesh *m, const prt_camera *c, const prt_render_options *options,
+                      prt_image *img) {
     render_frame f;
     prt_status st = render_frame_begin(&f, a, m, c, options, img);
     if (st) return st;

@@ -20,8 +20,7 @@ typedef struct render_camera {
 
 /* PRT_ERROR_ARGUMENT (with a message) for a non-finite camera, eye == target, up parallel
  * to the view direction, or fov outside (0, 180). */
-prt_status render_camera_setup(const prt_camera *c, uint32_t width, uint32_t height,
-                               render_camera *out);
+prt_status render_camera_setup(const prt_camera *c, uint32_t width, uint32_t height, render_camera *out);
 
 /* The ray through image point (px, py) in pixels from the top-left corner (pixel (x, y)'s
  * centre is (x + 0.5, y + 0.5)); dir normalised, tnear 0, tfar +inf. */
@@ -70,12 +69,12 @@ typedef struct render_scene {
     const prt_accel *accel;
     const prt_mesh *mesh; /* NULL: normals from finite differences */
     prt_shade shade;
-    float diag;        /* bounds diagonal */
-    float offset;      /* secondary ray origins move this far along the normal */
-    float fd_step;     /* finite-difference offset between parallel rays (no mesh) */
-    prt_vec3 light;    /* point light (shadows, gi) */
-    float ao_radius;   /* occlusion ray length (ao) */
-    bool colored;      /* the mesh has vertex or triangle colours */
+    float diag;      /* bounds diagonal */
+    float offset;    /* secondary ray origins move this far along the normal */
+    float fd_step;   /* finite-difference offset between parallel rays (no mesh) */
+    prt_vec3 light;  /* point light (shadows, gi) */
+    float ao_radius; /* occlusion ray length (ao) */
+    bool colored;    /* the mesh has vertex or triangle colours */
     /* Levels of detail (prt_render_options.lod_pixels > 0): the error bounds C of
      * prt_intersect_lod for camera and shadow rays, and for ao and gi rays. */
     bool lod;
@@ -95,14 +94,13 @@ typedef struct render_surface {
  * the triangle's, else RENDER_ALBEDO grey). Without: org + t dir, a normal from parallel rays
  * a small step beside r (*rays counts those extra rays) and grey. False for a miss (or a
  * degenerate surface estimate), in which case the hit is shaded as background. */
-bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h,
-                       render_surface *out, uint64_t *rays);
+bool render_surface_at(const render_scene *s, const prt_ray *r, const prt_hit *h, render_surface *out, uint64_t *rays);
 
 /* The surface of a LOD hit (lh from prt_intersect_lod of ray r): its voxel's or triangle's
  * normal and colour; a mesh triangle goes through render_surface_at for its exact colour.
  * False for a miss. */
-bool render_surface_lod(const render_scene *s, const prt_ray *r, const prt_lod_hit *lh,
-                        render_surface *out, uint64_t *rays);
+bool render_surface_lod(const render_scene *s, const prt_ray *r, const prt_lod_hit *lh, render_surface *out,
+                        uint64_t *rays);
 
 /* ---- shade.c -------------------------------------------------------------------------- */
 
@@ -118,8 +116,8 @@ typedef struct render_sample {
 
 /* Shade camera ray r with hit h (with LOD: lh, h == &lh->hit; else lh NULL): fills *out,
  * and *surf when the ray hit (return true). */
-bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh,
-                  prt_rng *g, render_sample *out, render_surface *surf, uint64_t *rays);
+bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh, prt_rng *g,
+                  render_sample *out, render_surface *surf, uint64_t *rays);
 
 /* `shadows` mode in two steps, so that a tile's shadow rays go to prt_occluded_packet (or
  * with levels of detail prt_occluded_lod_packet with the camera's error) together
@@ -148,15 +146,13 @@ typedef struct render_framebuffer {
 } render_framebuffer;
 
 /* guides: the gi buffers (indirect, normal, position, coverage); albedo: the albedo buffer. */
-prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height,
-                                   bool guides, bool albedo);
+prt_status render_framebuffer_init(render_framebuffer *fb, uint32_t width, uint32_t height, bool guides, bool albedo);
 void render_framebuffer_free(render_framebuffer *fb);
 
 /* Compose direct + albedo x indirect (albedo demodulated, so the filter sees none), encode (sRGB,
  * except normal and ao, which show a normal's components and a visibility fraction as they are) and
  * quantise into img (already sized). */
-void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads,
-                                prt_image *img);
+void render_framebuffer_resolve(const render_framebuffer *fb, prt_shade shade, int threads, prt_image *img);
 
 /* The pixel encoding of a mode: sRGB, or linear for normal and ao. */
 bool render_shade_is_srgb(prt_shade shade);
@@ -182,14 +178,14 @@ prt_status render_denoise(render_framebuffer *fb, const render_camera *cam, int 
 typedef struct render_frame {
     render_scene scene;
     render_camera cam;
-    render_framebuffer fb;  /* gi only: what the filter and the composition read */
-    prt_image *img;         /* the result (sized by begin) */
-    prt_image *tile_img;    /* the other modes: tiles encoded straight into img; NULL for gi */
+    render_framebuffer fb; /* gi only: what the filter and the composition read */
+    prt_image *img;        /* the result (sized by begin) */
+    prt_image *tile_img;   /* the other modes: tiles encoded straight into img; NULL for gi */
     prt_render_options o;
-    bool srgb;              /* img's encoding */
+    bool srgb; /* img's encoding */
     uint32_t spp, tiles_x, tiles_y;
     uint64_t seed, rays;
-    long tiles, done;       /* tiles of the frame; rendered so far (progress) */
+    long tiles, done; /* tiles of the frame; rendered so far (progress) */
     int threads;
     double t0;
 } render_frame;

@@ -7,9 +7,7 @@
 
 static const char *const g_names[PRT_SHADE_COUNT] = {"normal", "diffuse", "shadows", "ao", "gi"};
 
-const char *prt_shade_name(prt_shade s) {
-    return (unsigned)s < PRT_SHADE_COUNT ? g_names[s] : "?";
-}
+const char *prt_shade_name(prt_shade s) { return (unsigned)s < PRT_SHADE_COUNT ? g_names[s] : "?"; }
 
 prt_status prt_shade_parse(const char *name, prt_shade *out) {
     for (int i = 0; name && i < PRT_SHADE_COUNT; i++)
@@ -17,8 +15,7 @@ prt_status prt_shade_parse(const char *name, prt_shade *out) {
             *out = (prt_shade)i;
             return PRT_OK;
         }
-    return prt__fail(PRT_ERROR_ARGUMENT,
-                     "unknown shading mode '%s' (normal, diffuse, shadows, ao, gi)",
+    return prt__fail(PRT_ERROR_ARGUMENT, "unknown shading mode '%s' (normal, diffuse, shadows, ao, gi)",
                      name ? name : "(null)");
 }
 
@@ -33,8 +30,7 @@ static const prt_vec3 g_light = {0.8f, 0.76f, 0.7f};
 /* Radiance of the sky that gi bounce rays find when they leave the scene (y up): blue
  * overhead, pale at the horizon, dull ground below. */
 static prt_vec3 sky(prt_vec3 d) {
-    prt_vec3 zenith = {0.42f, 0.58f, 0.9f}, horizon = {0.86f, 0.89f, 0.93f},
-             ground = {0.32f, 0.3f, 0.28f};
+    prt_vec3 zenith = {0.42f, 0.58f, 0.9f}, horizon = {0.86f, 0.89f, 0.93f}, ground = {0.32f, 0.3f, 0.28f};
     float y = d.y / prt_maxf(prt_v3_len(d), 1e-30f);
     prt_vec3 a = horizon, b = y >= 0.0f ? zenith : ground;
     /* Below the horizon the ground colour arrives quickly; the sky deepens slowly upward. */
@@ -110,12 +106,11 @@ void render_shade_shadowed(const render_scene *s, const prt_ray *r, const render
 /* The point light reflected by a surface of this albedo at cosine c (as g_light scaled by
  * albedo x c, the order the grey renderer used, so grey images keep every bit). */
 static prt_vec3 reflected(prt_vec3 albedo, float c) {
-    return prt_v3(g_light.x * (albedo.x * c), g_light.y * (albedo.y * c),
-                  g_light.z * (albedo.z * c));
+    return prt_v3(g_light.x * (albedo.x * c), g_light.y * (albedo.y * c), g_light.z * (albedo.z * c));
 }
 
-bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh,
-                  prt_rng *g, render_sample *out, render_surface *surf, uint64_t *rays) {
+bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, const prt_lod_hit *lh, prt_rng *g,
+                  render_sample *out, render_surface *surf, uint64_t *rays) {
     prt_vec3 d = prt_v3_load(r->dir);
     out->indirect = prt_v3(0.0f, 0.0f, 0.0f);
     if (lh ? !render_surface_lod(s, r, lh, surf, rays) : !render_surface_at(s, r, h, surf, rays)) {
@@ -133,9 +128,7 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, con
         out->direct = prt_v3_scale(f->albedo, 0.1f + 0.9f * prt_maxf(0.0f, c));
         break;
     }
-    case PRT_SHADE_SHADOWS:
-        render_shade_shadowed(s, r, f, light_visible_cos(s, f, rays), out);
-        break;
+    case PRT_SHADE_SHADOWS: render_shade_shadowed(s, r, f, light_visible_cos(s, f, rays), out); break;
     case PRT_SHADE_AO: {
         prt_ray ar = ray_from(lift(s, f), render_cosine_dir(f->n, g), s->ao_radius);
         (*rays)++;
@@ -163,15 +156,11 @@ bool render_shade(const render_scene *s, const prt_ray *r, const prt_hit *h, con
             got = render_surface_at(s, &br, &bh.hit, &y, rays);
         }
         (*rays)++;
-        if (got)
-            out->indirect = reflected(y.albedo, light_visible_cos(s, &y, rays));
-        else
-            out->indirect = sky(prt_v3_load(br.dir));
+        if (got) out->indirect = reflected(y.albedo, light_visible_cos(s, &y, rays));
+        else out->indirect = sky(prt_v3_load(br.dir));
         break;
     }
-    default:
-        out->direct = prt_v3(1.0f, 0.0f, 1.0f);
-        break;
+    default: out->direct = prt_v3(1.0f, 0.0f, 1.0f); break;
     }
     return true;
 }

@@ -37,7 +37,8 @@ prt_status rs_chunks(const prt_mesh *m, uint32_t max_chunk, int threads, uint32_
     size_t n;
     prt_status s = bvh_triangle_prims(m, NULL, 0, &prims, &n);
     if (s) return s;
-    bvh_build_params p = {.split = BVH_SPLIT_SAH, .max_leaf = max_chunk < 16 ? (int)max_chunk : 16, .block = 1, .threads = threads};
+    bvh_build_params p = {
+        .split = BVH_SPLIT_SAH, .max_leaf = max_chunk < 16 ? (int)max_chunk : 16, .block = 1, .threads = threads};
     bvh_tree tree;
     s = bvh_build(prims, n, &p, &tree);
     prt__free(prims);

@@ -144,7 +144,8 @@ static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const u
                            rc = count - nl;
             if (near_ok) {
                 if (far_ok)
-                    stack[top++] = near_left ? (rs_visit){rn, rf, rc, far_lo, dmax} : (rs_visit){ln, lf, lc, far_lo, dmax};
+                    stack[top++] =
+                        near_left ? (rs_visit){rn, rf, rc, far_lo, dmax} : (rs_visit){ln, lf, lc, far_lo, dmax};
                 if (near_left) node = ln, first = lf, count = lc;
                 else node = rn, first = rf, count = rc;
                 dmax = near_hi;

@@ -1,6 +1,6 @@
 /* Ray packets over Ray-Strips (Lauterbach et al. 2007, §5.3): 2x2 or 4x4 rays traverse the
- * top-level BVH (wide8 nodes: each ray tests a node's eight boxes at once) and a strip's s-kd tree together (one SIMD lane per ray, a subtree is
- * entered when any ray's interval reaches it); when fewer than a threshold of rays are
+ * top-level BVH (wide8 nodes: each ray tests a node's eight boxes at once) and a strip's s-kd tree together (one SIMD
+ * lane per ray, a subtree is entered when any ray's interval reaches it); when fewer than a threshold of rays are
  * active at a strip they leave the packet and trace it one by one with the single-ray
  * kernels. Triangles are always tested ray by ray with the single-ray group test (SIMD
  * over the strip's edges), so every ray gets exactly the hit prt_intersect1 gives it: the

@@ -56,8 +56,8 @@ static void rs_stats(const prt_accel *acc, prt_stats *s) {
     s->bytes_geometry = 4 * a->geometry_words - a->bytes_strip_tree + 12 * a->vertex_count;
     s->bytes_other = sizeof(rs_accel);
     if (a->fmt.mat)
-        snprintf(s->detail, sizeof s->detail, "materials (mat=u16): %zu bytes of the geometry, %.2f B/tri", a->bytes_materials,
-                 a->base.triangles ? (double)a->bytes_materials / (double)a->base.triangles : 0.0);
+        snprintf(s->detail, sizeof s->detail, "materials (mat=u16): %zu bytes of the geometry, %.2f B/tri",
+                 a->bytes_materials, a->base.triangles ? (double)a->bytes_materials / (double)a->base.triangles : 0.0);
     s->nodes = a->node_count;
     s->leaves = a->strip_count;
     s->depth = a->depth;
@@ -176,14 +176,16 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
     size_t total = 0;
     for (size_t i = 0; i < ns; i++) {
         prt_aabb b = prt_aabb_empty();
-        for (uint32_t j = l->first[i]; j < l->first[i + 1]; j++) prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)l->index[j]);
+        for (uint32_t j = l->first[i]; j < l->first[i + 1]; j++)
+            prt_aabb_grow_point(&b, m->vertices + 3 * (size_t)l->index[j]);
         bvh_prim_set(&prims[i], &b, (uint32_t)i);
         const uint32_t n = l->first[i + 1] - l->first[i] - 2;
         units[i] = (uint8_t)(rs_entry_words(n, rs_live(l->id + l->first[i] - 2 * i, n), &a->fmt) / RS_UNIT_WORDS);
         total += units[i];
         a->strip_triangles += n;
     }
-    if (total > UINT32_MAX / RS_UNIT) s = prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu units of strips exceed 32 bits", total);
+    if (total > UINT32_MAX / RS_UNIT)
+        s = prt__fail(PRT_ERROR_LIMIT, "raystrips: %zu units of strips exceed 32 bits", total);
     bvh_build_params p = {.split = BVH_SPLIT_SAH, .max_leaf = 1, .block = 1, .threads = threads};
     if (!s) s = bvh_build(prims, ns, &p, &tree);
     prt__free(prims);
@@ -220,7 +222,8 @@ static prt_status encode(rs_accel *a, const prt_mesh *m, const rs_strip_list *l,
         a->geometry = (const uint32_t *)(const void *)(blob.data + blob.bytes_tree);
         a->geometry_words = blob.bytes_geometry / 4;
         a->node_count = blob.nodes, a->strip_count = ns, a->depth = blob.depth;
-        for (int k = 0; k < 3; k++) a->base.bounds[k] = tree.nodes[0].box.lo[k], a->base.bounds[3 + k] = tree.nodes[0].box.hi[k];
+        for (int k = 0; k < 3; k++)
+            a->base.bounds[k] = tree.nodes[0].box.lo[k], a->base.bounds[3 + k] = tree.nodes[0].box.hi[k];
         /* The s-kd trees, q16 planes on the grid of the node that holds each record. */
         uint32_t *geo = (uint32_t *)(void *)(blob.data + blob.bytes_tree);
         for (size_t q = 0; q < a->node_count; q++) {
@@ -285,8 +288,8 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
         (s = prt__spec_enum(spec, "split", g_split_names, 2, 1, &split)) ||
         (s = prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip)) ||
         (s = prt__spec_enum(spec, "packet", g_packet_names, 3, 2, &packet)) ||
-        (s = prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids)) || (s = prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat)) ||
-        (s = prt__spec_check_unused(spec)))
+        (s = prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids)) ||
+        (s = prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat)) || (s = prt__spec_check_unused(spec)))
         return s;
     if (leaf & (leaf - 1)) return prt__fail(PRT_ERROR_ARGUMENT, "raystrips: leaf=%d: 1, 2, 4 or 8 triangles", leaf);
     if (ids && !(o && o->triangle_order))
@@ -322,9 +325,7 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
         a->fmt = (rs_format){(uint32_t)leaf, split == 1, ids == 1, mat == 1};
         s = cut_long_strips(&strips, &a->fmt);
     }
-    if (!s) {
-        s = encode(a, m, &strips, threads, ids ? o->triangle_order : NULL);
-    }
+    if (!s) { s = encode(a, m, &strips, threads, ids ? o->triangle_order : NULL); }
     rs_strip_list_free(&strips);
     if (!s) s = reorder_vertices(a, m);
     if (s) {
@@ -340,9 +341,9 @@ static prt_status rs_build(const prt_mesh *m, prt_spec *spec, const prt_build_op
 
 static prt_status rs_save(const prt_accel *acc, prt_writer *w) {
     const rs_accel *a = (const rs_accel *)acc;
-    rs_meta meta = {a->node_count, a->blob_bytes, a->strip_count, a->vertex_count, a->strip_triangles,
-                    a->base.triangles, a->bytes_strip_tree, (uint8_t)a->fmt.leaf, a->fmt.q16, a->fmt.no_ids,
-                    a->fmt.mat, a->depth};
+    rs_meta meta = {a->node_count,      a->blob_bytes,     a->strip_count,      a->vertex_count,
+                    a->strip_triangles, a->base.triangles, a->bytes_strip_tree, (uint8_t)a->fmt.leaf,
+                    a->fmt.q16,         a->fmt.no_ids,     a->fmt.mat,          a->depth};
     prt_status s = prt__writer_section(w, PRT_FOURCC('M', 'E', 'T', 'A'), &meta, sizeof meta);
     if (!s) s = prt__writer_section(w, RS_TAG_BLOB, a->blob, a->blob_bytes);
     if (!s) s = prt__writer_section(w, PRT_FOURCC('V', 'E', 'R', 'T'), a->vertices, a->vertex_count * 12);
@@ -364,8 +365,9 @@ static prt_status rs_load(prt_reader *r, prt_spec *spec, prt_accel **out) {
     if (prt__spec_int(spec, "chunk", 16, 4, 16384, &chunk) || prt__spec_int(spec, "leaf", 8, 1, 8, &leaf) ||
         prt__spec_enum(spec, "split", g_split_names, 2, 1, &split) ||
         prt__spec_enum(spec, "strip", g_strip_names, RS_STRIP_COUNT, RS_STRIP_RT, &strip) ||
-        prt__spec_enum(spec, "packet", g_packet_names, 3, 2, &packet) || prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids) ||
-        prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat) || prt__spec_check_unused(spec))
+        prt__spec_enum(spec, "packet", g_packet_names, 3, 2, &packet) ||
+        prt__spec_enum(spec, "ids", g_id_names, 2, 0, &ids) || prt__spec_enum(spec, "mat", g_mat_names, 2, 0, &mat) ||
+        prt__spec_check_unused(spec))
         return prt__fail(PRT_ERROR_CORRUPT, "raystrips: the file's spec has a bad option");
     if (meta.leaf != leaf || meta.q16 != split || meta.no_ids != ids || meta.mat != mat || meta.blob_bytes != bsize ||
         meta.node_count == 0 || meta.node_count > UINT32_MAX || meta.vertex_count > RS_MAX_VERTICES ||

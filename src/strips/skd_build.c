@@ -89,7 +89,8 @@ void rs_encode_strip(const prt_mesh *m, const uint32_t *index, const uint32_t *i
     rs_strip s = rs_strip_at(rec, f);
     memcpy((uint32_t *)s.index, index, ((size_t)n + 2) * sizeof *index);
     for (uint32_t k = 0, j = 0; k < n; k++) {
-        if (s.code) ((uint8_t *)s.code)[k >> 1] |= (uint8_t)((id[k] == RS_DEAD ? RS_CODE_TURN : id[k] & 7u) << 4 * (k & 1));
+        if (s.code)
+            ((uint8_t *)s.code)[k >> 1] |= (uint8_t)((id[k] == RS_DEAD ? RS_CODE_TURN : id[k] & 7u) << 4 * (k & 1));
         if (id[k] == RS_DEAD) {
             if (s.dead) ((uint8_t *)s.dead)[k >> 3] |= (uint8_t)(1u << (k & 7));
             continue;

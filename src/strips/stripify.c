@@ -76,7 +76,10 @@ prt_status rs_stripify(rs_stripifier which, const prt_mesh *m, const uint32_t *t
             const float c = p[k] + 0.0f; /* -0 and +0 alike */
             memcpy(&bits[k], &c, 4);
         }
-        size_t h = (size_t)(((bits[0] * 0x9E3779B1u) ^ (bits[1] * 0x85EBCA77u) ^ (bits[2] * 0xC2B2AE3Du)) * 0x9E3779B97F4A7C15ull >> 24) & (vslots - 1);
+        size_t h = (size_t)(((bits[0] * 0x9E3779B1u) ^ (bits[1] * 0x85EBCA77u) ^ (bits[2] * 0xC2B2AE3Du)) *
+                                0x9E3779B97F4A7C15ull >>
+                            24) &
+                   (vslots - 1);
         for (;; h = (h + 1) & (vslots - 1)) {
             if (!welded[h]) {
                 welded[h] = (uint32_t)nv + 1, global[nv++] = v;

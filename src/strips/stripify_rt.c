@@ -121,7 +121,8 @@ size_t rs_stripify_rt(const uint32_t *tris, size_t count, size_t local_vertices,
         memcpy(out + o, strip, len * sizeof *strip);
         o += len;
         out[o++] = ~0u;
-        for (size_t i = 0; i + 2 < len; i++) left -= strip[i] != strip[i + 2] && strip[i] != strip[i + 1] && strip[i + 1] != strip[i + 2];
+        for (size_t i = 0; i + 2 < len; i++)
+            left -= strip[i] != strip[i + 2] && strip[i] != strip[i + 1] && strip[i + 1] != strip[i + 2];
     }
 done:
     prt__free(s.nb), prt__free(s.done), prt__free(s.deg), prt__free(keys), prt__free(vals), prt__free(strip);

@@ -106,11 +106,11 @@ typedef struct rs_strip {
     const uint8_t *flags;
     const void *splits; /* float[2 * nodes] or uint16_t[2 * nodes] */
     const uint32_t *index;
-    const uint32_t *id;   /* ids=mesh: mesh triangle << 3 | code per live triangle; else NULL */
-    const uint8_t *dead;  /* ids=mesh: bit k set when strip triangle k is a turn; else NULL */
-    const uint8_t *code;  /* ids=none: a code per strip triangle, two a byte (low nibble first) */
-    const uint16_t *mat;  /* mat=u16: a material per live triangle; else NULL */
-    uint32_t base;        /* ids=none: the position of the strip's first live triangle */
+    const uint32_t *id;  /* ids=mesh: mesh triangle << 3 | code per live triangle; else NULL */
+    const uint8_t *dead; /* ids=mesh: bit k set when strip triangle k is a turn; else NULL */
+    const uint8_t *code; /* ids=none: a code per strip triangle, two a byte (low nibble first) */
+    const uint16_t *mat; /* mat=u16: a material per live triangle; else NULL */
+    uint32_t base;       /* ids=none: the position of the strip's first live triangle */
 } rs_strip;
 
 static inline rs_strip rs_strip_at(const uint32_t *rec, const rs_format *f) {
@@ -161,9 +161,9 @@ typedef enum rs_stripifier { RS_STRIP_MESHOPT, RS_STRIP_RT, RS_STRIP_COUNT } rs_
 
 typedef struct rs_accel {
     prt_accel base;
-    const uint8_t *blob;        /* wide8 blob: header, nodes, leaves of strip entries */
-    const wide8_node *nodes;    /* blob + WIDE8_HEADER_BYTES */
-    const uint32_t *geometry;   /* the leaves (blob + the header's geometry offset) */
+    const uint8_t *blob;      /* wide8 blob: header, nodes, leaves of strip entries */
+    const wide8_node *nodes;  /* blob + WIDE8_HEADER_BYTES */
+    const uint32_t *geometry; /* the leaves (blob + the header's geometry offset) */
     const float *vertices;
     size_t blob_bytes, geometry_words, node_count, strip_count, vertex_count, strip_triangles;
     size_t bytes_strip_tree; /* heads and s-kd nodes of the records, entries' bases and padding */

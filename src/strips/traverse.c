@@ -27,8 +27,8 @@ static inline rs_entry rs_child(const rs_accel *a, const wide8_node *n, uint32_t
 /* The strips of the leaf in slot `slot` of node n, entered over [tn, tf]; out of line, so
  * that the node loop of trace keeps its ray constants in registers (inlined, the edge
  * tests' vectors made the compiler spill them around every node, as lossygrid found). */
-PRT_NOINLINE static bool rs_leaf(const rs_accel *a, const prt__rayx *r, const wide8_node *n, int slot, float tn, float tf,
-                                 bool any, rs_best *best) {
+PRT_NOINLINE static bool rs_leaf(const rs_accel *a, const prt__rayx *r, const wide8_node *n, int slot, float tn,
+                                 float tf, bool any, rs_best *best) {
     size_t e, end;
     rs_leaf_range(n, slot, &e, &end);
     const rs_grid g = a->fmt.q16 ? rs_grid_of(n) : (rs_grid){{0, 0, 0}, {0, 0, 0}};
@@ -184,7 +184,8 @@ void rs_intersect_stream(const prt_accel *acc, prt_ray *rays, prt_hit *hits, siz
     while (on) {
         for (int i = 0; i < RS_LANES; i++) {
             rs_lane *l = &lanes[i];
-            if (on >> i & 1 && l->cur.slot < 0) l->mask = wide8_nf_hit(&a->nodes[l->cur.node], &l->c, l->best.t, &l->tmin, &l->tmax);
+            if (on >> i & 1 && l->cur.slot < 0)
+                l->mask = wide8_nf_hit(&a->nodes[l->cur.node], &l->c, l->best.t, &l->tmin, &l->tmax);
         }
         for (int i = 0; i < RS_LANES; i++) {
             rs_lane *l = &lanes[i];

@@ -63,14 +63,20 @@ static size_t entry_bytes(const void *ctx, uint32_t count) {
 }
 
 prt_status rs_validate(rs_accel *a, size_t mesh_triangles) {
-    if ((a->fmt.leaf & (a->fmt.leaf - 1)) || a->fmt.leaf == 0 || a->fmt.leaf > 8) return corrupt("leaf size", a->fmt.leaf);
+    if ((a->fmt.leaf & (a->fmt.leaf - 1)) || a->fmt.leaf == 0 || a->fmt.leaf > 8)
+        return corrupt("leaf size", a->fmt.leaf);
     wide8_header hd;
     memcpy(&hd, a->blob, sizeof hd);
     if (hd.grain != RS_UNIT || hd.nodes != a->node_count || hd.geometry > a->blob_bytes ||
         (a->blob_bytes - hd.geometry) % RS_UNIT)
         return corrupt("the top level's header", 0);
-    const bvh_blob b = {(uint8_t *)(uintptr_t)a->blob, a->blob_bytes, hd.geometry, a->blob_bytes - hd.geometry,
-                        a->node_count, 0, a->depth};
+    const bvh_blob b = {(uint8_t *)(uintptr_t)a->blob,
+                        a->blob_bytes,
+                        hd.geometry,
+                        a->blob_bytes - hd.geometry,
+                        a->node_count,
+                        0,
+                        a->depth};
     const wide8_leaves lv = {"raystrips", 1, RS_UNIT, RS_MAX_UNITS, entry_bytes, NULL, NULL, NULL};
     prt_status s = wide8_check(&b, &lv);
     if (s) return prt__fail(PRT_ERROR_CORRUPT, "raystrips: %s", prt_last_error());

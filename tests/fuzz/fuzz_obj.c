@@ -10,8 +10,7 @@
 #include <string.h>
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-    if ((size >= 3 && !memcmp(data, "ply", 3)) || (size >= 2 && data[0] == 0x1f && data[1] == 0x8b))
-        return -1;
+    if ((size >= 3 && !memcmp(data, "ply", 3)) || (size >= 2 && data[0] == 0x1f && data[1] == 0x8b)) return -1;
     size_t before, after;
     prt_memory_usage(&before, NULL);
     prt_mesh *m = NULL;

@@ -4,6 +4,4 @@
  * (load_check.h). */
 #include "load_check.h"
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-    return fuzz_load_check(data, size, "fuzz.ply");
-}
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) { return fuzz_load_check(data, size, "fuzz.ply"); }

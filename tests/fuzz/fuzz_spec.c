@@ -14,7 +14,8 @@ static prt_mesh *tiny_mesh(void) {
     prt_mesh *m;
     if (prt_mesh_create(9, 8, &m)) return NULL;
     for (int i = 0; i < 9; i++)
-        m->vertices[3 * i] = (float)(i % 3), m->vertices[3 * i + 1] = 0.1f * (float)(i % 2), m->vertices[3 * i + 2] = (float)(i / 3);
+        m->vertices[3 * i] = (float)(i % 3), m->vertices[3 * i + 1] = 0.1f * (float)(i % 2),
+                        m->vertices[3 * i + 2] = (float)(i / 3);
     for (int q = 0; q < 4; q++) {
         uint32_t a = (uint32_t)(q % 2 + 3 * (q / 2)), b = a + 1, c = a + 3, d = a + 4;
         uint32_t t[6] = {a, b, d, a, d, c};

@@ -2,6 +2,4 @@
  * that no magic claims are read as binary STL (load_check.h). */
 #include "load_check.h"
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-    return fuzz_load_check(data, size, "fuzz.stl");
-}
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) { return fuzz_load_check(data, size, "fuzz.stl"); }

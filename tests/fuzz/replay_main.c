@@ -59,9 +59,7 @@ static void run_file(const char *path) {
     free(data);
 }
 
-static int by_name(const void *a, const void *b) {
-    return strcmp(*(char *const *)a, *(char *const *)b);
-}
+static int by_name(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
 static int run_dir(const char *dir) {
     DIR *d = opendir(dir);

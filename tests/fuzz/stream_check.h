@@ -32,14 +32,13 @@ static prt_status fuzz_collect(void *user, const float *tris, size_t count, uint
 }
 
 /* m: what prt_mesh_load_memory gave (NULL when it failed with load_status). */
-static void stream_must_agree(const uint8_t *data, size_t size, const char *name,
-                              prt_status load_status, const prt_mesh *m) {
+static void stream_must_agree(const uint8_t *data, size_t size, const char *name, prt_status load_status,
+                              const prt_mesh *m) {
     fuzz_soup s = {NULL, 0, 0, 0};
     uint64_t n = 0;
     prt_status st = mesh_ply_stream_memory(data, size, name, size & 1, fuzz_collect, &s, &n);
     if (st != load_status) {
-        if (!(load_status == PRT_OK && st == PRT_ERROR_UNSUPPORTED &&
-              strstr(prt_last_error(), "before the vertices")))
+        if (!(load_status == PRT_OK && st == PRT_ERROR_UNSUPPORTED && strstr(prt_last_error(), "before the vertices")))
             abort();
     } else if (st != PRT_OK) {
         if (!strstr(prt_last_error(), name)) abort();
@@ -47,8 +46,8 @@ static void stream_must_agree(const uint8_t *data, size_t size, const char *name
         if (s.ids_bad || n != s.n || !m || s.n != m->triangle_count) abort();
         for (size_t t = 0; t < s.n; t++)
             for (int k = 0; k < 3; k++)
-                if (memcmp(s.tris + 9 * t + 3 * k,
-                           m->vertices + 3 * (size_t)m->triangles[3 * t + k], 3 * sizeof(float)))
+                if (memcmp(s.tris + 9 * t + 3 * k, m->vertices + 3 * (size_t)m->triangles[3 * t + k],
+                           3 * sizeof(float)))
                     abort();
     }
     free(s.tris);

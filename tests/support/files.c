@@ -162,8 +162,9 @@ static prt_status write_stl(const char *path) { return write_mesh_as(path, prt_m
 static prt_status write_off(const char *path) { return write_mesh_as(path, prt_mesh_save_off); }
 
 const file_kind file_kinds[] = {
-    {"prt", write_prt},   {"ooc", write_ooc_build}, {"ooc-copy", write_ooc_copy}, {"rays", write_rays},
-    {"hits", write_hits}, {"occluded-hits", write_occluded}, {"png", write_png}, {"ppm", write_ppm},
-    {"ply", write_ply},   {"stl", write_stl},       {"off", write_off},
+    {"prt", write_prt},   {"ooc", write_ooc_build}, {"ooc-copy", write_ooc_copy},
+    {"rays", write_rays}, {"hits", write_hits},     {"occluded-hits", write_occluded},
+    {"png", write_png},   {"ppm", write_ppm},       {"ply", write_ply},
+    {"stl", write_stl},   {"off", write_off},
 };
 const size_t file_kind_count = sizeof file_kinds / sizeof file_kinds[0];

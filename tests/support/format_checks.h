@@ -15,8 +15,7 @@ static inline void expect_bad_file(const char *file, prt_status status, const ch
     prt_status st = prt_mesh_load(path, &m);
     CHECK_MSG(st == status, "%s: %s (%s)", file, prt_status_string(st), prt_last_error());
     CHECK(m == NULL);
-    CHECK_MSG(strstr(prt_last_error(), path) && strstr(prt_last_error(), fragment), "%s: %s", file,
-              prt_last_error());
+    CHECK_MSG(strstr(prt_last_error(), path) && strstr(prt_last_error(), fragment), "%s: %s", file, prt_last_error());
 }
 
 /* A table of bad files: each must fail as expect_bad_file says. */
@@ -32,8 +31,8 @@ static inline void expect_bad_files(const bad_file_case *c, size_t n) {
 
 /* A generated sphere saved as PLY and through `save` (as `name`), both loaded again: the
  * same vertex count and bit-identical hits for `spec`. */
-static inline void check_hits_as_from_ply(prt_status (*save)(const prt_mesh *, const char *),
-                                          const char *name, const char *spec) {
+static inline void check_hits_as_from_ply(prt_status (*save)(const prt_mesh *, const char *), const char *name,
+                                          const char *spec) {
     prt_mesh *s = NULL;
     CHECK_OK(prt_mesh_generate("sphere", 5000, 1, &s));
     if (!s) return;

@@ -26,7 +26,8 @@ prt_mesh *mesh_same_centroid(size_t n) {
     if (prt_mesh_create(3 * n, n, &m)) return NULL;
     for (size_t i = 0; i < n; i++) {
         float a = (float)i * 0.7f, s = 0.1f + 0.001f * (float)i;
-        float p[3][3] = {{s * cosf(a), s * sinf(a), 0}, {s * cosf(a + 2.0944f), s * sinf(a + 2.0944f), 0.1f},
+        float p[3][3] = {{s * cosf(a), s * sinf(a), 0},
+                         {s * cosf(a + 2.0944f), s * sinf(a + 2.0944f), 0.1f},
                          {s * cosf(a + 4.1888f), s * sinf(a + 4.1888f), -0.1f}};
         float cx = (p[0][0] + p[1][0] + p[2][0]) / 3, cy = (p[0][1] + p[1][1] + p[2][1]) / 3;
         for (int v = 0; v < 3; v++) {
@@ -72,7 +73,8 @@ prt_mesh *mesh_grid(uint32_t n) {
     for (uint32_t z = 0; z <= n; z++)
         for (uint32_t x = 0; x <= n; x++) {
             float *v = m->vertices + 3 * ((size_t)z * (n + 1) + x);
-            v[0] = (float)x / (float)n, v[1] = 0.05f * sinf(7.0f * (float)(x + 2 * z) / (float)n), v[2] = (float)z / (float)n;
+            v[0] = (float)x / (float)n, v[1] = 0.05f * sinf(7.0f * (float)(x + 2 * z) / (float)n),
+            v[2] = (float)z / (float)n;
         }
     uint32_t *t = m->triangles;
     for (uint32_t z = 0; z < n; z++)

@@ -38,8 +38,8 @@ prt_hit ref_intersect(const prt_mesh *m, const prt_ray *r, double *edge_dist) {
         const uint32_t *t = m->triangles + 3 * i;
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
         double tt, u, v;
-        if (hit_tri(o, d, m->vertices + 3 * (size_t)t[0], m->vertices + 3 * (size_t)t[1], m->vertices + 3 * (size_t)t[2],
-                    &tt, &u, &v) &&
+        if (hit_tri(o, d, m->vertices + 3 * (size_t)t[0], m->vertices + 3 * (size_t)t[1],
+                    m->vertices + 3 * (size_t)t[2], &tt, &u, &v) &&
             tt >= r->tnear && tt <= r->tfar && tt < best) {
             best = tt, bu = u, bv = v;
             h.prim = (uint32_t)i;
@@ -59,8 +59,8 @@ int ref_occluded(const prt_mesh *m, const prt_ray *r, double edge_eps) {
         const uint32_t *t = m->triangles + 3 * i;
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
         double tt, u, v;
-        if (hit_tri(o, d, m->vertices + 3 * (size_t)t[0], m->vertices + 3 * (size_t)t[1], m->vertices + 3 * (size_t)t[2],
-                    &tt, &u, &v) &&
+        if (hit_tri(o, d, m->vertices + 3 * (size_t)t[0], m->vertices + 3 * (size_t)t[1],
+                    m->vertices + 3 * (size_t)t[2], &tt, &u, &v) &&
             tt >= r->tnear && tt <= r->tfar) {
             if (edge_eps > 0 && fmin(fmin(u, v), 1 - u - v) < edge_eps) ambiguous = 1;
             else return 1;

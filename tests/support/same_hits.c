@@ -17,8 +17,7 @@ size_t hits_differing(const prt_mesh *a, const prt_mesh *b, const char *spec, si
             prt_hit h1, h2;
             prt_intersect1(x, &r1, &h1);
             prt_intersect1(y, &r2, &h2);
-            if (memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4) ||
-                h1.prim != h2.prim)
+            if (memcmp(&h1.t, &h2.t, 4) || memcmp(&h1.u, &h2.u, 4) || memcmp(&h1.v, &h2.v, 4) || h1.prim != h2.prim)
                 differ++;
         }
     }

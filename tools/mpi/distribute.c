@@ -41,16 +41,15 @@ static int frame_planes(render_frame *f, bool floats, plane *p) {
     return n;
 }
 
-static void super_range(const render_frame *f, const dist_config *c, long s, long *first,
-                        long *count) {
+static void super_range(const render_frame *f, const dist_config *c, long s, long *first, long *count) {
     *first = s * c->super;
     *count = PRT_MIN(c->super, f->tiles - *first);
 }
 
 /* Copy super-tile s between the frame's planes and buf (to_buf: frame -> buf); returns the
  * bytes it covers in buf (buf NULL: only count them). */
-static size_t copy_super(const render_frame *f, const dist_config *c, const plane *p, int np,
-                         long s, uint8_t *buf, bool to_buf) {
+static size_t copy_super(const render_frame *f, const dist_config *c, const plane *p, int np, long s, uint8_t *buf,
+                         bool to_buf) {
     long first, count;
     super_range(f, c, s, &first, &count);
     size_t at = 0;
@@ -61,10 +60,8 @@ static size_t copy_super(const render_frame *f, const dist_config *c, const plan
             for (uint32_t y = 0; y < r[3]; y++) {
                 const size_t n = (size_t)r[2] * p[k].bytes;
                 uint8_t *px = p[k].base + ((size_t)(r[1] + y) * f->cam.width + r[0]) * p[k].bytes;
-                if (buf && to_buf)
-                    memcpy(buf + at, px, n);
-                else if (buf)
-                    memcpy(px, buf + at, n);
+                if (buf && to_buf) memcpy(buf + at, px, n);
+                else if (buf) memcpy(px, buf + at, n);
                 at += n;
             }
     }
@@ -104,8 +101,7 @@ static void give(queue *q, int w) {
         s = q->next++;
         q->list[w][q->len[w]++] = (long)s;
         q->outstanding[w]++;
-    } else if (q->outstanding[w] || q->stop_sent[w])
-        return;
+    } else if (q->outstanding[w] || q->stop_sent[w]) return;
     else {
         q->stop_sent[w] = true;
         q->stopped++;
@@ -194,15 +190,15 @@ static bool deal_init(deal *d, const dist_config *c, long count, size_t frame_by
         d->stop_sent = calloc((size_t)c->ranks, sizeof *d->stop_sent);
         d->recv = malloc(frame_bytes ? frame_bytes : 1);
     }
-    bool ok =
-        d->list && d->len && d->store && d->sec &&
-        (!root || (d->secs && d->outstanding && d->counts && d->displs && d->stop_sent && d->recv));
+    bool ok = d->list && d->len && d->store && d->sec &&
+              (!root || (d->secs && d->outstanding && d->counts && d->displs && d->stop_sent && d->recv));
     for (size_t r = 0; ok && r < lists; r++) d->list[r] = d->store + r * n;
     return ok;
 }
 
 static void deal_free(deal *d) {
-    void *owned[] = {d->store, d->list, d->len, d->sec, d->secs, d->outstanding, d->counts, d->displs, d->stop_sent, d->recv};
+    void *owned[] = {d->store,       d->list,   d->len,    d->sec,       d->secs,
+                     d->outstanding, d->counts, d->displs, d->stop_sent, d->recv};
     for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++) free(owned[k]);
 }
 
@@ -297,7 +293,8 @@ static prt_status gather_pixels(frame_job *j, prt_status status, dist_stats *st)
     const bool root = j->root;
     double tg = MPI_Wtime();
     size_t send_bytes = 0;
-    for (long i = 0; i < j->nmine && !root; i++) send_bytes += copy_super(j->f, j->c, j->p, j->np, j->mine[i], NULL, true);
+    for (long i = 0; i < j->nmine && !root; i++)
+        send_bytes += copy_super(j->f, j->c, j->p, j->np, j->mine[i], NULL, true);
     uint8_t *send = root ? NULL : malloc(send_bytes ? send_bytes : 1);
     int failed = status != PRT_OK || (!root && !send), worst = 0;
     MPI_Allreduce(&failed, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
@@ -361,10 +358,8 @@ prt_status dist_frame(render_frame *f, const dist_config *c, dist_stats *st) {
     gather_seconds(&j, st);
     deal_free(&j.d);
     if (j.floats) {
-        if (j.root)
-            status = render_frame_end(f);
-        else
-            render_frame_free(f);
+        if (j.root) status = render_frame_end(f);
+        else render_frame_free(f);
     }
     if (j.root && !status) f->img->rays = st->rays;
     return status;

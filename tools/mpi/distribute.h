@@ -25,8 +25,8 @@ typedef struct dist_config {
 typedef struct dist_stats {
     long super_count;
     int *owner;
-    double *seconds;     /* wall clock */
-    double *cpu_seconds; /* the rendering thread's CPU time (the cost, with --threads 1) */
+    double *seconds;           /* wall clock */
+    double *cpu_seconds;       /* the rendering thread's CPU time (the cost, with --threads 1) */
     uint64_t bytes_gathered;   /* rank 0: payload bytes received from the other ranks */
     uint64_t bytes_own;        /* rank 0: its own tiles' payload (copied, not sent) */
     uint64_t rays;             /* rays cast by all ranks */

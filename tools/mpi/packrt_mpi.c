@@ -21,22 +21,21 @@ typedef struct mpi_args {
 } mpi_args;
 
 static void usage(void) {
-    printf(
-        "usage: mpirun -np N packrt-mpi MESH|FILE.prt [packrt render's options] [options]\n"
-        "\n"
-        "Render as `packrt render` does, the tiles spread over the ranks of an MPI job:\n"
-        "every rank opens FILE itself (shared storage), rank 0 gathers the pixels and\n"
-        "writes the image, the same bytes as `packrt render` gives with the same options,\n"
-        "for any number of ranks.\n"
-        "\n"
-        "  --balance static|dynamic  static (default): super-tile s to rank s mod N;\n"
-        "                   dynamic: rank 0 hands them out as ranks finish (uneven tiles)\n"
-        "  --super-tile N   tiles of 8x8 pixels in a super-tile (default: up to 64, fewer so that\n"
-        "                   each rank gets at least 16)\n"
-        "  --tile-times F   write each super-tile's rank, wall and CPU seconds of the last frame\n"
-        "                   to F (rank 0); the CPU time is the rendering thread's: a tile's cost\n"
-        "                   with --threads 1 even on a loaded machine\n"
-        "\n");
+    printf("usage: mpirun -np N packrt-mpi MESH|FILE.prt [packrt render's options] [options]\n"
+           "\n"
+           "Render as `packrt render` does, the tiles spread over the ranks of an MPI job:\n"
+           "every rank opens FILE itself (shared storage), rank 0 gathers the pixels and\n"
+           "writes the image, the same bytes as `packrt render` gives with the same options,\n"
+           "for any number of ranks.\n"
+           "\n"
+           "  --balance static|dynamic  static (default): super-tile s to rank s mod N;\n"
+           "                   dynamic: rank 0 hands them out as ranks finish (uneven tiles)\n"
+           "  --super-tile N   tiles of 8x8 pixels in a super-tile (default: up to 64, fewer so that\n"
+           "                   each rank gets at least 16)\n"
+           "  --tile-times F   write each super-tile's rank, wall and CPU seconds of the last frame\n"
+           "                   to F (rank 0); the CPU time is the rendering thread's: a tile's cost\n"
+           "                   with --threads 1 even on a loaded machine\n"
+           "\n");
 }
 
 /* Take packrt-mpi's own options out of argv (in place); the rest is packrt render's. Returns -1
@@ -46,24 +45,19 @@ static int parse_own(int *argc, char **argv, mpi_args *m, bool *help) {
     for (int i = 1; i < *argc; i++) {
         const char *arg = argv[i], *val = i + 1 < *argc ? argv[i + 1] : NULL;
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) *help = true;
-        if (!strcmp(arg, "--balance") || !strcmp(arg, "--super-tile") ||
-            !strcmp(arg, "--tile-times")) {
+        if (!strcmp(arg, "--balance") || !strcmp(arg, "--super-tile") || !strcmp(arg, "--tile-times")) {
             if (!val) return cli_usage("mpi", "%s needs a value", arg);
             i++;
             if (!strcmp(arg, "--balance")) {
-                if (!strcmp(val, "static"))
-                    m->balance = DIST_STATIC;
-                else if (!strcmp(val, "dynamic"))
-                    m->balance = DIST_DYNAMIC;
-                else
-                    return cli_usage("mpi", "--balance wants static or dynamic (got '%s')", val);
+                if (!strcmp(val, "static")) m->balance = DIST_STATIC;
+                else if (!strcmp(val, "dynamic")) m->balance = DIST_DYNAMIC;
+                else return cli_usage("mpi", "--balance wants static or dynamic (got '%s')", val);
             } else if (!strcmp(arg, "--super-tile")) {
                 char *e;
                 m->super = strtol(val, &e, 10);
                 if (e == val || *e || m->super < 1 || m->super > 1 << 20)
                     return cli_usage("mpi", "--super-tile wants 1..1048576 tiles (got '%s')", val);
-            } else
-                m->tile_times = val;
+            } else m->tile_times = val;
             continue;
         }
         argv[n++] = argv[i];
@@ -102,9 +96,8 @@ static int agree(int rc, int rank, int ranks, const char *what) {
     MPI_Gather(&rc, 1, MPI_INT, all, 1, MPI_INT, 0, MPI_COMM_WORLD);
     for (int r = 0; all && r < ranks; r++)
         if (all[r])
-            fprintf(stderr,
-                    "packrt-mpi: rank %d of %d failed to %s (exit code %d): ending the job\n", r,
-                    ranks, what, all[r]);
+            fprintf(stderr, "packrt-mpi: rank %d of %d failed to %s (exit code %d): ending the job\n", r, ranks, what,
+                    all[r]);
     free(all);
     int worst = 0;
     MPI_Allreduce(&rc, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
@@ -121,29 +114,26 @@ static int cmp_double(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-static int write_tile_times(const char *path, const prt_image *img, const dist_config *c,
-                            const dist_stats *st) {
+static int write_tile_times(const char *path, const prt_image *img, const dist_config *c, const dist_stats *st) {
     FILE *fp = fopen(path, "w");
     if (!fp) return cli_fail("mpi", path, PRT_ERROR_IO);
-    const long tiles = (long)((img->width + RENDER_TILE - 1) / RENDER_TILE) *
-                       ((img->height + RENDER_TILE - 1) / RENDER_TILE);
+    const long tiles =
+        (long)((img->width + RENDER_TILE - 1) / RENDER_TILE) * ((img->height + RENDER_TILE - 1) / RENDER_TILE);
     fprintf(fp,
             "# super-tile first_tile tiles rank seconds cpu_seconds (%ux%u, %ld tiles of %dx%d in render "
             "order, %d ranks)\n",
             img->width, img->height, tiles, RENDER_TILE, RENDER_TILE, c->ranks);
     for (long s = 0; s < st->super_count; s++) {
         long first = s * c->super, n = PRT_MIN(c->super, tiles - first);
-        fprintf(fp, "%ld %ld %ld %d %.9f %.9f\n", s, first, n, st->owner[s], st->seconds[s],
-                st->cpu_seconds[s]);
+        fprintf(fp, "%ld %ld %ld %d %.9f %.9f\n", s, first, n, st->owner[s], st->seconds[s], st->cpu_seconds[s]);
     }
     return fclose(fp) ? cli_fail("mpi", path, PRT_ERROR_IO) : 0;
 }
 
 /* One frame on every rank; rank 0 gets the image in *img. Frame time: rank 0's wall clock from
  * a barrier to the finished image. */
-static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_args *r,
-                        const mpi_args *ma, dist_config *c, prt_image *img, dist_stats *st,
-                        double *seconds) {
+static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_args *r, const mpi_args *ma,
+                        dist_config *c, prt_image *img, dist_stats *st, double *seconds) {
     MPI_Barrier(MPI_COMM_WORLD);
     double t0 = MPI_Wtime();
     render_frame f;
@@ -153,9 +143,7 @@ static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_
     MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
     if (any) {
         if (!s) render_frame_free(&f);
-        return s ? s
-                 : prt__fail(PRT_ERROR_ARGUMENT,
-                             "packrt-mpi: another rank could not start the frame");
+        return s ? s : prt__fail(PRT_ERROR_ARGUMENT, "packrt-mpi: another rank could not start the frame");
     }
     c->super = ma->super;
     if (!c->super) {
@@ -167,16 +155,15 @@ static prt_status frame(const prt_accel *a, const prt_mesh *m, const cli_render_
     return s;
 }
 
-static void report(const cli_render_args *r, const dist_config *c, const prt_image *img,
-                   const dist_stats *st, double t, const prt_accel *a) {
+static void report(const cli_render_args *r, const dist_config *c, const prt_image *img, const dist_stats *st, double t,
+                   const prt_accel *a) {
     const double own_mb = (double)st->bytes_own / 1e6;
     printf("%-24s %ux%u %s spp %u, %d rank%s x %d thread%s, %s balance, super-tiles of %ld tiles: "
            "%.3f s, %.2f "
            "Mrays/s -> %s\n",
-           prt_accel_spec(a), img->width, img->height, prt_shade_name(r->o.shade), r->o.spp,
-           c->ranks, c->ranks == 1 ? "" : "s", r->threads, r->threads == 1 ? "" : "s",
-           c->balance == DIST_STATIC ? "static" : "dynamic", c->super, t,
-           (double)st->rays / t * 1e-6, r->out);
+           prt_accel_spec(a), img->width, img->height, prt_shade_name(r->o.shade), r->o.spp, c->ranks,
+           c->ranks == 1 ? "" : "s", r->threads, r->threads == 1 ? "" : "s",
+           c->balance == DIST_STATIC ? "static" : "dynamic", c->super, t, (double)st->rays / t * 1e-6, r->out);
     /* The wait includes the slowest rank's rendering after rank 0's own. */
     printf("gathered %.3f MB a frame from the other ranks (rank 0's own %.3f MB in place); rank 0 "
            "waited %.4f s for them\n",

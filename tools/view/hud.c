@@ -17,6 +17,5 @@ void view_hud_draw(SDL_Renderer *r, const char *const *lines, int count, bool bo
     SDL_SetRenderDrawColor(r, 0, 0, 0, 160);
     SDL_RenderFillRect(r, &box);
     SDL_SetRenderDrawColor(r, 235, 235, 220, 255);
-    for (int i = 0; i < count; i++)
-        SDLTest_DrawString(r, box.x + 6, box.y + 5 + i * FONT_LINE_HEIGHT, lines[i]);
+    for (int i = 0; i < count; i++) SDLTest_DrawString(r, box.x + 6, box.y + 5 + i * FONT_LINE_HEIGHT, lines[i]);
 }

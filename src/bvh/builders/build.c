@@ -75,8 +75,7 @@ static void build_node(bvh_builder *b, size_t node, bvh_prim *p, size_t n, uint3
     nd->box = box;
 
     uint32_t d = atomic_load(&b->depth);
-    while (depth > d && !atomic_compare_exchange_weak(&b->depth, &d, depth)) {
-    }
+    while (depth > d && !atomic_compare_exchange_weak(&b->depth, &d, depth)) {}
 
     size_t mid = 0;
     bool split;

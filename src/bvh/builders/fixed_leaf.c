@@ -28,8 +28,7 @@ static void select_smallest(bvh_prim *p, size_t n, size_t k, int axis) {
     }
 }
 
-static bool split_fixed(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox,
-                        size_t *mid) {
+static bool split_fixed(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid) {
     const size_t g = (size_t)PRT_MIN(b->params.block > 1 ? b->params.block : 4, b->params.max_leaf);
     int axis;
     if (n <= g) return false; /* one group: a leaf, however the SAH would cut it */
@@ -38,7 +37,7 @@ static bool split_fixed(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *b
     if (m == 0) m = g;
     if (m >= n) m = (n - 1) / g * g;
     if (m > *mid) select_smallest(p + *mid, n - *mid, m - *mid, axis); /* the nearest of the right cross */
-    else if (m < *mid) select_smallest(p, *mid, m, axis);               /* the nearest of the left cross */
+    else if (m < *mid) select_smallest(p, *mid, m, axis);              /* the nearest of the left cross */
     *mid = m;
     return true;
 }

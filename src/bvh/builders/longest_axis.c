@@ -2,8 +2,7 @@
  * along their longest axis. */
 #include "bvh/tree.h"
 
-bool bvh_split_longest(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox,
-                       size_t *mid) {
+bool bvh_split_longest(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid) {
     (void)box;
     if (n <= (size_t)b->params.max_leaf) return false;
     int axis = 0;

@@ -2,8 +2,7 @@
  * where they deviate most. */
 #include "bvh/tree.h"
 
-bool bvh_split_mean(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox,
-                    size_t *mid) {
+bool bvh_split_mean(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid) {
     (void)box, (void)cbox;
     if (n <= (size_t)b->params.max_leaf) return false;
     double sum[3] = {0}, sq[3] = {0};

@@ -50,8 +50,12 @@ uint32_t *bvh_morton_sort(bvh_prim *p, size_t n, const prt_aabb *cbox, int threa
             dst_k[d] = src_k[i];
             dst_p[d] = src_p[i];
         }
-        uint32_t *tk = src_k; src_k = dst_k; dst_k = tk;
-        bvh_prim *tp = src_p; src_p = dst_p; dst_p = tp;
+        uint32_t *tk = src_k;
+        src_k = dst_k;
+        dst_k = tk;
+        bvh_prim *tp = src_p;
+        src_p = dst_p;
+        dst_p = tp;
     }
     /* Three passes: the sorted data ended in the scratch buffers. */
     memcpy(p, src_p, n * sizeof *p);
@@ -61,8 +65,7 @@ uint32_t *bvh_morton_sort(bvh_prim *p, size_t n, const prt_aabb *cbox, int threa
     return codes;
 }
 
-bool bvh_split_morton(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox,
-                      size_t *mid) {
+bool bvh_split_morton(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid) {
     (void)box, (void)cbox;
     if (n <= (size_t)b->params.max_leaf) return false;
     const uint32_t *k = b->keys + (p - b->base);

@@ -17,7 +17,8 @@ static prt_status triangle_prims(const prt_mesh *m, const uint32_t *ids, size_t 
     for (size_t i = 0; i < total; i++) {
         const size_t t = ids ? ids[i] : i;
         const uint32_t *i3 = m->triangles + 3 * t;
-        if (keep_flat ? i3[0] == i3[1] || i3[1] == i3[2] || i3[0] == i3[2] : prt__mesh_triangle_degenerate(m, t)) continue;
+        if (keep_flat ? i3[0] == i3[1] || i3[1] == i3[2] || i3[0] == i3[2] : prt__mesh_triangle_degenerate(m, t))
+            continue;
         prt_aabb box = prt_aabb_empty();
         for (int v = 0; v < 3; v++) prt_aabb_grow_point(&box, m->vertices + 3 * (size_t)m->triangles[3 * t + v]);
         bvh_prim_set(&prims[(*n)++], &box, (uint32_t)t);

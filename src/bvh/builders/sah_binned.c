@@ -18,8 +18,8 @@ static inline float half_area4(vf4 lo, vf4 hi) {
 
 static float blocks(size_t n, int block) { return (float)((n + (size_t)block - 1) / (size_t)block); }
 
-bool bvh_split_sah_axis(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox,
-                        size_t *mid, int *axis) {
+bool bvh_split_sah_axis(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid,
+                        int *axis) {
     const int block = b->params.block;
     /* Small nodes get as many bins as primitives: sweeping 32 mostly empty bins would cost
      * more than the binning itself. */
@@ -99,8 +99,7 @@ bool bvh_split_sah_axis(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *b
     return true;
 }
 
-bool bvh_split_sah(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox,
-                   size_t *mid) {
+bool bvh_split_sah(bvh_builder *b, bvh_prim *p, size_t n, const prt_aabb *box, const prt_aabb *cbox, size_t *mid) {
     int axis;
     return bvh_split_sah_axis(b, p, n, box, cbox, mid, &axis);
 }

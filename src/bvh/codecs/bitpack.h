@@ -43,7 +43,8 @@ static inline void bitpack_encode(uint8_t *dst, const prt_mesh *m, const uint32_
     for (uint32_t i = 0; i < n; i++)
         for (int v = 0; v < 3; v++, dst += 8) {
             double d2;
-            uint64_t w = bpv_pack(m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[i] + (size_t)v], grid, grid + 3, &d2);
+            uint64_t w =
+                bpv_pack(m->vertices + 3 * (size_t)m->triangles[3 * (size_t)ids[i] + (size_t)v], grid, grid + 3, &d2);
             memcpy(dst, &w, 8);
         }
 }
@@ -59,7 +60,8 @@ PRT_INLINE void bitpack_triangle(const uint8_t *leaf, uint32_t i, float p[9]) {
     uint64_t w[3];
     memcpy(w, leaf + BITPACK_HEAD_BYTES + (size_t)i * BITPACK_TRI_BYTES, sizeof w);
     for (int v = 0; v < 3; v++)
-        for (int k = 0; k < 3; k++) p[3 * v + k] = bpv_decode(g[k], g[3 + k], (uint32_t)(w[v] >> (BPV_BITS * k)) & BPV_MASK);
+        for (int k = 0; k < 3; k++)
+            p[3 * v + k] = bpv_decode(g[k], g[3 + k], (uint32_t)(w[v] >> (BPV_BITS * k)) & BPV_MASK);
 }
 
 /* The largest decoded-to-mesh vertex distance of the leaf's triangles (m in leaf order). */
@@ -96,7 +98,8 @@ static inline void bitpack_ray_init(bitpack_ray *c, const prt__rayx *r, const bv
     c->sh = sh;
 }
 
-PRT_INLINE void bitpack_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const bitpack_ray *c, prt__hitx *h) {
+PRT_INLINE void bitpack_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const bitpack_ray *c,
+                                  prt__hitx *h) {
     uint32_t id0;
     memcpy(&id0, leaf, 4);
     for (uint32_t i = 0; i < n; i++) {
@@ -109,7 +112,8 @@ PRT_INLINE void bitpack_intersect(const uint8_t *leaf, uint32_t n, const prt__ra
     }
 }
 
-PRT_INLINE bool bitpack_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const bitpack_ray *c, float tfar) {
+PRT_INLINE bool bitpack_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const bitpack_ray *c,
+                                 float tfar) {
     (void)c;
     for (uint32_t i = 0; i < n; i++) {
         float p[9], t, u, w;

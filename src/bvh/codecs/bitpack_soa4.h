@@ -34,7 +34,9 @@ typedef struct bitpack_soa4_ray {
     const bvh_shared *sh;
 } bitpack_soa4_ray;
 
-static inline size_t bitpack_soa4_leaf_bytes(uint32_t n) { return BSOA_HEAD_BYTES + (size_t)((n + 3) / 4) * BSOA_BLOCK_BYTES; }
+static inline size_t bitpack_soa4_leaf_bytes(uint32_t n) {
+    return BSOA_HEAD_BYTES + (size_t)((n + 3) / 4) * BSOA_BLOCK_BYTES;
+}
 
 /* One component as decoded: the same expression everywhere (kernel, error). */
 static inline float bsoa_decode(float offset, float scale, uint32_t q) { return offset + (float)q * scale; }
@@ -61,7 +63,8 @@ static inline void bitpack_soa4_encode(uint8_t *dst, const prt_mesh *m, const ui
                     continue;
                 }
                 const int v = c / 3, k = c % 3;
-                const float x = m->vertices[3 * (size_t)m->triangles[3 * (size_t)ids[4 * b + l] + (size_t)v] + (size_t)k];
+                const float x =
+                    m->vertices[3 * (size_t)m->triangles[3 * (size_t)ids[4 * b + l] + (size_t)v] + (size_t)k];
                 const float r = scale[k] > 0 ? roundf((x - lo[k]) / scale[k]) : 0.0f;
                 q[c][l] = (uint16_t)(r < 0 ? 0 : r > (float)BSOA_MASK ? BSOA_MASK : (uint32_t)r);
             }
@@ -143,7 +146,8 @@ PRT_INLINE void bsoa_decode_block(const uint8_t *block, float p[36]) {
     for (int c = 0; c < 9; c++) {
         const vi4 qi = {(int32_t)(w[c] & 0xFFFF), (int32_t)(w[c] >> 16 & 0xFFFF), (int32_t)(w[c] >> 32 & 0xFFFF),
                         (int32_t)(w[c] >> 48)};
-        const vf4 x = vf4_select(pad, nan, vf4_set1(g[3 + c % 3]) + __builtin_convertvector(qi, vf4) * vf4_set1(g[c % 3]));
+        const vf4 x =
+            vf4_select(pad, nan, vf4_set1(g[3 + c % 3]) + __builtin_convertvector(qi, vf4) * vf4_set1(g[c % 3]));
         memcpy(p + 4 * c, &x, sizeof x);
     }
 }

@@ -107,7 +107,9 @@ static inline void bpv_decode_lanes(const uint64_t *w, int lanes, const float lo
         for (int l = 0; l < lanes; l++)
             for (int k = 0; k < 3; k++)
                 p[lanes * (3 * v + k) + l] =
-                    pad[l] && v < 2 && k == 2 ? NAN : bpv_decode(lo[k], step[k], (uint32_t)(w[v * lanes + l] >> (BPV_BITS * comp[k])) & BPV_MASK);
+                    pad[l] && v < 2 && k == 2
+                        ? NAN
+                        : bpv_decode(lo[k], step[k], (uint32_t)(w[v * lanes + l] >> (BPV_BITS * comp[k])) & BPV_MASK);
 }
 
 /* Decode the 12 words of a block of four triangles (w[v][lane]: vertex v of each) into the

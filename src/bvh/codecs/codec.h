@@ -23,32 +23,50 @@
 #define BVH_CODECS(X) BVH_TRIANGLE_CODECS(X) BVH_KIND_CODECS(X)
 
 /* Codecs whose leaves are runs of triangles. */
-#define BVH_TRIANGLE_CODECS(X) \
-    X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle") \
-    X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test") \
-    X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test") \
-    X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle") \
-    X(idx32_soa4, "idx32-soa4", "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form") \
-    X(idx8_bitpack_soa4, "idx8-bitpack-soa4", "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossy") \
-    X(idx8_soa4, "idx8-soa4", "Indexed8SOA4 (beyond Rouwe: 3.9 with float vertices): vertices in leaf order, 8-bit local indices of 4 triangles, one id per leaf; lossless") \
-    X(idx16, "idx16", "Indexed16 (Rouwe 3.6): shared vertex buffer, three 16-bit indices per triangle, one id per leaf") \
-    X(idx16_soa4, "idx16-soa4", "Indexed16SOA4 (Rouwe 3.7): shared vertex buffer, 16-bit indices of 4 triangles in SOA form, one id per leaf") \
-    X(idx16_bitpack_soa4, "idx16-bitpack-soa4", "Indexed16BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 16-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
-    X(idx32_bitpack_soa4, "idx32-bitpack-soa4", "Indexed32BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 32-bit indices of 4 triangles in SOA form, one id per leaf; lossy") \
-    X(bitpack_soa4, "bitpack-soa4", "BitPackSOA4 (Rouwe 3.5): 16-bit components of 4 triangles in SOA form over a float grid per block, one id per leaf; lossy") \
-    X(bitpack, "bitpack", "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy")
+#define BVH_TRIANGLE_CODECS(X)                                                                                         \
+    X(float3, "float3", "Float3 (Rouwe 3.1): 9 floats and a 32-bit triangle id per triangle")                          \
+    X(float3_soa4, "float3-soa4", "Float3SOA4 (Rouwe 3.2): blocks of 4 triangles in SOA form, SIMD test")              \
+    X(float3_soa8, "float3-soa8", "Float3SOA8 (Rouwe 3.3): blocks of 8 triangles in SOA form, AVX test")               \
+    X(idx32, "idx32", "Indexed32 (Rouwe 3.6): shared vertex buffer, three 32-bit indices and an id per triangle")      \
+    X(idx32_soa4, "idx32-soa4",                                                                                        \
+      "Indexed32SOA4 (Rouwe 3.7): shared vertex buffer, 32-bit indices of 4 triangles in SOA form")                    \
+    X(idx8_bitpack_soa4, "idx8-bitpack-soa4",                                                                          \
+      "Indexed8BitPackSOA4 (Rouwe 3.9): 21-bit packed vertices in leaf order, 8-bit local indices of 4 triangles, "    \
+      "one id per leaf; lossy")                                                                                        \
+    X(idx8_soa4, "idx8-soa4",                                                                                          \
+      "Indexed8SOA4 (beyond Rouwe: 3.9 with float vertices): vertices in leaf order, 8-bit local indices of 4 "        \
+      "triangles, one id per leaf; lossless")                                                                          \
+    X(idx16, "idx16",                                                                                                  \
+      "Indexed16 (Rouwe 3.6): shared vertex buffer, three 16-bit indices per triangle, one id per leaf")               \
+    X(idx16_soa4, "idx16-soa4",                                                                                        \
+      "Indexed16SOA4 (Rouwe 3.7): shared vertex buffer, 16-bit indices of 4 triangles in SOA form, one id per leaf")   \
+    X(idx16_bitpack_soa4, "idx16-bitpack-soa4",                                                                        \
+      "Indexed16BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 16-bit indices of 4 triangles in SOA form, "   \
+      "one id per leaf; lossy")                                                                                        \
+    X(idx32_bitpack_soa4, "idx32-bitpack-soa4",                                                                        \
+      "Indexed32BitPackSOA4 (Rouwe 3.8): 21-bit packed shared vertices, 32-bit indices of 4 triangles in SOA form, "   \
+      "one id per leaf; lossy")                                                                                        \
+    X(bitpack_soa4, "bitpack-soa4",                                                                                    \
+      "BitPackSOA4 (Rouwe 3.5): 16-bit components of 4 triangles in SOA form over a float grid per block, one id per " \
+      "leaf; lossy")                                                                                                   \
+    X(bitpack, "bitpack",                                                                                              \
+      "BitPack (Rouwe 3.4): three 21-bit packed vertices per triangle over a grid per leaf, one id per leaf; lossy")
 
 /* Codecs whose leaves hold entries of a kind of their own (bvh/leaf_kind.h), which each
  * names as <id>_leaf_kind in its header. */
-#define BVH_KIND_CODECS(X) \
-    X(strip, "strip", "UncompressedStrip (Rouwe 3.10): strips of 12-byte vertices with the 3-bit context in their low bits, one id per leaf; lossy by one ulp") \
-    X(strip_bitpack, "strip-bitpack", "CompressedStrip (Rouwe 3.10): strips of 20-bit packed vertices and the 3-bit context in a u64, a grid and one id per leaf; lossy")
+#define BVH_KIND_CODECS(X)                                                                                             \
+    X(strip, "strip",                                                                                                  \
+      "UncompressedStrip (Rouwe 3.10): strips of 12-byte vertices with the 3-bit context in their low bits, one id "   \
+      "per leaf; lossy by one ulp")                                                                                    \
+    X(strip_bitpack, "strip-bitpack",                                                                                  \
+      "CompressedStrip (Rouwe 3.10): strips of 20-bit packed vertices and the 3-bit context in a u64, a grid and one " \
+      "id per leaf; lossy")
 
 typedef enum bvh_codec_id {
 #define X(id, name, desc) BVH_CODEC_##id,
     BVH_CODECS(X)
 #undef X
-    BVH_CODEC_COUNT
+        BVH_CODEC_COUNT
 } bvh_codec_id;
 
 /* Data a codec keeps for the whole tree (Indexed codecs: the vertex buffer), saved as its

@@ -25,7 +25,9 @@ static inline void float3_encode(uint8_t *dst, const prt_mesh *m, const uint32_t
     }
 }
 
-static inline void float3_ray_init(float3_ray *c, const prt__rayx *r, const bvh_shared *sh) { (void)c, (void)r, (void)sh; }
+static inline void float3_ray_init(float3_ray *c, const prt__rayx *r, const bvh_shared *sh) {
+    (void)c, (void)r, (void)sh;
+}
 #define float3_shared_build NULL
 #define float3_leaf_valid NULL
 
@@ -43,8 +45,7 @@ PRT_INLINE void float3_intersect(const uint8_t *leaf, uint32_t n, const prt__ray
     }
 }
 
-PRT_INLINE bool float3_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const float3_ray *c,
-                                float tfar) {
+PRT_INLINE bool float3_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const float3_ray *c, float tfar) {
     (void)c;
     for (uint32_t i = 0; i < n; i++, leaf += FLOAT3_TRI_BYTES) {
         float v[9], t, u, w;

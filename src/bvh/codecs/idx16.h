@@ -22,7 +22,9 @@ typedef struct idx16_ray {
     const bvh_shared *sh;
 } idx16_ray;
 
-static inline size_t idx16_leaf_bytes(uint32_t n) { return IDX16_HEAD_BYTES + (size_t)((n + 1) / 2) * 2 * IDX16_TRI_BYTES; }
+static inline size_t idx16_leaf_bytes(uint32_t n) {
+    return IDX16_HEAD_BYTES + (size_t)((n + 1) / 2) * 2 * IDX16_TRI_BYTES;
+}
 
 static inline void idx16_encode(uint8_t *dst, const prt_mesh *m, const uint32_t *ids, uint32_t n) {
     const uint16_t pad = (uint16_t)m->vertex_count; /* the NaN vertex */

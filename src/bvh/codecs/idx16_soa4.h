@@ -54,8 +54,9 @@ static inline void idx16_soa4_encode(uint8_t *dst, const prt_mesh *m, const uint
 /* idx32-soa4's buffer, when 16-bit indices reach all of it. */
 static inline prt_status idx16_buffer_build(const prt_mesh *m, uint8_t **data, size_t *size, const char *codec) {
     if (idx32_soa4_vertex_count(m) > IDX16_MAX_VERTICES)
-        return prt__fail(PRT_ERROR_LIMIT, "%s: %zu vertices do not fit 16-bit indices (at most %u, one kept for padding)",
-                         codec, m->vertex_count, IDX16_MAX_VERTICES - 1);
+        return prt__fail(PRT_ERROR_LIMIT,
+                         "%s: %zu vertices do not fit 16-bit indices (at most %u, one kept for padding)", codec,
+                         m->vertex_count, IDX16_MAX_VERTICES - 1);
     return idx32_soa4_shared_build(m, data, size);
 }
 
@@ -129,7 +130,8 @@ PRT_INLINE bool idx16_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__
 
 /* The blocks as the kernel gathers them, with their leaf-order ids; padding lanes (the NaN
  * vertex) skipped (bvh_codec.decode). */
-static inline uint32_t idx16_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+static inline uint32_t idx16_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v,
+                                         uint32_t *ids) {
     uint32_t id0, k = 0;
     memcpy(&id0, leaf, 4);
     leaf += IDX16_HEAD_BYTES;

@@ -44,8 +44,7 @@ static inline void idx32_ray_init(idx32_ray *c, const prt__rayx *r, const bvh_sh
     c->vertices = (const float *)sh->data;
 }
 
-PRT_INLINE void idx32_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const idx32_ray *c,
-                                prt__hitx *h) {
+PRT_INLINE void idx32_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const idx32_ray *c, prt__hitx *h) {
     for (uint32_t i = 0; i < n; i++, leaf += IDX32_TRI_BYTES) {
         uint32_t idx[4];
         memcpy(idx, leaf, sizeof idx);

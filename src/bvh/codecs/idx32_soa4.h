@@ -112,7 +112,8 @@ PRT_INLINE bool idx32_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__
 
 /* The blocks as the kernel gathers them, with their mesh ids; padding lanes (the NaN
  * vertex) skipped (bvh_codec.decode). */
-static inline uint32_t idx32_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+static inline uint32_t idx32_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v,
+                                         uint32_t *ids) {
     uint32_t k = 0;
     for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += IDX32_SOA4_BLOCK_BYTES) {
         float p[36];

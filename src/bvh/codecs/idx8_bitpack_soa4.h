@@ -77,7 +77,8 @@ PRT_INLINE void idx8bp_gather8(const uint8_t *a, bool odd, const uint8_t *base, 
     uint64_t w[3][8];
     for (int v = 0; v < 3; v++)
         for (int l = 0; l < 4; l++)
-            memcpy(&w[v][l], base + 8 * (size_t)a[4 * v + l], 8), memcpy(&w[v][4 + l], base + 8 * (size_t)b[4 * v + l], 8);
+            memcpy(&w[v][l], base + 8 * (size_t)a[4 * v + l], 8),
+                memcpy(&w[v][4 + l], base + 8 * (size_t)b[4 * v + l], 8);
     bpv_decode8((const uint64_t(*)[8])w, c->lo, c->step, c->comp, vw_padding8(a, b) | off, p);
 }
 

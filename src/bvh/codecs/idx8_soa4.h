@@ -47,7 +47,8 @@ static inline prt_status idx8_soa4_shared_remap(prt_mesh *m, uint32_t max_leaf, 
     }
     idx8_head hd = {len, {0, 0, 0}};
     memcpy(out, &hd, sizeof hd);
-    for (uint32_t e = 0; e < len; e++) memcpy(out + sizeof hd + 12 * (size_t)e, m->vertices + 3 * (size_t)source[e], 12);
+    for (uint32_t e = 0; e < len; e++)
+        memcpy(out + sizeof hd + 12 * (size_t)e, m->vertices + 3 * (size_t)source[e], 12);
     memset(out + bytes - 4, 0, 4);
     prt__free(source);
     *data = out;
@@ -95,8 +96,10 @@ PRT_INLINE void idx8_gather(const uint8_t *block, const float *base, vi4 perm, f
     const vi4 pad = vw_padding(block);
     const vf4 nan = vf4_set1(NAN);
     for (int v = 0; v < 3; v++) {
-        vf4 r0 = idx8_row(base + 3 * (size_t)block[4 * v + 0], perm), r1 = idx8_row(base + 3 * (size_t)block[4 * v + 1], perm);
-        vf4 r2 = idx8_row(base + 3 * (size_t)block[4 * v + 2], perm), r3 = idx8_row(base + 3 * (size_t)block[4 * v + 3], perm);
+        vf4 r0 = idx8_row(base + 3 * (size_t)block[4 * v + 0], perm),
+            r1 = idx8_row(base + 3 * (size_t)block[4 * v + 1], perm);
+        vf4 r2 = idx8_row(base + 3 * (size_t)block[4 * v + 2], perm),
+            r3 = idx8_row(base + 3 * (size_t)block[4 * v + 3], perm);
         /* Rows x y z _ of four vertices to columns: x of the four, y, z. */
         const vf4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 1, 5), t1 = __builtin_shufflevector(r2, r3, 0, 4, 1, 5);
         const vf4 t2 = __builtin_shufflevector(r0, r1, 2, 6, 3, 7), t3 = __builtin_shufflevector(r2, r3, 2, 6, 3, 7);
@@ -144,7 +147,8 @@ PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__r
 
 /* The blocks as the kernel gathers them, axes not renamed, with their leaf-order ids;
  * padding lanes skipped (bvh_codec.decode). */
-static inline uint32_t idx8_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v, uint32_t *ids) {
+static inline uint32_t idx8_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v,
+                                        uint32_t *ids) {
     uint32_t first, id0, k = 0;
     memcpy(&first, leaf, 4);
     memcpy(&id0, leaf + 4, 4);

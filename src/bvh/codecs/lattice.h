@@ -58,7 +58,8 @@ static inline void bvh_lattice_snap(const prt_mesh *m, const float *in, uint32_t
             lo[k] = fminf(lo[k], x), hi[k] = fmaxf(hi[k], x);
         }
     int e[3];
-    for (int k = 0; k < 3; k++) e[k] = hi[k] > lo[k] ? bvh_lattice_exp((double)hi[k] - lo[k], mask - 1) : BVH_LATTICE_NONE;
+    for (int k = 0; k < 3; k++)
+        e[k] = hi[k] > lo[k] ? bvh_lattice_exp((double)hi[k] - lo[k], mask - 1) : BVH_LATTICE_NONE;
     for (size_t v = 0; v < m->vertex_count; v++)
         for (int k = 0; k < 3; k++) out[3 * v + (size_t)k] = bvh_lattice_round(in[3 * v + (size_t)k], e[k]);
 }

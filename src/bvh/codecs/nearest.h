@@ -9,8 +9,8 @@
 /* Closest-hit update for a SIMD block: among the lanes in mask (all with t <= h->t), the
  * nearest, and at equal t the smallest triangle id, as in the scalar codecs; ids[lane]
  * are the lanes' triangle ids. Exact ties are rare, so the common path is one hmin. */
-static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u, const float *v,
-                                    const uint32_t *ids, unsigned mask, float best) {
+static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u, const float *v, const uint32_t *ids,
+                                    unsigned mask, float best) {
     uint32_t prim = PRT_INVALID;
     int lane = -1;
     for (unsigned m = mask; m; m &= m - 1) {
@@ -54,14 +54,16 @@ static inline void bvh_take_block4_seq(prt__hitx *h, vf4 t, vf4 u, vf4 v, int ma
     const uint32_t ids[4] = {first, first + 1, first + 2, first + 3};
     /* The lanes read in place (a vector's elements may be read as floats): copies into
      * arrays cost the compiler dozens of moves per hit block. */
-    bvh_take_nearest_seq(h, (const float *)&t, (const float *)&u, (const float *)&v, ids, (unsigned)mask, vf4_hmin(t), sh);
+    bvh_take_nearest_seq(h, (const float *)&t, (const float *)&u, (const float *)&v, ids, (unsigned)mask, vf4_hmin(t),
+                         sh);
 }
 
 /* The same for an 8-lane block: two consecutive 4-lane blocks, ids first .. first + 7. */
 static inline void bvh_take_block8_seq(prt__hitx *h, vf8 t, vf8 u, vf8 v, int mask, uint32_t first,
                                        const bvh_shared *sh) {
     const uint32_t ids[8] = {first, first + 1, first + 2, first + 3, first + 4, first + 5, first + 6, first + 7};
-    bvh_take_nearest_seq(h, (const float *)&t, (const float *)&u, (const float *)&v, ids, (unsigned)mask, vf8_hmin(t), sh);
+    bvh_take_nearest_seq(h, (const float *)&t, (const float *)&u, (const float *)&v, ids, (unsigned)mask, vf8_hmin(t),
+                         sh);
 }
 
 #endif

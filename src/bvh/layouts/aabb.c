@@ -95,9 +95,10 @@ prt_status bvh_aabb_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh
     if (write_node(&e, 0, 0) != e.size) {
         prt__free(e.out);
         if (v == AABB_PNS)
-            return prt__fail(PRT_ERROR_LIMIT,
-                             "aabb-pns: a subtree exceeds the 32 MB that the 23 offset bits left beside the 8 PNS bits "
-                             "address (Rouwe's AABBTreePNS ran out of offset bits on his large scene too); use aabb or quad");
+            return prt__fail(
+                PRT_ERROR_LIMIT,
+                "aabb-pns: a subtree exceeds the 32 MB that the 23 offset bits left beside the 8 PNS bits "
+                "address (Rouwe's AABBTreePNS ran out of offset bits on his large scene too); use aabb or quad");
         return prt__fail(PRT_ERROR_LIMIT, "aabb layouts: a subtree exceeds the child offset bits (%s); use quad",
                          v == AABB_SPLIT ? "2 GB" : "8 GB");
     }
@@ -200,7 +201,11 @@ static prt_status aabb_validate(const bvh_blob *b, const bvh_codec *c, const bvh
 const bvh_layout bvh_layout_aabb = {
     "aabb",
     "AABBTree (Rouwe 5.1): 28-byte binary nodes, depth first, triangles after their leaf",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8, [BVH_CODEC_idx32_soa4] = 8},
+    {[BVH_CODEC_float3] = 8,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 8,
+     [BVH_CODEC_idx32_soa4] = 8},
     aabb_encode,
     aabb_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){

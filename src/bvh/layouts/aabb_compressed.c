@@ -91,15 +91,19 @@ static prt_status aabb_compressed_encode(const bvh_tree *t, const bvh_codec *c, 
     const bvh_node *root = &t->nodes[0];
     for (int k = 0; k < 3; k++)
         if (!(root->box.hi[k] - root->box.lo[k] <= FLT_MAX / 2))
-            return prt__fail(PRT_ERROR_LIMIT, "aabb-compressed: the mesh's extent (axis %d) overflows a float's range", k);
+            return prt__fail(PRT_ERROR_LIMIT, "aabb-compressed: the mesh's extent (axis %d) overflows a float's range",
+                             k);
     encoder e = {t, c, m, NULL, 0, 0, 0};
     const size_t size = place(&e, 0, AC_HEADER_BYTES, root->box.lo, root->box.hi, 1);
     if (!size || size > UINT32_MAX)
-        return prt__fail(PRT_ERROR_LIMIT, "aabb-compressed: the tree exceeds the 4 GB its 32-bit child offsets address");
+        return prt__fail(PRT_ERROR_LIMIT,
+                         "aabb-compressed: the tree exceeds the 4 GB its 32-bit child offsets address");
     e = (encoder){t, c, m, prt__calloc(1, size), 0, 0, 0};
     if (!e.out) return prt__fail(PRT_ERROR_NOMEM, "out of memory for a %zu-byte tree", size);
-    ac_header hd = {{root->box.lo[0], root->box.lo[1], root->box.lo[2]}, {root->box.hi[0], root->box.hi[1], root->box.hi[2]},
-                    root->count, 0};
+    ac_header hd = {{root->box.lo[0], root->box.lo[1], root->box.lo[2]},
+                    {root->box.hi[0], root->box.hi[1], root->box.hi[2]},
+                    root->count,
+                    0};
     memcpy(e.out, &hd, sizeof hd);
     place(&e, 0, AC_HEADER_BYTES, root->box.lo, root->box.hi, 1);
     out->data = e.out;
@@ -128,9 +132,11 @@ static size_t check_child(checker *k, size_t o, uint32_t count, uint32_t depth);
 static size_t check_node(checker *k, size_t o, uint32_t depth) {
     if (depth > BVH_MAX_DEPTH || o > k->b->size || k->b->size - o < AC_NODE_BYTES) return 0;
     k->nodes++;
-    const uint32_t wmin = ac_word(k->b->data + o), wmax = ac_word(k->b->data + o + 4), right = ac_word(k->b->data + o + 8);
+    const uint32_t wmin = ac_word(k->b->data + o), wmax = ac_word(k->b->data + o + 4),
+                   right = ac_word(k->b->data + o + 8);
     const uint32_t nl = wmin >> AC_COUNT_SHIFT, nr = wmax >> AC_COUNT_SHIFT;
-    const size_t left_end = check_child(k, nl ? ac_align_up(o + AC_NODE_BYTES, k->c->align) : o + AC_NODE_BYTES, nl, depth + 1);
+    const size_t left_end =
+        check_child(k, nl ? ac_align_up(o + AC_NODE_BYTES, k->c->align) : o + AC_NODE_BYTES, nl, depth + 1);
     if (!left_end || right != (nr ? ac_align_up(left_end, k->c->align) : left_end)) return 0;
     return check_child(k, right, nr, depth + 1);
 }
@@ -151,11 +157,11 @@ static prt_status aabb_compressed_validate(const bvh_blob *b, const bvh_codec *c
     if (b->size < AC_HEADER_BYTES) return prt__fail(PRT_ERROR_CORRUPT, "aabb-compressed tree: shorter than its header");
     memcpy(&hd, b->data, sizeof hd);
     bool bad = hd.reserved != 0 || hd.root_count > BVH_MAX_LEAF;
-    for (int k = 0; k < 3; k++)
-        bad |= !(fabsf(hd.lo[k]) <= 1e37f && fabsf(hd.hi[k]) <= 1e37f); /* false for NaN too */
+    for (int k = 0; k < 3; k++) bad |= !(fabsf(hd.lo[k]) <= 1e37f && fabsf(hd.hi[k]) <= 1e37f); /* false for NaN too */
     checker ck = {b, c, sh, 0};
-    if (bad || check_child(&ck, hd.root_count ? ac_align_up(AC_HEADER_BYTES, c->align) : AC_HEADER_BYTES, hd.root_count,
-                           1) != b->size ||
+    if (bad ||
+        check_child(&ck, hd.root_count ? ac_align_up(AC_HEADER_BYTES, c->align) : AC_HEADER_BYTES, hd.root_count, 1) !=
+            b->size ||
         ck.nodes != b->nodes)
         return prt__fail(PRT_ERROR_CORRUPT, "aabb-compressed tree: structure inconsistent with its size");
     return PRT_OK;
@@ -175,11 +181,13 @@ static bvh_child aabb_compressed_root(const uint8_t *blob, const bvh_codec *c, c
     (void)bounds;
     ac_header hd;
     memcpy(&hd, blob, sizeof hd);
-    return ac_child(hd.root_count ? ac_align_up(AC_HEADER_BYTES, c->align) : AC_HEADER_BYTES, hd.root_count, hd.lo, hd.hi);
+    return ac_child(hd.root_count ? ac_align_up(AC_HEADER_BYTES, c->align) : AC_HEADER_BYTES, hd.root_count, hd.lo,
+                    hd.hi);
 }
 
 /* Both children, their boxes decoded from node->box as traversal decodes them. */
-static uint32_t aabb_compressed_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) {
+static uint32_t aabb_compressed_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node,
+                                         bvh_child out[8]) {
     const size_t o = (size_t)node->ref;
     const uint32_t wmin = ac_word(blob + o), wmax = ac_word(blob + o + 4), right = ac_word(blob + o + 8);
     const uint32_t nl = wmin >> AC_COUNT_SHIFT, nr = wmax >> AC_COUNT_SHIFT;
@@ -209,7 +217,8 @@ static void debug_child(const debug_walk *w, size_t o, uint32_t count, const flo
         w->leaf(w->user, w->b->data + o, count, &mine);
         w->out->triangles += count;
     } else {
-        const uint32_t wmin = ac_word(w->b->data + o), wmax = ac_word(w->b->data + o + 4), right = ac_word(w->b->data + o + 8);
+        const uint32_t wmin = ac_word(w->b->data + o), wmax = ac_word(w->b->data + o + 4),
+                       right = ac_word(w->b->data + o + 8);
         float llo[3], lhi[3], rlo[3], rhi[3];
         ac_unpack(lo, hi, wmin, wmax, llo, lhi, rlo, rhi);
         const uint32_t nl = wmin >> AC_COUNT_SHIFT;
@@ -223,7 +232,8 @@ static void debug_child(const debug_walk *w, size_t o, uint32_t count, const flo
     prt_aabb_grow(box, &mine);
 }
 
-void bvh_aabb_compressed_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user, bvh_debug_boxes *out) {
+void bvh_aabb_compressed_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user,
+                                     bvh_debug_boxes *out) {
     memset(out, 0, sizeof *out);
     ac_header hd;
     memcpy(&hd, b->data, sizeof hd);
@@ -237,12 +247,16 @@ const bvh_layout bvh_layout_aabb_compressed = {
     "aabb-compressed",
     "AABBTreeCompressed (Rouwe 5.4): 12-byte binary nodes, child boxes as 7-bit steps in from the parent's "
     "box, rounded outward",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8,
+    {[BVH_CODEC_float3] = 8,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 8,
      [BVH_CODEC_idx32_soa4] = 8},
     aabb_compressed_encode,
     aabb_compressed_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
-#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_compressed_intersect1_##id, .occluded1 = aabb_compressed_occluded1_##id},
+#define X(id, nm, desc) \
+    [BVH_CODEC_##id] = {.intersect1 = aabb_compressed_intersect1_##id, .occluded1 = aabb_compressed_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     }},

@@ -26,7 +26,7 @@
 #define AC_COUNT_SHIFT 24
 
 typedef struct ac_header {
-    float lo[3], hi[3]; /* the root box */
+    float lo[3], hi[3];  /* the root box */
     uint32_t root_count; /* > 0: the root is a leaf of that many triangles */
     uint32_t reserved;   /* 0 */
 } ac_header;

@@ -31,7 +31,8 @@
 static bool is_leaf(const bvh_node *n) { return n->count != 0; }
 
 /* Node i's position in the blob is pos[i]; with tl its triangle block is at tri[i]. */
-static prt_status encode_order(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool bf, bool tl, bvh_blob *out) {
+static prt_status encode_order(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bool bf, bool tl,
+                               bvh_blob *out) {
     memset(out, 0, sizeof *out);
     const size_t n = t->node_count;
     uint32_t *seq = prt__alloc(prt__mul_size(n, sizeof *seq)), *stack = prt__alloc(prt__mul_size(n, sizeof *stack));
@@ -78,7 +79,8 @@ static prt_status encode_order(const bvh_tree *t, const bvh_codec *c, const prt_
         if (is_leaf(nd)) {
             const size_t words = tl ? (tri[i] - pos[i]) / 4 : 0;
             if (words > AABB_TL_OFFSET_MASK || nd->count > (~AABB_LEAF >> AABB_TL_COUNT_SHIFT)) {
-                s = prt__fail(PRT_ERROR_LIMIT, "aabb with leaves last: a triangle block lies past the 256 MB its 26 offset bits address; use order=df");
+                s = prt__fail(PRT_ERROR_LIMIT, "aabb with leaves last: a triangle block lies past the 256 MB its 26 "
+                                               "offset bits address; use order=df");
                 goto out;
             }
             props = AABB_LEAF | (tl ? nd->count << AABB_TL_COUNT_SHIFT | (uint32_t)words : nd->count);
@@ -153,32 +155,41 @@ static prt_status validate_order(const bvh_blob *b, const bvh_codec *c, const bv
     return ok ? PRT_OK : prt__fail(PRT_ERROR_CORRUPT, "aabb tree structure is inconsistent with its size");
 }
 
-#define ORDER_FNS(name, bf, tl)                                                                                     \
-    static prt_status name##_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {      \
-        return encode_order(t, c, m, bf, tl, out);                                                                  \
-    }                                                                                                               \
-    static prt_status name##_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {                \
-        return validate_order(b, c, sh, bf, tl);                                                                    \
-    }                                                                                                               \
-    static bvh_child name##_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {                  \
-        (void)bounds;                                                                                               \
-        return bvh_aabb_root(blob, c, tl);                                                                          \
-    }                                                                                                               \
-    static uint32_t name##_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]) { \
-        return bvh_aabb_children(blob, c, node, out, AABB_PLAIN, bf, tl);                                           \
+#define ORDER_FNS(name, bf, tl)                                                                                \
+    static prt_status name##_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) { \
+        return encode_order(t, c, m, bf, tl, out);                                                             \
+    }                                                                                                          \
+    static prt_status name##_validate(const bvh_blob *b, const bvh_codec *c, const bvh_shared *sh) {           \
+        return validate_order(b, c, sh, bf, tl);                                                               \
+    }                                                                                                          \
+    static bvh_child name##_root(const uint8_t *blob, const bvh_codec *c, const float bounds[6]) {             \
+        (void)bounds;                                                                                          \
+        return bvh_aabb_root(blob, c, tl);                                                                     \
+    }                                                                                                          \
+    static uint32_t name##_children(const uint8_t *blob, const bvh_codec *c, const bvh_child *node,            \
+                                    bvh_child out[8]) {                                                        \
+        return bvh_aabb_children(blob, c, node, out, AABB_PLAIN, bf, tl);                                      \
     }
 ORDER_FNS(aabb_df_tl, false, true)
 ORDER_FNS(aabb_bf, true, false)
 ORDER_FNS(aabb_bf_tl, true, true)
 #undef ORDER_FNS
 
-#define DEFAULT_LEAVES {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8, [BVH_CODEC_idx32_soa4] = 8}
+#define DEFAULT_LEAVES                                                                                           \
+    {                                                                                                            \
+        [BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8, \
+        [BVH_CODEC_idx32_soa4] = 8                                                                               \
+    }
 
 static const bvh_layout aabb_df_tl = {
-    "aabb", "AABBTree (Rouwe 5.1) depth first, triangle blocks behind all nodes (4.3)", DEFAULT_LEAVES,
-    aabb_df_tl_encode, aabb_df_tl_validate,
+    "aabb",
+    "AABBTree (Rouwe 5.1) depth first, triangle blocks behind all nodes (4.3)",
+    DEFAULT_LEAVES,
+    aabb_df_tl_encode,
+    aabb_df_tl_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
-#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_df_tl_intersect1_##id, .occluded1 = aabb_df_tl_occluded1_##id},
+#define X(id, nm, desc) \
+    [BVH_CODEC_##id] = {.intersect1 = aabb_df_tl_intersect1_##id, .occluded1 = aabb_df_tl_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     }},
@@ -187,8 +198,11 @@ static const bvh_layout aabb_df_tl = {
 };
 
 static const bvh_layout aabb_bf = {
-    "aabb", "AABBTree (Rouwe 5.1) breadth first, each leaf's triangles behind it (4.3)", DEFAULT_LEAVES,
-    aabb_bf_encode, aabb_bf_validate,
+    "aabb",
+    "AABBTree (Rouwe 5.1) breadth first, each leaf's triangles behind it (4.3)",
+    DEFAULT_LEAVES,
+    aabb_bf_encode,
+    aabb_bf_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
 #define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_bf_intersect1_##id, .occluded1 = aabb_bf_occluded1_##id},
         BVH_CODECS(X)
@@ -199,10 +213,14 @@ static const bvh_layout aabb_bf = {
 };
 
 static const bvh_layout aabb_bf_tl = {
-    "aabb", "AABBTree (Rouwe 5.1) breadth first, triangle blocks behind all nodes (4.3)", DEFAULT_LEAVES,
-    aabb_bf_tl_encode, aabb_bf_tl_validate,
+    "aabb",
+    "AABBTree (Rouwe 5.1) breadth first, triangle blocks behind all nodes (4.3)",
+    DEFAULT_LEAVES,
+    aabb_bf_tl_encode,
+    aabb_bf_tl_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
-#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_bf_tl_intersect1_##id, .occluded1 = aabb_bf_tl_occluded1_##id},
+#define X(id, nm, desc) \
+    [BVH_CODEC_##id] = {.intersect1 = aabb_bf_tl_intersect1_##id, .occluded1 = aabb_bf_tl_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     }},

@@ -29,12 +29,16 @@ const bvh_layout bvh_layout_aabb_pns = {
     "aabb-pns",
     "AABBTreePNS (Rouwe 5.3): AABBTree nodes with 8 precomputed node-sorting bits, children visited in the "
     "order stored for the ray's octant",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8,
+    {[BVH_CODEC_float3] = 8,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 8,
      [BVH_CODEC_idx32_soa4] = 8},
     aabb_pns_encode,
     aabb_pns_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
-#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_pns_intersect1_##id, .occluded1 = aabb_pns_occluded1_##id},
+#define X(id, nm, desc) \
+    [BVH_CODEC_##id] = {.intersect1 = aabb_pns_intersect1_##id, .occluded1 = aabb_pns_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     }},

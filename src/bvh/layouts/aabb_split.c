@@ -27,12 +27,16 @@ static uint32_t aabb_split_children(const uint8_t *blob, const bvh_codec *c, con
 const bvh_layout bvh_layout_aabb_split = {
     "aabb-split",
     "AABBTreeSplitAxis (Rouwe 5.2): AABBTree nodes with the split axis, children visited in ray order",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8,
+    {[BVH_CODEC_float3] = 8,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 8,
      [BVH_CODEC_idx32_soa4] = 8},
     aabb_split_encode,
     aabb_split_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
-#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = aabb_split_intersect1_##id, .occluded1 = aabb_split_occluded1_##id},
+#define X(id, nm, desc) \
+    [BVH_CODEC_##id] = {.intersect1 = aabb_split_intersect1_##id, .occluded1 = aabb_split_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     }},

@@ -17,8 +17,11 @@ typedef struct bvh_debug_boxes {
     size_t triangles;  /* triangles reached (leaf counts summed) */
 } bvh_debug_boxes;
 
-void bvh_quad_half_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user, bvh_debug_boxes *out);
-void bvh_aabb_compressed_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user, bvh_debug_boxes *out);
-void bvh_skd_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user, bvh_debug_boxes *out);
+void bvh_quad_half_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user,
+                               bvh_debug_boxes *out);
+void bvh_aabb_compressed_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user,
+                                     bvh_debug_boxes *out);
+void bvh_skd_debug_boxes(const bvh_blob *b, const bvh_codec *c, bvh_debug_leaf_fn leaf, void *user,
+                         bvh_debug_boxes *out);
 
 #endif

@@ -207,7 +207,11 @@ static bvh_child quad_root(const uint8_t *blob, const bvh_codec *c, const float 
 const bvh_layout bvh_layout_quad = {
     "quad",
     "QuadTree (Rouwe 5.6): 4-wide 128-byte nodes, SIMD box test, nearest child first",
-    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 4, [BVH_CODEC_idx32_soa4] = 8},
+    {[BVH_CODEC_float3] = 4,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 4,
+     [BVH_CODEC_idx32_soa4] = 8},
     quad_encode,
     quad_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){

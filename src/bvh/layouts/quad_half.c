@@ -54,7 +54,8 @@ static inline int qh_box_hit(const qh_node *n, const qh_ray *w, float tfar, vf4 
         tmin = vf4_max(vf4_select(w->neg[k], hi, lo), tmin); /* NaN in the first operand: tmin */
         tmax = vf4_min(vf4_select(w->neg[k], lo, hi), tmax);
     }
-    tmax = vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
+    tmax =
+        vf4_select(tmax >= vf4_set1(0.0f), tmax * vf4_set1(PRT_BOX_FAR_SCALE), tmax * vf4_set1(PRT_BOX_FAR_SCALE_NEG));
     *tentry = tmin;
     return vi4_mask(tmin <= tmax);
 }
@@ -109,9 +110,10 @@ static prt_status quad_half_encode(const bvh_tree *t, const bvh_codec *c, const 
         }
     if (count > QH_LEAF || (size - geometry) / 4 > QH_OFFSET_MASK) {
         prt__free(p);
-        return prt__fail(PRT_ERROR_LIMIT,
-                         "quad-half layout: %zu bytes of leaves exceed the 512 MB its 27-bit word offsets address; use quad",
-                         size - geometry);
+        return prt__fail(
+            PRT_ERROR_LIMIT,
+            "quad-half layout: %zu bytes of leaves exceed the 512 MB its 27-bit word offsets address; use quad",
+            size - geometry);
     }
     uint8_t *data = prt__calloc(1, size);
     if (!data) {
@@ -131,7 +133,8 @@ static prt_status quad_half_encode(const bvh_tree *t, const bvh_codec *c, const 
         for (int i = 0; i < 4; i++) {
             node.child[i] = 0;
             if (i >= p[q].count) {
-                for (int k = 0; k < 3; k++) node.box[8 * k + i] = QH_HALF_POS_INF, node.box[8 * k + 4 + i] = QH_HALF_NEG_INF;
+                for (int k = 0; k < 3; k++)
+                    node.box[8 * k + i] = QH_HALF_POS_INF, node.box[8 * k + 4 + i] = QH_HALF_NEG_INF;
                 continue;
             }
             const bvh_node *n = &t->nodes[p[q].bin[i]];
@@ -200,7 +203,8 @@ static prt_status quad_half_validate(const bvh_blob *b, const bvh_codec *c, cons
                 empty_box &= n.box[8 * k + i] == QH_HALF_POS_INF && n.box[8 * k + 4 + i] == QH_HALF_NEG_INF;
             }
             if (nan || (ref == 0 && !empty_box)) {
-                s = prt__fail(PRT_ERROR_CORRUPT, "quad-half tree: node %zu has a NaN box or an empty slot with a box", q);
+                s = prt__fail(PRT_ERROR_CORRUPT, "quad-half tree: node %zu has a NaN box or an empty slot with a box",
+                              q);
                 break;
             }
             if (ref == 0) continue;
@@ -211,7 +215,8 @@ static prt_status quad_half_validate(const bvh_blob *b, const bvh_codec *c, cons
                     (hd.geometry + off) % (c->align ? c->align : 1))
                     s = prt__fail(PRT_ERROR_CORRUPT, "quad-half tree: node %zu has a bad leaf reference", q);
                 else if (c->leaf_valid && !c->leaf_valid(b->data + hd.geometry + off, k, sh))
-                    s = prt__fail(PRT_ERROR_CORRUPT, "quad-half tree: node %zu has a leaf referencing outside the file", q);
+                    s = prt__fail(PRT_ERROR_CORRUPT, "quad-half tree: node %zu has a leaf referencing outside the file",
+                                  q);
                 continue;
             }
             if (ref <= q || ref >= hd.nodes || depth[ref] || depth[q] >= BVH_MAX_DEPTH)
@@ -293,12 +298,16 @@ const bvh_layout bvh_layout_quad_half = {
     "quad-half",
     "QuadTreeHalfFloat (Rouwe 5.7): 4-wide 64-byte nodes, half-float boxes relative to the root box, "
     "rounded outward",
-    {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 4,
+    {[BVH_CODEC_float3] = 4,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 4,
      [BVH_CODEC_idx32_soa4] = 8},
     quad_half_encode,
     quad_half_validate,
     {(const bvh_kernels[BVH_CODEC_COUNT]){
-#define X(id, nm, desc) [BVH_CODEC_##id] = {.intersect1 = quad_half_intersect1_##id, .occluded1 = quad_half_occluded1_##id},
+#define X(id, nm, desc) \
+    [BVH_CODEC_##id] = {.intersect1 = quad_half_intersect1_##id, .occluded1 = quad_half_occluded1_##id},
         BVH_CODECS(X)
 #undef X
     }},

@@ -41,8 +41,8 @@ typedef struct qh_node {
 _Static_assert(sizeof(qh_node) == QH_NODE_BYTES, "quad-half node is one cache line");
 
 typedef struct qh_header {
-    float centre[3];   /* plane = fmaf(half, scale[k], centre[k]) */
-    float scale[3];    /* powers of two */
+    float centre[3]; /* plane = fmaf(half, scale[k], centre[k]) */
+    float scale[3];  /* powers of two */
     uint32_t nodes;
     uint32_t reserved; /* 0 */
     uint64_t geometry; /* byte offset of the first leaf block */

@@ -208,7 +208,8 @@ static bvh_child skd_child(const uint8_t *blob, const bvh_codec *c, size_t o, co
     bvh_child ch;
     memcpy(ch.box, box, sizeof ch.box);
     const uint32_t props = skd_u32(blob + o);
-    if (props >> SKD_AXIS_SHIFT == SKD_LEAF) ch.ref = skd_align_up(o + 4, c->align), ch.count = props & SKD_PAYLOAD_MASK;
+    if (props >> SKD_AXIS_SHIFT == SKD_LEAF)
+        ch.ref = skd_align_up(o + 4, c->align), ch.count = props & SKD_PAYLOAD_MASK;
     else ch.ref = o, ch.count = 0;
     return ch;
 }
@@ -257,7 +258,8 @@ static void debug_node(const debug_walk *w, size_t o, const float lo[3], const f
     } else {
         const int k = (int)(props >> SKD_AXIS_SHIFT);
         float llo[3], lhi[3], rlo[3], rhi[3];
-        memcpy(llo, lo, sizeof llo), memcpy(lhi, hi, sizeof lhi), memcpy(rlo, lo, sizeof rlo), memcpy(rhi, hi, sizeof rhi);
+        memcpy(llo, lo, sizeof llo), memcpy(lhi, hi, sizeof lhi), memcpy(rlo, lo, sizeof rlo),
+            memcpy(rhi, hi, sizeof rhi);
         lhi[k] = fminf(hi[k], skd_f32(w->b->data + o + 4));
         rlo[k] = fmaxf(lo[k], skd_f32(w->b->data + o + 8));
         debug_node(w, o + SKD_INNER_BYTES, llo, lhi, &mine);
@@ -284,7 +286,10 @@ const bvh_layout bvh_layout_skd = {
     "skd",
     "SKDTree (Rouwe 5.5): binary nodes with a split axis and two planes (12 bytes), traversal clips the ray's "
     "interval instead of testing boxes",
-    {[BVH_CODEC_float3] = 8, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 8, [BVH_CODEC_idx32] = 8,
+    {[BVH_CODEC_float3] = 8,
+     [BVH_CODEC_float3_soa4] = 8,
+     [BVH_CODEC_float3_soa8] = 8,
+     [BVH_CODEC_idx32] = 8,
      [BVH_CODEC_idx32_soa4] = 8},
     skd_encode,
     skd_validate,

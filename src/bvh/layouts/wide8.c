@@ -28,7 +28,8 @@ static bool codec_valid(const void *ctx, const uint8_t *leaf, uint32_t count) {
 }
 
 static wide8_leaves leaves_of(const codec_leaves *x) {
-    return (wide8_leaves){x->c->name, x->c->block, x->c->align, BVH_MAX_LEAF, codec_bytes, codec_encode, codec_valid, x};
+    return (wide8_leaves){x->c->name,  x->c->block,  x->c->align, BVH_MAX_LEAF,
+                          codec_bytes, codec_encode, codec_valid, x};
 }
 
 static prt_status wide8_encode(const bvh_tree *t, const bvh_codec *c, const prt_mesh *m, bvh_blob *out) {
@@ -88,15 +89,18 @@ static bvh_child wide8_root(const uint8_t *blob, const bvh_codec *c, const float
 
 /* The layout object, and the same with the filled collapse (collapse=fill): the blobs
  * differ in their trees only, so both share validation and kernels. */
-#define WIDE8_LAYOUT(encode)                                                                                       \
-    {                                                                                                              \
-        "wide8",                                                                                                   \
-        "8-wide BVH after Ylitie et al. 2017 (beyond Rouwe): 80-byte nodes, child boxes as 8-bit offsets on a "    \
-        "power-of-two grid, one 8-lane box test",                                                                  \
-        {[BVH_CODEC_float3] = 4, [BVH_CODEC_float3_soa4] = 8, [BVH_CODEC_float3_soa8] = 16, [BVH_CODEC_idx32] = 4, \
-         [BVH_CODEC_idx32_soa4] = 8},                                                                              \
-        encode, wide8_validate, {bvh_wide8_kernels, PRT_ISA_AVX512_OF(bvh_wide8_kernels)}, wide8_root,          \
-        wide8_children,                                                                                            \
+#define WIDE8_LAYOUT(encode)                                                                                        \
+    {                                                                                                               \
+        "wide8",                                                                                                    \
+            "8-wide BVH after Ylitie et al. 2017 (beyond Rouwe): 80-byte nodes, child boxes as 8-bit offsets on a " \
+            "power-of-two grid, one 8-lane box test",                                                               \
+            {[BVH_CODEC_float3] = 4,                                                                                \
+             [BVH_CODEC_float3_soa4] = 8,                                                                           \
+             [BVH_CODEC_float3_soa8] = 16,                                                                          \
+             [BVH_CODEC_idx32] = 4,                                                                                 \
+             [BVH_CODEC_idx32_soa4] = 8},                                                                           \
+            encode, wide8_validate, {bvh_wide8_kernels, PRT_ISA_AVX512_OF(bvh_wide8_kernels)}, wide8_root,          \
+            wide8_children,                                                                                         \
     }
 
 const bvh_layout bvh_layout_wide8 = WIDE8_LAYOUT(wide8_encode);

@@ -16,13 +16,13 @@
  * end of its block, counted in grains from the node's first leaf; its start is the end of
  * the slot before (0 for an inner slot or slot 0). Inner and empty slots have meta 0. */
 typedef struct wide8_node {
-    float p[3];       /* origin of the quantization grid: the node's box minimum */
-    uint8_t e[3];     /* per-axis scale exponent, biased like a float's */
-    uint8_t imask;    /* bit i: slot i is an inner node */
-    uint32_t child;   /* node index of the first inner child */
-    uint32_t leaf;    /* offset of the first leaf from the geometry start, in 4-byte words */
-    uint8_t meta[8];  /* leaf slots: end of the block in grains */
-    uint8_t q[6][8];  /* lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of the 8 slots */
+    float p[3];      /* origin of the quantization grid: the node's box minimum */
+    uint8_t e[3];    /* per-axis scale exponent, biased like a float's */
+    uint8_t imask;   /* bit i: slot i is an inner node */
+    uint32_t child;  /* node index of the first inner child */
+    uint32_t leaf;   /* offset of the first leaf from the geometry start, in 4-byte words */
+    uint8_t meta[8]; /* leaf slots: end of the block in grains */
+    uint8_t q[6][8]; /* lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of the 8 slots */
 } wide8_node;
 
 _Static_assert(sizeof(wide8_node) == 80, "wide8 node is 80 bytes");
@@ -66,9 +66,9 @@ static inline float wide8_scale(uint8_t e) {
  * (bytes(n) == bytes(0) + ceil(n / block) * (bytes(block) - bytes(0)), both terms
  * multiples of 4, codec.h), so a node stores where each leaf ends and never its count. */
 typedef struct wide8_leaves {
-    const char *name; /* for messages */
-    int block;        /* primitives tested together: a leaf costs ceil(n / block) */
-    size_t align;     /* alignment of a leaf in the blob */
+    const char *name;   /* for messages */
+    int block;          /* primitives tested together: a leaf costs ceil(n / block) */
+    size_t align;       /* alignment of a leaf in the blob */
     uint32_t max_count; /* the largest leaf a loaded blob may claim */
     size_t (*bytes)(const void *ctx, uint32_t count);
     /* Write the leaf of prims[0 .. count) (ids of the tree's primitives) to dst. */

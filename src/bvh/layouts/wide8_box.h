@@ -53,7 +53,8 @@ static inline void wide8_scales(const wide8_node *n, vf8 s[3]) {
 #if defined(__AVX2__)
     int32_t bytes;
     memcpy(&bytes, n->e, 4); /* e[0..2] and imask, whose lane is ignored */
-    const __m256 e = _mm256_castps128_ps256(_mm_castsi128_ps(_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(bytes)), 23)));
+    const __m256 e =
+        _mm256_castps128_ps256(_mm_castsi128_ps(_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(bytes)), 23)));
     s[0] = (vf8)_mm256_permutevar8x32_ps(e, _mm256_set1_epi32(0));
     s[1] = (vf8)_mm256_permutevar8x32_ps(e, _mm256_set1_epi32(1));
     s[2] = (vf8)_mm256_permutevar8x32_ps(e, _mm256_set1_epi32(2));
@@ -73,7 +74,8 @@ static inline unsigned wide8_slab(const vf8 near[3], const vf8 far[3], unsigned 
         tmin = vf8_max((near[k] - w->org[k]) * w->inv[k], tmin); /* NaN in the first operand: tmin */
         tmax = vf8_min((far[k] - w->org[k]) * w->inv[k], tmax);
     }
-    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
+    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF,
+                                            0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
     tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
     *tentry = tmin;
     return (unsigned)vi8_mask(tmin <= tmax) & occupied;
@@ -107,7 +109,8 @@ typedef struct wide8_nfray {
 static inline void wide8_nfray_init(wide8_nfray *c, const prt__rayx *r, const uint8_t *blob) {
     wide8_ray_init(&c->w, r, blob);
     for (int k = 0; k < 3; k++)
-        c->qn[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.near[k], c->qf[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.far[k];
+        c->qn[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.near[k],
+        c->qf[k] = offsetof(wide8_node, q) + 8 * (size_t)c->w.far[k];
 }
 
 PRT_INLINE unsigned wide8_nf_hit(const wide8_node *n, const wide8_nfray *c, float tfar, vf8 *tn, vf8 *tf) {
@@ -119,7 +122,8 @@ PRT_INLINE unsigned wide8_nf_hit(const wide8_node *n, const wide8_nfray *c, floa
         tmin = vf8_max((np - c->w.org[k]) * c->w.inv[k], tmin); /* NaN in the first operand: tmin */
         tmax = vf8_min((fp - c->w.org[k]) * c->w.inv[k], tmax);
     }
-    const vi8 abs_mask = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
+    const vi8 abs_mask = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF,
+                          0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
     tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), vf8_set1(0x1p-21f), tmax);
     *tn = tmin, *tf = tmax;
     return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);

@@ -9,7 +9,6 @@
 #include "bvh/layouts/instantiate.inc"
 #undef LAYOUT_KERNELS
 
-#define WIDE8_KERNELS(id, nm, desc)                                                                \
-    [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id,            \
-                        wide8_for_blob_##id},
+#define WIDE8_KERNELS(id, nm, desc) \
+    [BVH_CODEC_##id] = {wide8_intersect1_##id, wide8_occluded1_##id, wide8_stream_##id, wide8_for_blob_##id},
 const bvh_kernels PRT_ISA_NAME(bvh_wide8_kernels)[BVH_CODEC_COUNT] = {BVH_CODECS(WIDE8_KERNELS)};

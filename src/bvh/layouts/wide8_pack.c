@@ -20,7 +20,7 @@ typedef struct collapse {
     const wide8_leaves *lv;
     size_t grain; /* of the leaf sizes (write_blob) */
     int max_leaf;
-    float node_fixed; /* cost of a wide node besides its area's (wide8_pack_filled), root area 1 */
+    float node_fixed;        /* cost of a wide node besides its area's (wide8_pack_filled), root area 1 */
     uint32_t *first, *total; /* per binary node: its triangles t->prims[first .. first + total) */
     float (*cost)[8];        /* cost[n][i - 1]: at most i slots */
     int8_t (*pick)[8];       /* 0: as one slot (see leaf); j > 0: j slots to the first child */
@@ -108,7 +108,7 @@ static void gather(const collapse *c, uint32_t n, int slots, uint32_t *bin, uint
 typedef struct wide8_plan {
     uint32_t bin[8]; /* binary node of each slot: inner children first, then leaves */
     int count, inner;
-    uint32_t child;  /* node index of the first inner child */
+    uint32_t child; /* node index of the first inner child */
 } wide8_plan;
 
 typedef struct encoder {
@@ -228,8 +228,9 @@ static prt_status write_blob(const encoder *e, const wide8_leaves *c, bvh_blob *
             geo += bytes, end += bytes / grain;
             if (end > 255) {
                 prt__free(data);
-                return prt__fail(PRT_ERROR_LIMIT,
-                                 "wide8: the leaves of one node exceed 255 grains of %zu bytes; use a smaller leaf size", grain);
+                return prt__fail(
+                    PRT_ERROR_LIMIT,
+                    "wide8: the leaves of one node exceed 255 grains of %zu bytes; use a smaller leaf size", grain);
             }
             node.meta[i] = (uint8_t)end;
         }
@@ -288,8 +289,8 @@ prt_status wide8_pack_filled(const bvh_tree *t, const wide8_leaves *c, bvh_blob 
 /* --- validation of a loaded blob ---------------------------------------------------- */
 
 /* Every node referenced exactly once by an earlier node, slots in order (inner, leaves,
- * empty), every leaf a whole number of blocks inside the geometry range and valid, planes finite, depth bounded: traversal can then neither leave the blob,
- * loop, nor overflow its stack. */
+ * empty), every leaf a whole number of blocks inside the geometry range and valid, planes finite, depth bounded:
+ * traversal can then neither leave the blob, loop, nor overflow its stack. */
 prt_status wide8_check(const bvh_blob *b, const wide8_leaves *c) {
     wide8_header hd;
     if (b->size < WIDE8_HEADER_BYTES) return prt__fail(PRT_ERROR_CORRUPT, "wide8 tree: shorter than its header");
@@ -297,8 +298,9 @@ prt_status wide8_check(const bvh_blob *b, const wide8_leaves *c) {
     const size_t head = c->bytes(c->ctx, 0), per = c->bytes(c->ctx, (uint32_t)c->block) - head;
     const size_t tree = WIDE8_HEADER_BYTES + (size_t)hd.nodes * WIDE8_NODE_BYTES;
     /* The grain wide8_pack chooses, which the kernels assume (a constant per codec). */
-    if (hd.nodes == 0 || hd.nodes != b->nodes || hd.grain != wide8_grain(head, per) || hd.grain % 4 || hd.geometry < tree ||
-        hd.geometry != b->bytes_tree || hd.geometry > b->size || hd.geometry % 16 || hd.geometry % c->align)
+    if (hd.nodes == 0 || hd.nodes != b->nodes || hd.grain != wide8_grain(head, per) || hd.grain % 4 ||
+        hd.geometry < tree || hd.geometry != b->bytes_tree || hd.geometry > b->size || hd.geometry % 16 ||
+        hd.geometry % c->align)
         return prt__fail(PRT_ERROR_CORRUPT, "wide8 tree: header inconsistent with its size");
     uint8_t *depth = prt__calloc(hd.nodes, 1);
     if (!depth) return prt__fail(PRT_ERROR_NOMEM, "out of memory validating %u nodes", hd.nodes);
@@ -356,4 +358,3 @@ prt_status wide8_check(const bvh_blob *b, const wide8_leaves *c) {
     prt__free(depth);
     return s;
 }
-

@@ -96,7 +96,8 @@ bool wide8_point_walk(const bvh_view *w, prt__query *q) {
     wide8_header hd;
     memcpy(&hd, w->blob, sizeof hd);
     const bool idx8 = w->codec == &bvh_codecs[BVH_CODEC_idx8_soa4];
-    const vd4 p[3] = {{q->p[0], q->p[0], q->p[0], q->p[0]}, {q->p[1], q->p[1], q->p[1], q->p[1]},
+    const vd4 p[3] = {{q->p[0], q->p[0], q->p[0], q->p[0]},
+                      {q->p[1], q->p[1], q->p[1], q->p[1]},
                       {q->p[2], q->p[2], q->p[2], q->p[2]}};
     point_entry stack[WIDE8_STACK];
     uint32_t sp = 0;

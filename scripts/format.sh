@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Formats packrt's C sources with the project's .clang-format (STYLE.md: no style debates).
+# Usage: scripts/format.sh [--check]   (--check changes nothing: it lists the files that
+# differ and exits 1 when there is one)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+command -v clang-format >/dev/null || { echo "format: clang-format is not installed (scripts/deps.sh --test)" >&2; exit 2; }
+mapfile -t files < <(git ls-files '*.c' '*.h' '*.inc' 2>/dev/null || find src tools bench tests include python -name '*.[ch]' -o -name '*.inc')
+if [ "${1:-}" = "--check" ]; then
+  bad=0
+  for f in "${files[@]}"; do
+    if ! clang-format "$f" | cmp -s - "$f"; then echo "not formatted: $f (scripts/format.sh)"; bad=1; fi
+  done
+  exit $bad
+fi
+clang-format -i "${files[@]}"
