@@ -10,6 +10,8 @@ pkgs+=(python3-numpy python3-cffi)
 # libomp-14-dev: clang's OpenMP for the libFuzzer build (gcc uses its own libgomp);
 # python3: the CLI tests read .hits, PNG and JSON output with it.
 if [ "${1:-}" = "--test" ]; then pkgs+=(clang libclang-rt-14-dev libomp-14-dev xvfb xauth python3); fi
+# clang-format: tests/cli_format.sh checks the sources against .clang-format (scripts/format.sh).
+if [ "${1:-}" = "--test" ]; then pkgs+=(clang-format); fi
 # python3-pytest: the Python package's tests (ctest python_tests).
 if [ "${1:-}" = "--test" ]; then pkgs+=(python3-pytest); fi
 # libopenmpi-dev, openmpi-bin: packrt-mpi and its test (tests/cli_mpi.sh); optional to build.
