@@ -356,7 +356,7 @@ static int run_matrix(const bench_cli *c, const bench_input *in, double load) {
 
 /* The rows to measure: the .prt file's own spec; every name with -r all; the -r ones; or,
  * without -r, bench_default_specs (said on stderr so a reader knows what was left out).
- * `-r embree` asks for the Embree row alone. Returns a malloc'ed array. */
+ * `-r embree` (or `-r embree-robust`) asks for the Embree rows alone. Returns a malloc'ed array. */
 static const char **resolve_specs(bench_cli *c, const bench_input *in, size_t *count) {
     size_t n = 0, cap = prt_repr_count() + (size_t)c->spec_count + 16;
     const char **specs = malloc(cap * sizeof *specs);
@@ -375,7 +375,8 @@ static const char **resolve_specs(bench_cli *c, const bench_input *in, size_t *c
                 n, prt_repr_count());
     }
     for (int i = 0; i < c->spec_count && !in->file_accel; i++) {
-        if (!strcmp(c->specs[i], "embree")) c->vs_embree = true;
+        /* Embree's rows come with Embree: both names ask for it, never for a packrt spec. */
+        if (!strcmp(c->specs[i], "embree") || !strcmp(c->specs[i], "embree-robust")) c->vs_embree = true;
         else specs[n++] = c->specs[i];
     }
     *count = n;
