@@ -75,7 +75,7 @@ def main():
             info = subprocess.run(cmd, env=env, capture_output=True, text=True)
             m = re.search(r"would build (\S+)", info.stdout)
             chose = m.group(1) if m else None
-            fits = [r for r in rows.values() if r["name"] != "embree" and (lossy or "vertex_error" not in r)
+            fits = [r for r in rows.values() if not r["name"].startswith("embree") and (lossy or "vertex_error" not in r)
                     and (order or "ids=none" not in r["name"])
                     and (not budget or r["bytes_per_tri_total"] <= budget) and r.get("random_us_per_1024")]
             best = min(fits, key=lambda r: r["random_us_per_1024"]) if fits else None
