@@ -60,6 +60,9 @@ bvh_child bvh_child_inner_root(const uint8_t *blob, const bvh_codec *c, uint64_t
                                uint32_t (*children)(const uint8_t *, const bvh_codec *, const bvh_child *,
                                                     bvh_child[8]));
 
+struct bvh_view;
+struct prt__query;
+
 typedef struct bvh_layout {
     const char *name;
     const char *description;
@@ -80,6 +83,10 @@ typedef struct bvh_layout {
      * ignores bounds. */
     bvh_child (*root)(const uint8_t *blob, const bvh_codec *c, const float bounds[6]);
     uint32_t (*children)(const uint8_t *blob, const bvh_codec *c, const bvh_child *node, bvh_child out[8]);
+    /* The layout's own walk for point queries (api/query.h), handing q->leaf the triangles
+     * bvh_walk would or fewer; false, having done nothing, for a codec it does not serve.
+     * NULL: bvh_walk's generic walk answers them. */
+    bool (*point_walk)(const struct bvh_view *w, struct prt__query *q);
 } bvh_layout;
 
 /* X(id, name) */

@@ -6,7 +6,6 @@
 #include "api/query.h"
 #include "bvh/bvh.h"
 #include "bvh/codecs/strip.h"
-#include "bvh/layouts/wide8_point.h"
 #include "bvh/strip_leaves.h"
 
 /* Triangles as the mesh names them: strip triangles rotated back to the mesh's vertex order
@@ -55,7 +54,7 @@ typedef struct walk_entry {
 } walk_entry;
 
 void bvh_walk(const bvh_view *w, const float bounds[6], prt__query *q) {
-    if (q->kind == PRT__QUERY_POINT && wide8_point_walk(w, q)) return; /* its own SIMD walk */
+    if (q->kind == PRT__QUERY_POINT && w->layout->point_walk && w->layout->point_walk(w, q)) return;
     walk_entry stack[8 * BVH_MAX_DEPTH + 8];
     uint32_t sp = 0;
     const bool widen = w->codec->leaf_error || w->codec->vertex_error;

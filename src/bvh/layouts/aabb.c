@@ -215,4 +215,5 @@ const bvh_layout bvh_layout_aabb = {
     }},
     aabb_root,
     aabb_children,
+    NULL, /* point queries: the generic walk */
 };

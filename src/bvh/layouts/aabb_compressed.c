@@ -262,4 +262,5 @@ const bvh_layout bvh_layout_aabb_compressed = {
     }},
     aabb_compressed_root,
     aabb_compressed_children,
+    NULL, /* point queries: the generic walk */
 };

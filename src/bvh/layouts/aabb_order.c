@@ -195,6 +195,7 @@ static const bvh_layout aabb_df_tl = {
     }},
     aabb_df_tl_root,
     aabb_df_tl_children,
+    NULL, /* point queries: the generic walk */
 };
 
 static const bvh_layout aabb_bf = {
@@ -210,6 +211,7 @@ static const bvh_layout aabb_bf = {
     }},
     aabb_bf_root,
     aabb_bf_children,
+    NULL, /* point queries: the generic walk */
 };
 
 static const bvh_layout aabb_bf_tl = {
@@ -226,6 +228,7 @@ static const bvh_layout aabb_bf_tl = {
     }},
     aabb_bf_tl_root,
     aabb_bf_tl_children,
+    NULL, /* point queries: the generic walk */
 };
 
 const bvh_layout *const bvh_aabb_orders[BVH_ORDER_COUNT] = {&bvh_layout_aabb, &aabb_df_tl, &aabb_bf, &aabb_bf_tl};

@@ -44,4 +44,5 @@ const bvh_layout bvh_layout_aabb_pns = {
     }},
     aabb_pns_root,
     aabb_pns_children,
+    NULL, /* point queries: the generic walk */
 };

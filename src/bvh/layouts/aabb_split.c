@@ -42,4 +42,5 @@ const bvh_layout bvh_layout_aabb_split = {
     }},
     aabb_split_root,
     aabb_split_children,
+    NULL, /* point queries: the generic walk */
 };

@@ -221,4 +221,5 @@ const bvh_layout bvh_layout_quad = {
     }},
     quad_root,
     quad_children,
+    NULL, /* point queries: the generic walk */
 };

@@ -313,4 +313,5 @@ const bvh_layout bvh_layout_quad_half = {
     }},
     quad_half_root,
     quad_half_children,
+    NULL, /* point queries: the generic walk */
 };

@@ -300,4 +300,5 @@ const bvh_layout bvh_layout_skd = {
     }},
     skd_root,
     skd_children,
+    NULL, /* point queries: the generic walk */
 };

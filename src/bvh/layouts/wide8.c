@@ -4,6 +4,7 @@
  * outward, so one node costs what Rouwé's QuadTreeHalfFloat costs for four children.
  * Node format and blob layout: wide8.h; packing: wide8_pack.c. */
 #include "bvh/layouts/wide8_box.h"
+#include "bvh/layouts/wide8_point.h"
 
 #include <math.h>
 
@@ -100,7 +101,7 @@ static bvh_child wide8_root(const uint8_t *blob, const bvh_codec *c, const float
              [BVH_CODEC_idx32] = 4,                                                                                 \
              [BVH_CODEC_idx32_soa4] = 8},                                                                           \
             encode, wide8_validate, {bvh_wide8_kernels, PRT_ISA_AVX512_OF(bvh_wide8_kernels)}, wide8_root,          \
-            wide8_children,                                                                                         \
+            wide8_children, wide8_point_walk,                                                                       \
     }
 
 const bvh_layout bvh_layout_wide8 = WIDE8_LAYOUT(wide8_encode);

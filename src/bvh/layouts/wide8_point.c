@@ -90,9 +90,7 @@ typedef struct point_entry {
 } point_entry;
 
 bool wide8_point_walk(const bvh_view *w, prt__query *q) {
-    if ((w->layout != &bvh_layout_wide8 && w->layout != &bvh_layout_wide8_filled) || w->codec->leaf_error ||
-        w->codec->vertex_error)
-        return false;
+    if (w->codec->leaf_error || w->codec->vertex_error) return false; /* the generic walk widens lossy boxes */
     wide8_header hd;
     memcpy(&hd, w->blob, sizeof hd);
     const bool idx8 = w->codec == &bvh_codecs[BVH_CODEC_idx8_soa4];
