@@ -68,13 +68,17 @@ def main():
     print()
     print("| budget B/tri | lossy | ids=none | auto chose | its B/tri | its µs/1024 | best in budget | its B/tri | its µs/1024 | auto / best |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    for budget in budgets:
-        for lossy, order in ((False, False), (False, True), (True, False), (True, True)):
-            cmd = [packrt, "info", mesh] + (["--budget", f"{budget:g}"] if budget else ["--estimate"])
-            cmd += (["--lossy"] if lossy else []) + (["--order"] if order else [])
-            info = subprocess.run(cmd, env=env, capture_output=True, text=True)
-            m = re.search(r"would build (\S+)", info.stdout)
-            chose = m.group(1) if m else None
+    rows_out = []
+    for lossy, order in ((False, False), (False, True), (True, False), (True, True)):
+        # One call per combination: the estimates are made once for every budget.
+        cmd = [packrt, "info", mesh, "--budget", ",".join(f"{b:g}" if b else "none" for b in budgets)]
+        cmd += (["--lossy"] if lossy else []) + (["--order"] if order else [])
+        info = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        choices = {}
+        for m in re.finditer(r"^-r auto(?:,budget=([0-9.]+))?\S* would build (\S+)", info.stdout, re.M):
+            choices[float(m.group(1)) if m.group(1) else 0.0] = m.group(2)
+        for budget in budgets:
+            chose = choices.get(float(budget))
             fits = [r for r in rows.values() if not r["name"].startswith("embree") and (lossy or "vertex_error" not in r)
                     and (order or "ids=none" not in r["name"])
                     and (not budget or r["bytes_per_tri_total"] <= budget) and r.get("random_us_per_1024")]
@@ -91,7 +95,9 @@ def main():
             else:
                 cells += ["(none fits)", "-", "-"]
             cells.append(f"{a['random_us_per_1024'] / best['random_us_per_1024']:.2f}" if a and best else "-")
-            print("| " + " | ".join(cells) + " |")
+            rows_out.append((budget, lossy, order, cells))
+    for _, _, _, cells in sorted(rows_out, key=lambda x: (x[0] == 0, x[0], x[1], x[2])):
+        print("| " + " | ".join(cells) + " |")
     e = rows.get("embree")
     if e:
         print(f"\nEmbree: {e['bytes_per_tri_total']:.1f} B/tri, {e['random_us_per_1024']:.0f} µs/1024 warm, one thread.")

@@ -73,6 +73,11 @@ PY
 check info_estimate 0 "$packrt" info "$dir/s.ply" --budget 30 --verify
 grep -q "would build" "$dir/out" && grep -q "estimate" "$dir/out" \
   && { pass=$((pass + 1)); echo "ok   info_estimate_says_choice"; } || { fail=$((fail + 1)); echo "FAIL info_estimate_says_choice"; }
+# Several budgets in one call: one choice line each, the impossible one says so (exit 1).
+check info_budgets 1 "$packrt" info "$dir/s.ply" --budget 2,30,none
+[ "$(grep -c "would build" "$dir/out")" = 2 ] && grep -q "auto,budget=2: .*nothing fits" "$dir/out" \
+  && { pass=$((pass + 1)); echo "ok   info_budgets_one_line_each"; } || { fail=$((fail + 1)); echo "FAIL info_budgets_one_line_each"; }
+check info_budgets_bad 2 "$packrt" info "$dir/s.ply" --budget 30,,8
 check build_auto_too_small 1 "$packrt" build "$dir/s.ply" -r auto,budget=2 -o "$dir/auto2.prt"
 grep -q "smallest" "$dir/err" || { fail=$((fail + 1)); echo "FAIL build_auto_too_small names the smallest"; }
 check build_auto_bad 1 "$packrt" build "$dir/s.ply" -r auto,budget=lots -o "$dir/auto3.prt"

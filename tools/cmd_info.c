@@ -15,7 +15,8 @@ static int usage(void) {
            "  --estimate: estimated sizes of one representation of every family and of auto's candidates\n"
            "    instead, without building them over the whole mesh (prt_estimate), and what -r auto\n"
            "    would choose; --budget B (bytes per triangle) or --memory N (bytes, K/M/G) set auto's\n"
-           "    budget and imply --estimate; --lossy lets auto choose lossy representations; --verify\n"
+           "    budget and imply --estimate; --budget 8,12,none: auto's choice for each budget (exit\n"
+           "    status 1 when one has none); --lossy lets auto choose lossy representations; --verify\n"
            "    builds each over the whole mesh too and prints the estimate's error; --order: auto may\n"
            "    choose ids=none specs, as `packrt build -r auto... --order FILE` does\n"
            "  a .prt file: its representation, bounds and memory\n");
@@ -84,19 +85,26 @@ static void verify_estimate(const prt_mesh *m, const char *spec, size_t estimate
 }
 
 /* Estimated sizes of every default and candidate spec, and auto's choice for auto_spec. */
-static int estimates(const prt_mesh *m, const char *auto_spec, double limit, bool verify, bool with_order) {
-    const char *const *lists[] = {bench_default_specs, bench_calibrate_specs};
-    printf("estimated memory (prt_estimate; * fits %s):\n", auto_spec);
-    char chosen[96] = "";
-    prt_size_estimate ce;
+/* What auto would build for auto_spec (its estimate into *ce), or the error's text in why. */
+static prt_status choose(const prt_mesh *m, const char *auto_spec, bool with_order, char chosen[96],
+                         prt_size_estimate *ce, char why[512]) {
     /* --order: the caller will take the triangle order, so ids=none specs are candidates. */
     prt_build_options o = {0};
     o.triangle_order = with_order ? malloc(m->triangle_count * sizeof *o.triangle_order) : NULL;
-    prt_status cs = with_order && !o.triangle_order ? PRT_ERROR_NOMEM
-                                                    : prt_auto_choose(m, auto_spec, &o, chosen, sizeof chosen, &ce);
+    prt_status s =
+        with_order && !o.triangle_order ? PRT_ERROR_NOMEM : prt_auto_choose(m, auto_spec, &o, chosen, 96, ce);
     free(o.triangle_order);
-    char why[512]; /* the estimates below overwrite prt_last_error() */
-    snprintf(why, sizeof why, "%s", cs ? prt_last_error() : "");
+    snprintf(why, 512, "%s", s ? prt_last_error() : "");
+    return s;
+}
+
+/* Estimated sizes of every default and candidate spec, then auto's choice for each of the
+ * n auto_specs; a spec fitting limit is starred when there is one auto spec. */
+static int estimates(const prt_mesh *m, const char *const *auto_specs, size_t n, double limit, bool verify,
+                     bool with_order) {
+    const char *const *lists[] = {bench_default_specs, bench_calibrate_specs};
+    if (n == 1) printf("estimated memory (prt_estimate; * fits %s):\n", auto_specs[0]);
+    else printf("estimated memory (prt_estimate):\n");
     for (int l = 0; l < 2; l++)
         for (size_t i = 0; lists[l][i]; i++) {
             bool seen = false; /* a spec in both lists once */
@@ -114,17 +122,25 @@ static int estimates(const prt_mesh *m, const char *auto_spec, double limit, boo
                    (double)e.bytes_tree / (double)m->triangle_count,
                    (double)e.bytes_geometry / (double)m->triangle_count, (double)total / 1e6,
                    e.sample_triangles < m->triangle_count ? "" : " (exact)",
-                   !limit || (double)total <= limit ? " *" : "");
+                   n == 1 && (!limit || (double)total <= limit) ? " *" : "");
             if (verify) verify_estimate(m, lists[l][i], total);
             putchar('\n');
         }
-    if (cs) {
-        fprintf(stderr, "packrt info: %s: %s: %s\n", auto_spec, prt_status_string(cs), why);
-        return 1;
+    int rc = 0;
+    for (size_t k = 0; k < n; k++) {
+        char chosen[96] = "", why[512];
+        prt_size_estimate ce;
+        prt_status cs = choose(m, auto_specs[k], with_order, chosen, &ce, why);
+        if (cs) {
+            if (n == 1) fprintf(stderr, "packrt info: %s: %s: %s\n", auto_specs[k], prt_status_string(cs), why);
+            else printf("-r %s: %s\n", auto_specs[k], why); /* one line per budget */
+            rc = 1;
+            continue;
+        }
+        printf("-r %s would build %s (estimated %.2f B/tri, %.1f MB)\n", auto_specs[k], chosen, ce.bytes_per_triangle,
+               (double)(ce.bytes_tree + ce.bytes_geometry + ce.bytes_other) / 1e6);
     }
-    printf("-r %s would build %s (estimated %.2f B/tri, %.1f MB)\n", auto_spec, chosen, ce.bytes_per_triangle,
-           (double)(ce.bytes_tree + ce.bytes_geometry + ce.bytes_other) / 1e6);
-    return 0;
+    return rc;
 }
 
 typedef struct info_args {
@@ -186,19 +202,37 @@ static void describe_mesh(const prt_mesh *m, const char *path) {
     connectivity(m);
 }
 
-/* --estimate, --budget, --memory: the auto spec they make, and its estimates. */
+/* --estimate, --budget, --memory: the auto specs they make (one per budget of a comma list;
+ * "none": no budget), and the estimates. */
+#define INFO_BUDGETS_MAX 16
 static int estimate_for(const prt_mesh *m, const info_args *a) {
-    char auto_spec[160];
-    size_t bytes = 0;
-    double per_tri = a->budget ? strtod(a->budget, NULL) : 0, limit = per_tri * (double)m->triangle_count;
-    if (a->memory && cli_parse_count(a->memory, &bytes)) limit = (double)bytes;
-    if ((a->budget && !(per_tri > 0)) || (a->memory && !bytes))
-        return cli_usage("info", "--budget takes bytes per triangle, --memory bytes (K, M, G: powers of 1000)");
-    snprintf(auto_spec, sizeof auto_spec, "auto");
-    if (a->budget) snprintf(auto_spec, sizeof auto_spec, "auto,budget=%s", a->budget);
-    if (a->memory) snprintf(auto_spec, sizeof auto_spec, "auto,memory=%zu", bytes);
-    if (a->lossy) strcat(auto_spec, ",lossy=yes");
-    return estimates(m, auto_spec, limit, a->verify, a->with_order);
+    char specs[INFO_BUDGETS_MAX][160];
+    const char *spec_ptrs[INFO_BUDGETS_MAX];
+    size_t n = 0, bytes = 0;
+    double limit = 0;
+    if (a->memory && (!cli_parse_count(a->memory, &bytes) || !bytes))
+        return cli_usage("info", "--memory takes bytes (K, M, G: powers of 1000), not '%s'", a->memory);
+    const char *list = a->budget ? a->budget : "none";
+    size_t items = 1;
+    for (const char *c = list; *c; c++) items += *c == ',';
+    if (items > INFO_BUDGETS_MAX) return cli_usage("info", "--budget takes at most %d budgets", INFO_BUDGETS_MAX);
+    for (const char *b = list; n < items; n++) {
+        size_t len = strcspn(b, ",");
+        char item[32];
+        snprintf(item, sizeof item, "%.*s", (int)(len < 31 ? len : 31), b);
+        char *end;
+        double per_tri = strtod(item, &end);
+        bool none = !strcmp(item, "none") || a->memory;
+        if (!none && (end == item || *end || !(per_tri > 0) || len > 31))
+            return cli_usage("info", "--budget takes bytes per triangle or 'none', comma-separated, not '%s'", item);
+        if (a->memory) snprintf(specs[n], sizeof specs[n], "auto,memory=%zu", bytes), limit = (double)bytes;
+        else if (none) snprintf(specs[n], sizeof specs[n], "auto");
+        else snprintf(specs[n], sizeof specs[n], "auto,budget=%s", item), limit = per_tri * (double)m->triangle_count;
+        if (a->lossy) strcat(specs[n], ",lossy=yes");
+        spec_ptrs[n] = specs[n];
+        b += len + (b[len] == ',');
+    }
+    return estimates(m, spec_ptrs, n, limit, a->verify, a->with_order);
 }
 
 /* The bytes of every representation (or -r's) built over m. */
