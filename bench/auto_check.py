@@ -12,7 +12,10 @@ With --all, every representation (`packrt bench -r all`, plus the cost table's s
 options, such as ids=none, that `packrt list` does not name) is measured instead of auto's
 candidates, so "best in budget" is the best packrt has, not the best auto could choose.
 
-Usage: bench/auto_check.py PACKRT MESH [--all] [--budgets 8,12,16,24,48,0] [--rounds 3] [bench options...]
+With --report FILE, the bench's JSON report is read from FILE when it exists (no bench is
+run: a new cost table judged on the figures measured before) and written to it otherwise.
+
+Usage: bench/auto_check.py PACKRT MESH [--all] [--budgets 8,12,16,24,48,0] [--rounds 3] [--report FILE] [bench options...]
 """
 import json
 import os
@@ -30,6 +33,20 @@ def table_specs_with_options():
     return sorted({s for s in specs if "," in s})
 
 
+def measure(packrt, mesh, which, rounds, extra, env):
+    """The bench's JSON report on the candidates (which: None) or the given -r list."""
+    with tempfile.TemporaryDirectory() as tmp:
+        which = which or ["--calibrate", "--costs", os.path.join(tmp, "c.tsv")]
+        out = subprocess.run([packrt, "bench", mesh] + which + ["--json",
+                              "--workload", "random", "--no-cold", "--threads", "1", "--rounds", rounds] + extra,
+                             env=env, capture_output=True, text=True)
+    # Exit status 1 with a report: some rows could not be built (idx16 past 65,535 vertices).
+    try:
+        return json.loads(out.stdout)
+    except json.JSONDecodeError:
+        sys.exit(out.stderr)
+
+
 def main():
     args = sys.argv[1:]
     if len(args) < 2:
@@ -38,6 +55,7 @@ def main():
     budgets, rounds = [8, 12, 16, 24, 48, 0], "3"
     extra = []
     which = None
+    saved = None
     i = 0
     while i < len(rest):
         if rest[i] == "--all":
@@ -46,6 +64,9 @@ def main():
         elif rest[i] == "--budgets":
             budgets = [float(b) for b in rest[i + 1].split(",")]
             i += 2
+        elif rest[i] == "--report":
+            saved = rest[i + 1]
+            i += 2
         elif rest[i] == "--rounds":
             rounds = rest[i + 1]
             i += 2
@@ -53,18 +74,19 @@ def main():
             extra.append(rest[i])
             i += 1
     env = dict(os.environ, PRT_COSTS="/nonexistent/packrt-costs.tsv")
-    with tempfile.TemporaryDirectory() as tmp:
-        which = which or ["--calibrate", "--costs", os.path.join(tmp, "c.tsv")]
-        out = subprocess.run([packrt, "bench", mesh] + which + ["--json",
-                              "--workload", "random", "--no-cold", "--threads", "1", "--rounds", rounds] + extra,
-                             env=env, capture_output=True, text=True)
-    if out.returncode:
-        sys.exit(out.stderr)
-    report = json.loads(out.stdout)
+    if saved and os.path.exists(saved):
+        with open(saved) as f:
+            report = json.load(f)
+    else:
+        report = measure(packrt, mesh, which, rounds, extra, env)
+        if saved:
+            with open(saved, "w") as f:
+                json.dump(report, f)
+    failed = [r["name"] for r in report["results"] if "error" in r]
     rows = {r["name"]: r for r in report["results"] if "error" not in r}
     tris = report["mesh"]["triangles"]
     print(f"{report['mesh']['path']}: {tris} triangles; {report['machine']}; load {report['load_average']}; "
-          f"{report['rounds']} rounds")
+          f"{report['rounds']} rounds" + (f"; could not build {', '.join(failed)}" if failed else ""))
     print()
     print("| budget B/tri | lossy | ids=none | auto chose | its B/tri | its µs/1024 | best in budget | its B/tri | its µs/1024 | auto / best |")
     print("|---|---|---|---|---|---|---|---|---|---|")

@@ -335,14 +335,14 @@ extern const char *const bench_default_specs[];
 extern const char *const bench_calibrate_specs[];
 
 /* The cost table file of `auto` specs (bench/costs.c, docs/auto.md) as its lines: read
- * (a missing file is an empty table), a row set by spec and mesh kind, written atomically
+ * (a missing file is an empty table), a row set by spec, mesh kind and size, written atomically
  * (its directory created when missing). */
 typedef struct bench_costs {
     char **lines;
     size_t count, cap;
 } bench_costs;
 void bench_costs_read(bench_costs *t, const char *path);
-bool bench_costs_set(bench_costs *t, const char *spec, const char *kind, const char *line);
+bool bench_costs_set(bench_costs *t, const char *spec, const char *kind, uint64_t triangles, const char *line);
 prt_status bench_costs_write(const bench_costs *t, const char *path);
 void bench_costs_free(bench_costs *t);
 

@@ -1,7 +1,9 @@
-/* The cost table file of `auto` specs (docs/auto.md): tab-separated lines "spec kind lossy
- * random primary shadow diffuse", comments kept, one line per spec and mesh kind. */
+/* The cost table file of `auto` specs (docs/auto.md): tab-separated lines "spec kind
+ * triangles lossy random primary shadow diffuse", comments kept, one line per spec, mesh
+ * kind and size (prt__cost_same_size). */
 #include "bench.h"
 
+#include "api/auto.h"
 #include "io/atomic_file.h"
 
 #include <errno.h>
@@ -30,20 +32,25 @@ void bench_costs_read(bench_costs *t, const char *path) {
     if (f) fclose(f);
 }
 
-/* Whether line is the row of spec on kind. */
-static bool is_row(const char *line, const char *spec, const char *kind) {
+/* Whether line is the row of spec on kind at the size of a mesh of triangles (a row without
+ * a size, from a table before sizes, is of no size). */
+static bool is_row(const char *line, const char *spec, const char *kind, uint64_t triangles) {
     size_t ls = strlen(spec), lk = strlen(kind);
-    return !strncmp(line, spec, ls) && line[ls] == '\t' && !strncmp(line + ls + 1, kind, lk) &&
-           line[ls + 1 + lk] == '\t';
+    if (strncmp(line, spec, ls) || line[ls] != '\t' || strncmp(line + ls + 1, kind, lk) || line[ls + 1 + lk] != '\t')
+        return false;
+    const char *size = line + ls + 2 + lk;
+    char *end;
+    uint64_t n = strtoull(size, &end, 10);
+    return prt__cost_same_size(end > size && *end == '\t' ? n : 0, triangles);
 }
 
-bool bench_costs_set(bench_costs *t, const char *spec, const char *kind, const char *line) {
+bool bench_costs_set(bench_costs *t, const char *spec, const char *kind, uint64_t triangles, const char *line) {
     if (!t->count)
         push(t, "# packrt cost table for \"auto\" specs (docs/auto.md), written by `packrt bench --calibrate`.\n"
                 "# Time per ray over Embree's default in the same run (lower is faster); \"-\": not measured.\n"
-                "# spec\tkind\tlossy\trandom\tprimary\tshadow\tdiffuse");
+                "# spec\tkind\ttriangles\tlossy\trandom\tprimary\tshadow\tdiffuse");
     for (size_t i = 0; i < t->count; i++)
-        if (is_row(t->lines[i], spec, kind)) {
+        if (is_row(t->lines[i], spec, kind, triangles)) {
             char *copy = strdup(line);
             if (!copy) return false;
             free(t->lines[i]);

@@ -82,6 +82,22 @@ check build_auto_too_small 1 "$packrt" build "$dir/s.ply" -r auto,budget=2 -o "$
 grep -q "smallest" "$dir/err" || { fail=$((fail + 1)); echo "FAIL build_auto_too_small names the smallest"; }
 check build_auto_bad 1 "$packrt" build "$dir/s.ply" -r auto,budget=lots -o "$dir/auto3.prt"
 
+# --calibrate writes a row per spec, mesh kind and size: another size adds rows, the same
+# size replaces them (needs Embree, which it measures against).
+"$packrt" gen sphere --tris 2k -o "$dir/s2k.ply" >/dev/null 2>&1
+calibrate() { "$packrt" bench "$1" -r wide8:idx8-soa4 --calibrate --costs "$dir/c.tsv" --rays 256 --rounds 1 \
+  --no-cold --workload random --threads 1 >"$dir/out" 2>"$dir/err"; }
+if calibrate "$dir/s.ply" && calibrate "$dir/s2k.ply" && calibrate "$dir/s.ply"; then
+  python3 - "$dir/c.tsv" <<'PY' && { pass=$((pass + 1)); echo "ok   calibrate_rows_by_size"; } || { fail=$((fail + 1)); echo "FAIL calibrate_rows_by_size"; cat "$dir/c.tsv"; }
+import sys
+rows = [l.split("\t") for l in open(sys.argv[1]) if l.strip() and not l.startswith("#")]
+sizes = sorted(int(r[2]) for r in rows if r[0] == "wide8:idx8-soa4" and r[1] == "shared")
+assert len(sizes) == 2 and sizes[0] < 4000 and 15000 < sizes[1] < 25000, sizes
+assert all(len(r) == 8 and float(r[4]) > 0 for r in rows), rows
+PY
+elif grep -q "has none" "$dir/err"; then echo "skip calibrate_rows_by_size: no Embree"
+else fail=$((fail + 1)); echo "FAIL calibrate"; cat "$dir/err"; fi
+
 # Mistakes: usage errors exit 2, failures exit 1 with a message, never a crash.
 check no_command 2 "$packrt"
 check unknown_command 2 "$packrt" frobnicate

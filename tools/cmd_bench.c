@@ -580,15 +580,17 @@ static int write_costs(const bench_cli *c, const bench_input *in, const bench_ro
             ratio[BENCH_RANDOM] = r->random_us_per_1024 / em->random_us_per_1024;
         for (int w = BENCH_PRIMARY; w < BENCH_WORKLOAD_COUNT; w++)
             if (r->w[w].mrays_1t > 0 && em->w[w].mrays_1t > 0) ratio[w] = em->w[w].mrays_1t / r->w[w].mrays_1t;
-        int len = snprintf(line, sizeof line, "%s\t%s\t%s", r->name, kind, r->vertex_error > 0 ? "yes" : "no");
+        int len = snprintf(line, sizeof line, "%s\t%s\t%zu\t%s", r->name, kind, in->mesh->triangle_count,
+                           r->vertex_error > 0 ? "yes" : "no");
         for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++)
             len += snprintf(line + len, sizeof line - (size_t)len, ratio[w] > 0 ? "\t%.3f" : "\t-", ratio[w]);
-        bench_costs_set(&t, r->name, kind, line);
+        bench_costs_set(&t, r->name, kind, in->mesh->triangle_count, line);
     }
     prt_status s = bench_costs_write(&t, path);
     bench_costs_free(&t);
     if (s) return cli_fail("bench", path, s);
-    fprintf(stderr, "packrt bench: cost table for %s meshes written to %s\n", kind, path);
+    fprintf(stderr, "packrt bench: cost table for %s meshes of %zu triangles written to %s\n", kind,
+            in->mesh->triangle_count, path);
     return 0;
 }
 

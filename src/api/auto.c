@@ -10,6 +10,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,24 +22,36 @@ static const char g_builtin[] = {
 
 static const char *const g_workloads[] = {"random", "primary", "shadow", "diffuse"};
 
-/* Parse one "spec kind lossy random primary shadow diffuse" line (tabs or spaces; "-" for
- * a workload not measured). False for comments, blank and malformed lines. */
+/* Parse one "spec kind triangles lossy random primary shadow diffuse" line, or a table
+ * before sizes' "spec kind lossy random primary shadow diffuse" (tabs or spaces; "-" for a
+ * workload not measured). False for comments, blank and malformed lines. */
 static bool parse_row(const char *line, prt__cost_row *r) {
-    char lossy[8], w[4][24];
-    if (line[0] == '#' ||
-        sscanf(line, "%95s %15s %7s %23s %23s %23s %23s", r->spec, r->kind, lossy, w[0], w[1], w[2], w[3]) != 7)
-        return false;
+    char f[8][96];
+    if (line[0] == '#') return false;
+    int n =
+        sscanf(line, "%95s %15s %95s %95s %95s %95s %95s %95s", r->spec, r->kind, f[2], f[3], f[4], f[5], f[6], f[7]);
+    if (n < 7) return false;
+    const bool sized = n == 8;
+    char *end;
+    r->triangles = sized ? strtoull(f[2], &end, 10) : 0;
+    if (sized && (end == f[2] || *end || !r->triangles || !isdigit((unsigned char)f[2][0]))) return false;
+    const char *lossy = f[sized ? 3 : 2];
+    if (strcmp(lossy, "yes") && strcmp(lossy, "no")) return false;
     r->lossy = !strcmp(lossy, "yes");
     for (int k = 0; k < 4; k++) {
-        char *end;
-        r->ratio[k] = strcmp(w[k], "-") ? strtod(w[k], &end) : 0;
-        if (strcmp(w[k], "-") && (end == w[k] || *end || !(r->ratio[k] > 0))) return false;
+        const char *w = f[k + (sized ? 4 : 3)];
+        r->ratio[k] = strcmp(w, "-") ? strtod(w, &end) : 0;
+        if (strcmp(w, "-") && (end == w || *end || !(r->ratio[k] > 0) || !isfinite(r->ratio[k]))) return false;
     }
     return true;
 }
 
-/* Add text's rows to t; a row for a spec and kind t has replaces it. */
-static void add_rows(prt__cost_table *t, const char *text) {
+bool prt__cost_same_size(uint64_t a, uint64_t b) {
+    if (!a || !b) return !a && !b;
+    return a <= 2 * b && b <= 2 * a;
+}
+
+void prt__cost_table_add(prt__cost_table *t, const char *text) {
     while (*text) {
         const char *eol = strchr(text, '\n');
         size_t len = eol ? (size_t)(eol - text) : strlen(text);
@@ -48,11 +61,29 @@ static void add_rows(prt__cost_table *t, const char *text) {
         prt__cost_row r;
         if (!parse_row(line, &r)) continue;
         size_t i = 0;
-        while (i < t->count && (strcmp(t->rows[i].spec, r.spec) || strcmp(t->rows[i].kind, r.kind))) i++;
+        while (i < t->count && (strcmp(t->rows[i].spec, r.spec) || strcmp(t->rows[i].kind, r.kind) ||
+                                !prt__cost_same_size(t->rows[i].triangles, r.triangles)))
+            i++;
         if (i == t->count && t->count == PRT__COST_ROWS_MAX) continue;
         t->rows[i] = r;
         if (i == t->count) t->count++;
     }
+}
+
+double prt__cost_ratio(const prt__cost_table *t, const char *spec, const char *kind, int w, uint64_t n) {
+    const prt__cost_row *below = NULL, *above = NULL;
+    for (size_t i = 0; i < t->count; i++) {
+        const prt__cost_row *r = &t->rows[i];
+        if (strcmp(r->spec, spec) || strcmp(r->kind, kind) || !(r->ratio[w] > 0)) continue;
+        if (!r->triangles) return r->ratio[w];
+        if (r->triangles <= n && (!below || r->triangles > below->triangles)) below = r;
+        if (r->triangles >= n && (!above || r->triangles < above->triangles)) above = r;
+    }
+    if (!below || !above) return below ? below->ratio[w] : above ? above->ratio[w] : 0;
+    if (below == above) return below->ratio[w];
+    const double f =
+        log((double)n / (double)below->triangles) / log((double)above->triangles / (double)below->triangles);
+    return below->ratio[w] + f * (above->ratio[w] - below->ratio[w]);
 }
 
 void prt__cost_table_path(char *buf, size_t size) {
@@ -63,7 +94,7 @@ void prt__cost_table_path(char *buf, size_t size) {
 
 void prt__cost_table_load(prt__cost_table *t) {
     t->count = 0;
-    add_rows(t, g_builtin);
+    prt__cost_table_add(t, g_builtin);
     char path[1024];
     prt__cost_table_path(path, sizeof path);
     FILE *f = fopen(path, "r");
@@ -72,7 +103,7 @@ void prt__cost_table_load(prt__cost_table *t) {
     if (text) {
         size_t n = fread(text, 1, (1 << 20) - 1, f);
         text[n] = 0;
-        add_rows(t, text);
+        prt__cost_table_add(t, text);
         free(text);
     }
     fclose(f);
@@ -130,10 +161,17 @@ static prt_status parse_request(const char *text, const prt_mesh *m, auto_reques
     return prt__spec_check_unused(&spec);
 }
 
-/* The candidates for m, fastest first: rows of m's kind (of any kind when the table has
- * none of it) that the request allows and that say how fast they are on its workload. */
+/* A candidate: a spec and its ratio for the mesh at hand (prt__cost_ratio). */
+typedef struct auto_cand {
+    const char *spec; /* a row's, in the plan's table */
+    double ratio;
+} auto_cand;
+
+/* The candidates for m, fastest first: specs with rows of m's kind (of any kind when the
+ * table has none of it) that the request allows and that say how fast they are on its
+ * workload, each once, at m's size. */
 static size_t candidates(const prt__cost_table *t, const prt_mesh *m, const auto_request *r, bool have_order,
-                         const prt__cost_row **out) {
+                         auto_cand *out) {
     const char *kind = prt__mesh_kind(m);
     size_t n = 0;
     for (int any_kind = 0; any_kind < 2 && !n; any_kind++)
@@ -142,13 +180,15 @@ static size_t candidates(const prt__cost_table *t, const prt_mesh *m, const auto
             if ((!any_kind && strcmp(row->kind, kind)) || (row->lossy && !r->lossy) || !(row->ratio[r->workload] > 0) ||
                 (!have_order && strstr(row->spec, "ids=none")))
                 continue;
-            bool dup = false; /* any kind: one row per spec, the first */
-            for (size_t j = 0; j < n; j++) dup |= !strcmp(out[j]->spec, row->spec);
-            if (!dup) out[n++] = row;
+            bool dup = false; /* one candidate per spec: its first row's kind */
+            for (size_t j = 0; j < n; j++) dup |= !strcmp(out[j].spec, row->spec);
+            if (dup) continue;
+            out[n].spec = row->spec;
+            out[n++].ratio = prt__cost_ratio(t, row->spec, row->kind, r->workload, m->triangle_count);
         }
-    for (size_t i = 1; i < n; i++) /* insertion sort: a few dozen rows */
-        for (size_t j = i; j > 0 && out[j]->ratio[r->workload] < out[j - 1]->ratio[r->workload]; j--) {
-            const prt__cost_row *x = out[j];
+    for (size_t i = 1; i < n; i++) /* insertion sort: a few dozen candidates */
+        for (size_t j = i; j > 0 && out[j].ratio < out[j - 1].ratio; j--) {
+            const auto_cand x = out[j];
             out[j] = out[j - 1], out[j - 1] = x;
         }
     return n;
@@ -158,7 +198,7 @@ static size_t candidates(const prt__cost_table *t, const prt_mesh *m, const auto
 typedef struct auto_plan {
     auto_request req;
     prt__cost_table table;
-    const prt__cost_row *cand[PRT__COST_ROWS_MAX];
+    auto_cand cand[PRT__COST_ROWS_MAX];
     prt_size_estimate est[PRT__COST_ROWS_MAX];
     bool fits[PRT__COST_ROWS_MAX];
     size_t count;
@@ -180,8 +220,7 @@ static prt_status make_plan(const prt_mesh *m, const char *text, const prt_build
     size_t smallest = SIZE_MAX;
     bool any = false;
     for (size_t i = 0; i < p->count; i++) {
-        if (prt__sample_estimate(&smp, p->cand[i]->spec, o ? o->threads : 0, &p->est[i]))
-            continue; /* cannot encode m */
+        if (prt__sample_estimate(&smp, p->cand[i].spec, o ? o->threads : 0, &p->est[i])) continue; /* cannot encode m */
         p->fits[i] = !p->req.budget || (double)total(&p->est[i]) <= p->req.budget;
         any |= p->fits[i];
         if (total(&p->est[i]) < smallest) smallest = total(&p->est[i]);
@@ -206,7 +245,7 @@ prt_status prt_auto_choose(const prt_mesh *m, const char *auto_spec, const prt_b
     size_t i = 0;
     while (!s && !p->fits[i]) i++;
     if (!s) {
-        snprintf(spec_out, spec_size, "%s", p->cand[i]->spec);
+        snprintf(spec_out, spec_size, "%s", p->cand[i].spec);
         if (est) *est = p->est[i];
     }
     free(p);
@@ -221,7 +260,7 @@ prt_status prt__build_auto(const prt_mesh *m, const char *auto_spec, const prt_b
     for (size_t i = 0; !s && i < p->count; i++) {
         if (!p->fits[i]) continue;
         prt_accel *a = NULL;
-        if (prt_build(m, p->cand[i]->spec, o, &a)) continue;
+        if (prt_build(m, p->cand[i].spec, o, &a)) continue;
         prt_stats st;
         prt_accel_stats(a, &st);
         if (!p->req.budget || (double)(st.bytes_tree + st.bytes_geometry + st.bytes_other) <= p->req.budget) {
