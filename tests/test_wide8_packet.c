@@ -1,5 +1,5 @@
-/* The wide8 packet walks (bvh/layouts/wide8_packet.inc): prt_intersect_packet and
- * prt_occluded_packet answer every ray bit for bit as prt_intersect1 and prt_occluded1 do
+/* The wide8 packet walks (bvh/layouts/wide8_packet.inc): prt_intersect_packet,
+ * prt_occluded_packet and prt_occluded_stream answer every ray bit for bit as prt_intersect1 and prt_occluded1 do
  * (t, triangle, u, v, the shrunk tfar), for every codec on wide8 and every instruction set
  * this host runs: coherent camera tiles of 1 to 256 rays, packets of mixed octants, invalid
  * rays, tnear / tfar windows, axis-parallel rays, and rays through the shared edges and
@@ -24,7 +24,8 @@ typedef struct ray_set {
 static void camera_tile(const prt_mesh *m, ray_set *s, uint32_t w, uint32_t h, const char *name) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < m->vertex_count; i++)
-        for (int k = 0; k < 3; k++) lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
+        for (int k = 0; k < 3; k++)
+            lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
     const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
     const float eye[3] = {c[0] + 0.3f * size, c[1] + 0.4f * size, c[2] + 2.0f * size};
     s->name = name, s->n = 0, s->size = w * h;
@@ -63,7 +64,8 @@ static void mixed_rays(const prt_mesh *m, ray_set *s, uint32_t n, uint32_t size)
 /* Rays with integer origins and directions through the grid cube's edges and vertices,
  * 64 from each of a few integer eye points: many exact ties between triangles. */
 static void edge_rays(ray_set *s, uint32_t n) {
-    static const float eyes[4][3] = {{-3, -2, -5}, {9, 7, 11}, {3, 3, -6}, {-4, 3, 3}};
+    /* Far enough that 64 rays from one eye are coherent (packets, not single rays). */
+    static const float eyes[4][3] = {{-30, -20, -50}, {49, 37, 61}, {3, 3, -46}, {-44, 3, 3}};
     s->n = 0;
     for (uint32_t i = 0; i < n; i++) {
         const float *e = eyes[i / 64 % 4];
@@ -77,7 +79,7 @@ static void edge_rays(ray_set *s, uint32_t n) {
 static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *hits) {
     static prt_ray single[MAX_RAYS], packed[MAX_RAYS];
     static prt_hit hs[MAX_RAYS], hp[MAX_RAYS];
-    static uint8_t os[MAX_RAYS], op[MAX_RAYS];
+    static uint8_t os[MAX_RAYS], op[MAX_RAYS], ostream[MAX_RAYS];
     memcpy(single, s->rays, s->n * sizeof *single), memcpy(packed, s->rays, s->n * sizeof *packed);
     for (uint32_t i = 0; i < s->n; i++) prt_intersect1(a, &single[i], &hs[i]), os[i] = prt_occluded1(a, &s->rays[i]);
     for (uint32_t first = 0; first < s->n; first += s->size) {
@@ -87,8 +89,10 @@ static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *h
         p.rays = (prt_ray *)s->rays + first, p.hits = NULL;
         prt_occluded_packet(a, &p, op + first);
     }
+    prt_occluded_stream(a, s->rays, ostream, s->n, 1);
     size_t differ = 0;
     for (uint32_t i = 0; i < s->n; i++) {
+        differ += os[i] != ostream[i];
         *hits += hs[i].prim != PRT_INVALID;
         differ += hs[i].prim != hp[i].prim || memcmp(&hs[i].t, &hp[i].t, 4) || memcmp(&hs[i].u, &hp[i].u, 4) ||
                   memcmp(&hs[i].v, &hp[i].v, 4) || memcmp(&single[i].tfar, &packed[i].tfar, 4) || os[i] != op[i];
