@@ -165,7 +165,8 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
     memset(c, 0, sizeof *c);
     for (int i = 0; i < BENCH_WORKLOAD_COUNT; i++) c->workload_on[i] = true;
     c->vs_embree = true; /* a row that says "not available" when the build has no Embree */
-    c->reps = 5, c->rounds = 3, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->tile = 8, c->seed = 1;
+    c->reps = 5, c->rounds = 3, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->tile = 8,
+    c->seed = 1;
     c->cold = true;
     c->cold_rays = 64;
     c->offset = BENCH_SURFACE_OFFSET;
