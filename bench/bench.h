@@ -362,7 +362,7 @@ typedef struct bench_report {
     uint64_t seed;
     bool workload_on[BENCH_WORKLOAD_COUNT];
     size_t workload_rays[BENCH_WORKLOAD_COUNT];
-    uint32_t width, height;
+    uint32_t width, height, tile; /* primary image, and its tiles' side */
     const bench_row *rows;
     size_t row_count;
 } bench_report;

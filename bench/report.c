@@ -88,7 +88,7 @@ void bench_report_text(FILE *f, const bench_report *r) {
     fprintf(f, "rays (seed %llu):", (unsigned long long)r->seed);
     for (int w = 0; w < BENCH_WORKLOAD_COUNT; w++) {
         if (!r->workload_on[w]) continue;
-        if (w == BENCH_PRIMARY) fprintf(f, " primary %ux%u (8x8 tiles)", r->width, r->height);
+        if (w == BENCH_PRIMARY) fprintf(f, " primary %ux%u (%ux%u tiles)", r->width, r->height, r->tile, r->tile);
         else fprintf(f, " %s %zu", bench_workload_name((bench_workload)w), r->workload_rays[w]);
         fputc(';', f);
     }

@@ -35,6 +35,7 @@ static void usage(FILE *f) {
                "                       ~/.cache/packrt/costs.tsv); rows for other specs and kinds are kept\n"
                "  --rays N             random rays (default 64k; the 1024-ray figures use the first 1024)\n"
                "  --size WxH           primary image (default 1024x1024)\n"
+               "  --tile N             primary rays in N x N tiles, one packet each (default 8; N * N <= 256)\n"
                "  --seed S             workload seed (default 1)\n"
                "  --offset X           shadow and diffuse rays start X mesh diagonals off the surface\n"
                "                       (default 1e-4; lossy representations need twice their vertex error)\n"
@@ -60,6 +61,7 @@ typedef struct bench_cli {
     int threads, reps, rounds;
     size_t rays, tris;
     uint32_t width, height;
+    uint32_t tile; /* primary rays: tiles of tile x tile pixels, each traced as one packet */
     uint64_t seed;
     bool json, cold, matrix, queries;
     size_t cold_rays;
@@ -146,6 +148,12 @@ static int parse_value(const char *a, const char *v, bench_cli *c) {
         if (sscanf(v, "%ux%u%c", &w, &h, &tail) != 2 || !w || !h || w > 16384 || h > 16384)
             return cli_usage("bench", "--size takes WxH, e.g. 1024x1024, not '%s'", v);
         c->width = w, c->height = h;
+    } else if (!strcmp(a, "--tile")) {
+        unsigned t;
+        char tail;
+        if (sscanf(v, "%u%c", &t, &tail) != 1 || !t || t * t > PRT_PACKET_MAX)
+            return cli_usage("bench", "--tile takes a side N of N x N <= %d rays, e.g. 8, not '%s'", PRT_PACKET_MAX, v);
+        c->tile = t;
     } else {
         return parse_count_option(a, v, c);
     }
@@ -157,7 +165,8 @@ static int parse_args(int argc, char **argv, bench_cli *c) {
     memset(c, 0, sizeof *c);
     for (int i = 0; i < BENCH_WORKLOAD_COUNT; i++) c->workload_on[i] = true;
     c->vs_embree = true; /* a row that says "not available" when the build has no Embree */
-    c->reps = 5, c->rounds = 3, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->seed = 1;
+    c->reps = 5, c->rounds = 3, c->rays = 65536, c->tris = 1000000, c->width = 1024, c->height = 1024, c->tile = 8,
+    c->seed = 1;
     c->cold = true;
     c->cold_rays = 64;
     c->offset = BENCH_SURFACE_OFFSET;
@@ -402,7 +411,7 @@ static int make_workloads(const bench_cli *c, const bench_input *in, bench_embre
     if (!w->on[BENCH_PRIMARY] && !w->on[BENCH_SHADOW] && !w->on[BENCH_DIFFUSE]) return 0;
     bench_camera cam;
     bench_camera_default(in->lo, in->hi, &cam);
-    if ((s = bench_rays_primary(&cam, c->width, c->height, 8, &w->wl[BENCH_PRIMARY])))
+    if ((s = bench_rays_primary(&cam, c->width, c->height, c->tile, &w->wl[BENCH_PRIMARY])))
         return cli_fail("bench", "primary rays", s);
     if (!w->on[BENCH_SHADOW] && !w->on[BENCH_DIFFUSE]) return 0;
     prt_hit *ph = NULL;
@@ -548,7 +557,7 @@ static int report(const bench_cli *c, const bench_input *in, const bench_work *w
     rep.seed = c->seed;
     memcpy(rep.workload_on, w->on, sizeof w->on);
     for (int k = 0; k < BENCH_WORKLOAD_COUNT; k++) rep.workload_rays[k] = w->wl[k].count;
-    rep.width = c->width, rep.height = c->height;
+    rep.width = c->width, rep.height = c->height, rep.tile = c->tile;
     rep.rows = rows, rep.row_count = nrows;
     if (c->json) bench_report_json(stdout, &rep);
     else bench_report_text(stdout, &rep);

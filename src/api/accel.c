@@ -161,16 +161,24 @@ void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size
     }
 }
 
+/* Any hits of rays [0, n) of a stream on this thread. */
+static void occluded_run(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n) {
+    if (a->ops->occluded_stream) a->ops->occluded_stream(a, rays, occluded, n);
+    else
+        for (size_t i = 0; i < n; i++) occluded[i] = prt_occluded1(a, &rays[i]);
+}
+
 void prt_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n, int threads) {
     int t = prt__threads(threads);
     if (t == 1 || n <= STREAM_CHUNK) {
-        for (size_t i = 0; i < n; i++) occluded[i] = prt_occluded1(a, &rays[i]);
+        occluded_run(a, rays, occluded, n);
         return;
     }
 #pragma omp parallel for num_threads(t) schedule(dynamic, 1)
-    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++)
-        for (size_t i = c * STREAM_CHUNK; i < n && i < (c + 1) * STREAM_CHUNK; i++)
-            occluded[i] = prt_occluded1(a, &rays[i]);
+    for (size_t c = 0; c < (n + STREAM_CHUNK - 1) / STREAM_CHUNK; c++) {
+        const size_t first = c * STREAM_CHUNK;
+        occluded_run(a, rays + first, occluded + first, n - first < STREAM_CHUNK ? n - first : STREAM_CHUNK);
+    }
 }
 
 /* Rays [first, first + count) of a (n, 6) array as records: tnear and tfar from their

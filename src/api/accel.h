@@ -25,6 +25,10 @@ typedef struct prt_accel_ops {
     /* prt_occluded_packet for p->count <= PRT_PACKET_MAX rays (not yet checked for
      * validity); NULL: prt_occluded1 per ray. */
     void (*occluded_packet)(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
+    /* prt_occluded_stream's rays on one thread (invalid ones included: 0), as occluded1
+     * answers them; NULL: occluded1 per ray. For representations that trace runs of
+     * coherent rays (shadow rays in pixel order) together. */
+    void (*occluded_stream)(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n);
     void (*stats)(const prt_accel *a, prt_stats *s); /* fills bytes, nodes, leaves, depth */
     prt_status (*save)(const prt_accel *a, prt_writer *w);
     /* Load from a checked container; sections point into memory that outlives the accel. */

@@ -22,15 +22,24 @@ typedef bool (*bvh_occluded_fn)(const uint8_t *blob, const bvh_shared *sh, const
 /* Closest hits of n rays, invalid ones included (a miss), as intersect1 answers each. */
 typedef void (*bvh_stream_fn)(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
 
+/* Closest hits (hits) or any hits (occluded, 1 or 0) of a packet of n <= PRT_PACKET_MAX
+ * coherent rays, invalid ones included (a miss), as intersect1 / occluded1 answer each. */
+typedef void (*bvh_packet_fn)(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n);
+typedef void (*bvh_occluded_packet_fn)(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays,
+                                       uint8_t *occluded, uint32_t n);
+
 /* A layout's kernels for one codec. */
 typedef struct bvh_kernels {
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
     bvh_stream_fn stream; /* NULL: intersect1 per ray */
-    /* NULL, or the kernels specialised for one blob, chosen once when it is built, loaded or
-     * refitted rather than at every query (wide8: the folded or the decoded-plane box
-     * test, wide8_fold_suits); they answer as the ones above do. */
+    /* NULL, or intersect1, occluded1 and stream specialised for one blob (its other members
+     * unused), chosen once when it is built, loaded or refitted rather than at every query
+     * (wide8: the folded or the decoded-plane box test, wide8_fold_suits); they answer as
+     * the ones above do. */
     struct bvh_kernels (*for_blob)(const uint8_t *blob);
+    bvh_packet_fn packet;                   /* NULL: intersect1 per ray */
+    bvh_occluded_packet_fn occluded_packet; /* NULL: occluded1 per ray */
 } bvh_kernels;
 
 /* A node as the generic walks see it (bvh/walk.c: closest points and all crossings): its

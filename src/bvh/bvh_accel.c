@@ -36,9 +36,11 @@ typedef struct bvh_accel {
     bool owns_blob;
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
-    bvh_stream_fn stream; /* NULL: intersect1 per ray */
-    bvh_refit *refit;     /* update=refit and built (not loaded); else NULL */
-    prt__isa isa;         /* its kernels' instruction set, picked when built or loaded (core/isa.h) */
+    bvh_stream_fn stream;                   /* NULL: intersect1 per ray */
+    bvh_packet_fn packet;                   /* NULL: intersect1 per ray */
+    bvh_occluded_packet_fn occluded_packet; /* NULL: occluded1 per ray */
+    bvh_refit *refit;                       /* update=refit and built (not loaded); else NULL */
+    prt__isa isa;                           /* its kernels' instruction set, picked when built or loaded (core/isa.h) */
 } bvh_accel;
 
 /* On-disk META section (little endian, 64 bytes). */
@@ -117,6 +119,39 @@ static void bvh_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hit
 static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
     const bvh_accel *b = (const bvh_accel *)a;
     return b->occluded1(b->blob.data, &b->shared, r);
+}
+
+/* Packets of up to PRT_PACKET_MAX rays through the layout's packet kernels. */
+static void bvh_intersect_packet(const prt_accel *a, prt_packet *p) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    for (uint32_t first = 0; first < p->count; first += PRT_PACKET_MAX) {
+        const uint32_t n = p->count - first < PRT_PACKET_MAX ? p->count - first : PRT_PACKET_MAX;
+        prt_ray *rays = p->rays + first;
+        prt_hit *hits = p->hits + first;
+        if (!b->packet) {
+            for (uint32_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
+            continue;
+        }
+        b->packet(b->blob.data, &b->shared, rays, hits, n);
+        for (uint32_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
+    }
+}
+
+static void bvh_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded) {
+    const bvh_accel *b = (const bvh_accel *)a;
+    if (b->occluded_packet) b->occluded_packet(b->blob.data, &b->shared, p->rays, occluded, p->count);
+    else
+        for (uint32_t i = 0; i < p->count; i++) occluded[i] = prt_occluded1(a, &p->rays[i]);
+}
+
+/* Rays of a stream, BVH_STREAM_PACKET consecutive ones a packet: shadow rays made in pixel
+ * order from tiles are coherent in such runs (docs/results/packets.md). */
+#define BVH_STREAM_PACKET 64
+static void bvh_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n) {
+    for (size_t first = 0; first < n; first += BVH_STREAM_PACKET) {
+        const uint32_t k = (uint32_t)(n - first < BVH_STREAM_PACKET ? n - first : BVH_STREAM_PACKET);
+        bvh_occluded_packet(a, &(prt_packet){(prt_ray *)rays + first, NULL, k, k}, occluded + first);
+    }
 }
 
 static void bvh_stats(const prt_accel *a, prt_stats *s) {
@@ -205,11 +240,12 @@ static bvh_accel *bvh_new(int layout, int codec, int order, int fill, prt__isa i
 static void bvh_pick_kernels(bvh_accel *b) {
     const bvh_kernels *table =
         b->layout->kernels[b->isa] ? b->layout->kernels[b->isa] : b->layout->kernels[PRT__ISA_BASE];
-    bvh_kernels k = table[b->codec];
-    if (k.for_blob) k = k.for_blob(b->blob.data);
-    b->intersect1 = k.intersect1;
-    b->occluded1 = k.occluded1;
-    b->stream = k.stream;
+    const bvh_kernels k = table[b->codec], f = k.for_blob ? k.for_blob(b->blob.data) : k;
+    b->intersect1 = f.intersect1;
+    b->occluded1 = f.occluded1;
+    b->stream = f.stream;
+    b->packet = k.packet;
+    b->occluded_packet = k.occluded_packet;
 }
 
 /* The vertex error of a codec with leaf_error, measured by decoding every leaf of the
@@ -608,7 +644,10 @@ const prt_accel_ops prt__bvh_ops = {
     .name = "bvh",
     .build = bvh_build_accel,
     .intersect1 = bvh_intersect1,
+    .intersect_packet = bvh_intersect_packet,
     .intersect_stream = bvh_intersect_stream,
+    .occluded_packet = bvh_occluded_packet,
+    .occluded_stream = bvh_occluded_stream,
     .occluded1 = bvh_occluded1,
     .stats = bvh_stats,
     .save = bvh_save,

@@ -151,4 +151,12 @@ static inline float vf8_hmin(vf8 a) {
     return vf4_hmin(vf4_min(lo, hi));
 }
 
+static inline float vf8_hmax(vf8 a) {
+    vf4 lo = __builtin_shufflevector(a, a, 0, 1, 2, 3), hi = __builtin_shufflevector(a, a, 4, 5, 6, 7);
+    vf4 b = vf4_max(lo, hi);
+    b = vf4_max(b, __builtin_shufflevector(b, b, 2, 3, 0, 1));
+    b = vf4_max(b, __builtin_shufflevector(b, b, 1, 0, 3, 2));
+    return b[0];
+}
+
 #endif

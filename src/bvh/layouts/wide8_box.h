@@ -63,6 +63,14 @@ static inline void wide8_scales(const wide8_node *n, vf8 s[3]) {
 #endif
 }
 
+/* The far distances grown by 2^-21 of their magnitude (one fma on |tmax|): more than the
+ * 2 gamma(3) that makes the slab test conservative (Ize 2013). */
+static inline vf8 wide8_far_widen(vf8 tmax) {
+    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF,
+                                            0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
+    return vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
+}
+
 /* The robust slab test of geom/box.h on the eight child boxes, given each axis's near and
  * far planes as decoded. The far distance grows by 2^-21 of its magnitude (one fma on
  * |tmax|), more than the 2 gamma(3) that makes the test conservative (Ize 2013), as
@@ -74,11 +82,8 @@ static inline unsigned wide8_slab(const vf8 near[3], const vf8 far[3], unsigned 
         tmin = vf8_max((near[k] - w->org[k]) * w->inv[k], tmin); /* NaN in the first operand: tmin */
         tmax = vf8_min((far[k] - w->org[k]) * w->inv[k], tmax);
     }
-    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF,
-                                            0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
-    tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
     *tentry = tmin;
-    return (unsigned)vi8_mask(tmin <= tmax) & occupied;
+    return (unsigned)vi8_mask(tmin <= wide8_far_widen(tmax)) & occupied;
 }
 
 /* Plane row `row` of node n decoded (row 2k: lower planes of axis k, 2k + 1: upper), the
@@ -122,9 +127,7 @@ PRT_INLINE unsigned wide8_nf_hit(const wide8_node *n, const wide8_nfray *c, floa
         tmin = vf8_max((np - c->w.org[k]) * c->w.inv[k], tmin); /* NaN in the first operand: tmin */
         tmax = vf8_min((fp - c->w.org[k]) * c->w.inv[k], tmax);
     }
-    const vi8 abs_mask = {0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF,
-                          0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
-    tmax = vf8_fmadd((vf8)((vi8)tmax & abs_mask), vf8_set1(0x1p-21f), tmax);
+    tmax = wide8_far_widen(tmax);
     *tn = tmin, *tf = tmax;
     return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
 }

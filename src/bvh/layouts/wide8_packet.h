@@ -1,0 +1,153 @@
+/* Coherent packets on the wide8 node (wide8.h): the rays of one direction octant, kept as
+ * arrays of 8-ray vectors, tested against a node's eight children at once through the
+ * packet's interval bounds (Wald, Benthin, Boulos 2007; Embree's node_intersector_frustum.h),
+ * then per ray, eight rays at a time, against only the children the bounds touch. Shared
+ * by the codecs' packet walks (wide8_packet.inc); docs/design-changes.md says why. */
+#ifndef PRT_BVH_LAYOUTS_WIDE8_PACKET_H
+#define PRT_BVH_LAYOUTS_WIDE8_PACKET_H
+
+#include "bvh/layouts/wide8_box.h"
+
+/* Rays traced together: a larger packet is traced in slices of this many (one bit of a
+ * 64-bit mask per ray). */
+#define WIDE8_PACKET 64
+#define WIDE8_PACKET_VECS (WIDE8_PACKET / 8)
+
+/* The rays of a packet, slot i holding ray i; slots past the count are never in a mask. */
+typedef struct wide8_packet {
+    float org[3][WIDE8_PACKET] __attribute__((aligned(32)));
+    float inv[3][WIDE8_PACKET] __attribute__((aligned(32)));
+    float tnear[WIDE8_PACKET] __attribute__((aligned(32)));
+    float tfar[WIDE8_PACKET] __attribute__((aligned(32))); /* closest hit: the ray's hit so far */
+    int near[3], far[3];                                   /* q rows of the near / far planes: the octant's */
+    /* The bounds: per axis the extreme origins on the near and the far side, and the
+     * reciprocal directions' minimum and maximum (NaN on an axis where one is infinite,
+     * which then culls nothing: a ray's distance there may be NaN, which its test ignores). */
+    vf8 onear[3], ofar[3], imin[3], imax[3];
+    vf8 tnear_min;
+} wide8_packet;
+
+/* The octant of a ray's direction, as prt__rayx_init's neg[] sees it: 1 / d < 0 exactly
+ * when d's sign bit is set (-0 included). */
+static inline int wide8_octant(const prt_ray *r) {
+    return (signbit(r->dir[0]) != 0) | (signbit(r->dir[1]) != 0) << 1 | (signbit(r->dir[2]) != 0) << 2;
+}
+
+/* Whether rays[at[0 .. n)] (one octant) are worth a packet: enough of them, and their
+ * directions close enough that the bounds cull (random rays of one octant traced as a
+ * packet ran at half the single-ray rate; camera and shadow tiles at 2-3 times). */
+#define WIDE8_PACKET_MIN 8
+#define WIDE8_PACKET_SPREAD 0.5f
+static inline bool wide8_packet_coherent(const prt_ray *rays, const uint8_t *at, int n) {
+    if (n < WIDE8_PACKET_MIN) return false;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int i = 0; i < n; i++) {
+        const float *d = rays[at[i]].dir, s = 1.0f / sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        for (int k = 0; k < 3; k++) {
+            const float x = d[k] * s;
+            lo[k] = x < lo[k] ? x : lo[k], hi[k] = x > hi[k] ? x : hi[k];
+        }
+    }
+    return hi[0] - lo[0] <= WIDE8_PACKET_SPREAD && hi[1] - lo[1] <= WIDE8_PACKET_SPREAD &&
+           hi[2] - lo[2] <= WIDE8_PACKET_SPREAD;
+}
+
+/* Slot i of p from ray x (prt__rayx_init'ed); tfar: where the ray's walk starts. */
+static inline void wide8_packet_set(wide8_packet *p, int i, const prt__rayx *x, float tfar) {
+    for (int k = 0; k < 3; k++) p->org[k][i] = x->org[k], p->inv[k][i] = x->inv[k];
+    p->tnear[i] = x->tnear, p->tfar[i] = tfar;
+}
+
+/* Slots [n, WIDE8_PACKET) (n > 0) as copies of slot 0 that hit nothing, so the bounds may
+ * take whole vectors; and the octant's plane rows. */
+static inline void wide8_packet_pad(wide8_packet *p, int n, int octant) {
+    for (int i = n; i < WIDE8_PACKET; i++) {
+        for (int k = 0; k < 3; k++) p->org[k][i] = p->org[k][0], p->inv[k][i] = p->inv[k][0];
+        p->tnear[i] = INFINITY, p->tfar[i] = -INFINITY;
+    }
+    for (int k = 0; k < 3; k++) {
+        const int neg = octant >> k & 1;
+        p->near[k] = 2 * k + neg, p->far[k] = 2 * k + 1 - neg;
+    }
+}
+
+/* The smallest and largest lane of the first `vecs` vectors at x (one per 8 slots). */
+static inline void wide8_packet_range(const float *x, int vecs, float *lo, float *hi) {
+    vf8 a = vf8_load(x), b = a;
+    for (int j = 1; j < vecs; j++) a = vf8_min(a, vf8_load(x + 8 * j)), b = vf8_max(b, vf8_load(x + 8 * j));
+    *lo = vf8_hmin(a), *hi = vf8_hmax(b);
+}
+
+/* The bounds of the packet's n rays (padded by wide8_packet_pad). */
+static inline void wide8_packet_bounds(wide8_packet *p, int n) {
+    const int vecs = (n + 7) / 8;
+    float tn, unused;
+    wide8_packet_range(p->tnear, vecs, &tn, &unused);
+    for (int k = 0; k < 3; k++) {
+        float omin, omax, imin, imax;
+        wide8_packet_range(p->org[k], vecs, &omin, &omax);
+        wide8_packet_range(p->inv[k], vecs, &imin, &imax);
+        if (isinf(imin) || isinf(imax)) imin = imax = NAN;
+        const bool pos = p->near[k] == 2 * k;
+        p->onear[k] = vf8_set1(pos ? omax : omin), p->ofar[k] = vf8_set1(pos ? omin : omax);
+        p->imin[k] = vf8_set1(imin), p->imax[k] = vf8_set1(imax);
+    }
+    p->tnear_min = vf8_set1(tn);
+}
+
+/* The largest tfar of the rays in mask `rays` (not empty; padding slots are -inf): the
+ * packet's far bound. */
+static inline float wide8_packet_far(const wide8_packet *p, uint64_t rays) {
+    vf8 f = vf8_set1(-INFINITY);
+    for (int j = 0; j < WIDE8_PACKET_VECS; j++)
+        if (rays >> 8 * j & 0xFF) f = vf8_max(f, vf8_load(p->tfar + 8 * j));
+    return vf8_hmax(f);
+}
+
+/* The packet's test of node n's eight children: a superset of the children any of its rays
+ * hits (with tfar at most far), bit for bit. A ray's distance to a plane N is (N - o) * inv
+ * in float; (N - o) rounds monotonically in o, and the product in each factor, so its
+ * smallest value over the packet is (N - o') * i' with o' the extreme origin and i' the
+ * reciprocal that minimizes the exact product for the sign of N - o' (largest value: the
+ * same on the far side). Returns the mask, the decoded near / far planes of each axis
+ * (for the per-ray tests) and each child's entry distance, at most its rays'. */
+PRT_INLINE unsigned wide8_packet_node(const wide8_node *n, const wide8_packet *p, float far, vf8 np[3], vf8 fp[3],
+                                      vf8 *tentry) {
+    vf8 s[3];
+    wide8_scales(n, s);
+    vf8 tmin = p->tnear_min, tmax = vf8_set1(far);
+    for (int k = 0; k < 3; k++) {
+        np[k] = wide8_plane(n, s, p->near[k]), fp[k] = wide8_plane(n, s, p->far[k]);
+        const vf8 x = np[k] - p->onear[k], y = fp[k] - p->ofar[k];
+        const vf8 zero = vf8_set1(0.0f);
+        /* NaN in the first operand (an infinite reciprocal): the second, no cull. */
+        tmin = vf8_max(x * vf8_select(x > zero, p->imin[k], p->imax[k]), tmin);
+        tmax = vf8_min(y * vf8_select(y > zero, p->imax[k], p->imin[k]), tmax);
+    }
+    *tentry = tmin;
+    return (unsigned)vi8_mask(tmin <= wide8_far_widen(tmax)) & wide8_occupied(n);
+}
+
+/* Which rays of mask `rays` hit child c, whose planes wide8_packet_node decoded: per ray
+ * wide8_slab's operations in its order (the same bits as wide8_box_hit), eight rays a
+ * vector, groups of eight without a ray in the mask skipped. */
+PRT_INLINE uint64_t wide8_packet_child(const wide8_packet *p, const float np[3][8], const float fp[3][8], int c,
+                                       uint64_t rays) {
+    const vf8 n0 = vf8_set1(np[0][c]), n1 = vf8_set1(np[1][c]), n2 = vf8_set1(np[2][c]);
+    const vf8 f0 = vf8_set1(fp[0][c]), f1 = vf8_set1(fp[1][c]), f2 = vf8_set1(fp[2][c]);
+    uint64_t hit = 0;
+    for (int j = 0; j < WIDE8_PACKET_VECS; j++) {
+        if (!(rays >> 8 * j & 0xFF)) continue;
+        const int o = 8 * j;
+        const vf8 ox = vf8_load(p->org[0] + o), oy = vf8_load(p->org[1] + o), oz = vf8_load(p->org[2] + o);
+        const vf8 ix = vf8_load(p->inv[0] + o), iy = vf8_load(p->inv[1] + o), iz = vf8_load(p->inv[2] + o);
+        vf8 tmin = vf8_load(p->tnear + o), tmax = vf8_load(p->tfar + o);
+        tmin = vf8_max((n0 - ox) * ix, tmin), tmax = vf8_min((f0 - ox) * ix, tmax);
+        tmin = vf8_max((n1 - oy) * iy, tmin), tmax = vf8_min((f1 - oy) * iy, tmax);
+        tmin = vf8_max((n2 - oz) * iz, tmin), tmax = vf8_min((f2 - oz) * iz, tmax);
+        hit |= (uint64_t)(unsigned)vi8_mask(tmin <= wide8_far_widen(tmax)) << o;
+    }
+    return hit & rays;
+}
+
+#endif

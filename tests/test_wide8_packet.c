@@ -1,0 +1,167 @@
+/* The wide8 packet walks (bvh/layouts/wide8_packet.inc): prt_intersect_packet,
+ * prt_occluded_packet and prt_occluded_stream answer every ray bit for bit as prt_intersect1 and prt_occluded1 do
+ * (t, triangle, u, v, the shrunk tfar), for every codec on wide8 and every instruction set
+ * this host runs: coherent camera tiles of 1 to 256 rays, packets of mixed octants, invalid
+ * rays, tnear / tfar windows, axis-parallel rays, and rays through the shared edges and
+ * vertices of a grid cube, on a mesh near the origin and one far from it. */
+#include "bvh/bvh.h"
+#include "core/isa.h"
+#include "core/rng.h"
+#include "support/meshes.h"
+#include "support/repr.h"
+#include "test.h"
+
+#define MAX_RAYS 1024
+
+/* A set of rays traced in packets of `size`. */
+typedef struct ray_set {
+    const char *name;
+    prt_ray rays[MAX_RAYS];
+    uint32_t n, size;
+} ray_set;
+
+/* A pinhole camera's tile of w x h rays looking at the mesh's centre from outside it. */
+static void camera_tile(const prt_mesh *m, ray_set *s, uint32_t w, uint32_t h, const char *name) {
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < m->vertex_count; i++)
+        for (int k = 0; k < 3; k++)
+            lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
+    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    const float eye[3] = {c[0] + 0.3f * size, c[1] + 0.4f * size, c[2] + 2.0f * size};
+    s->name = name, s->n = 0, s->size = w * h;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            prt_ray *r = &s->rays[s->n++];
+            const float px = c[0] + size * (0.3f * ((float)x / (float)w - 0.5f)),
+                        py = c[1] + size * (0.3f * ((float)y / (float)h - 0.5f));
+            *r = (prt_ray){{eye[0], eye[1], eye[2]}, 0.0f, {px - eye[0], py - eye[1], c[2] - eye[2]}, INFINITY};
+        }
+}
+
+/* Random rays through the mesh (every octant in one packet), with invalid rays and tnear /
+ * tfar windows mixed in. */
+static void mixed_rays(const prt_mesh *m, ray_set *s, uint32_t n, uint32_t size) {
+    prt_ray *r = rays_random(m, n, 5);
+    memcpy(s->rays, r, n * sizeof *r);
+    free(r);
+    prt_rng g = prt_rng_seed(9, 0);
+    for (uint32_t i = 0; i < n; i++) {
+        prt_ray *x = &s->rays[i];
+        switch (i % 11) {
+        case 0: x->org[1] = NAN; break;
+        case 1: x->dir[0] = x->dir[1] = x->dir[2] = 0.0f; break;
+        case 2: x->tnear = 2.0f, x->tfar = 1.0f; break;
+        case 3:
+        case 4: x->tnear = prt_rng_float(&g), x->tfar = x->tnear + 2.0f * prt_rng_float(&g); break;
+        case 5: x->dir[i % 3] = 0.0f; break; /* an infinite reciprocal */
+        case 6: x->tnear = -1.0f, x->tfar = 0.5f * prt_rng_float(&g); break;
+        default: break;
+        }
+    }
+    s->name = "mixed octants, invalid rays, tnear / tfar windows", s->n = n, s->size = size;
+}
+
+/* Rays with integer origins and directions through the grid cube's edges and vertices,
+ * 64 from each of a few integer eye points: many exact ties between triangles. */
+static void edge_rays(ray_set *s, uint32_t n) {
+    /* Far enough that 64 rays from one eye are coherent (packets, not single rays). */
+    static const float eyes[4][3] = {{-30, -20, -50}, {49, 37, 61}, {3, 3, -46}, {-44, 3, 3}};
+    s->n = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        const float *e = eyes[i / 64 % 4];
+        const float to[3] = {(float)(i % 7), (float)(i / 7 % 7), (float)(i / 49 % 7)};
+        s->rays[s->n++] = (prt_ray){{e[0], e[1], e[2]}, 0.0f, {to[0] - e[0], to[1] - e[1], to[2] - e[2]}, INFINITY};
+    }
+    s->name = "through shared edges and vertices", s->size = 64;
+}
+
+/* Packets of s against single rays on a; returns the rays that differ. */
+static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *hits) {
+    static prt_ray single[MAX_RAYS], packed[MAX_RAYS];
+    static prt_hit hs[MAX_RAYS], hp[MAX_RAYS];
+    static uint8_t os[MAX_RAYS], op[MAX_RAYS], ostream[MAX_RAYS];
+    memcpy(single, s->rays, s->n * sizeof *single), memcpy(packed, s->rays, s->n * sizeof *packed);
+    for (uint32_t i = 0; i < s->n; i++) prt_intersect1(a, &single[i], &hs[i]), os[i] = prt_occluded1(a, &s->rays[i]);
+    for (uint32_t first = 0; first < s->n; first += s->size) {
+        const uint32_t count = s->n - first < s->size ? s->n - first : s->size;
+        prt_packet p = {packed + first, hp + first, count, count < 16 ? count : 16};
+        prt_intersect_packet(a, &p);
+        p.rays = (prt_ray *)s->rays + first, p.hits = NULL;
+        prt_occluded_packet(a, &p, op + first);
+    }
+    prt_occluded_stream(a, s->rays, ostream, s->n, 1);
+    size_t differ = 0;
+    for (uint32_t i = 0; i < s->n; i++) {
+        differ += os[i] != ostream[i];
+        *hits += hs[i].prim != PRT_INVALID;
+        differ += hs[i].prim != hp[i].prim || memcmp(&hs[i].t, &hp[i].t, 4) || memcmp(&hs[i].u, &hp[i].u, 4) ||
+                  memcmp(&hs[i].v, &hp[i].v, 4) || memcmp(&single[i].tfar, &packed[i].tfar, 4) || os[i] != op[i];
+    }
+    return differ;
+}
+
+/* Build spec with PRT_ISA set to isa. */
+static prt_status build_for(const prt_mesh *m, const char *spec, const char *isa, prt_accel **a) {
+    setenv("PRT_ISA", isa, 1);
+    *a = NULL;
+    prt_status s = prt_build(m, spec, NULL, a);
+    unsetenv("PRT_ISA");
+    return s;
+}
+
+/* Every codec on wide8, every instruction set this host runs, every ray set of mesh m. */
+static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets, int nsets) {
+    for (int isa = 0; isa < PRT__ISA_COUNT; isa++) {
+        if (!prt__isa_runs((prt__isa)isa)) continue;
+        for (int c = 0; c < BVH_CODEC_COUNT; c++) {
+            char spec[64];
+            snprintf(spec, sizeof spec, "wide8:%s", bvh_codecs[c].name);
+            prt_accel *a = NULL;
+            prt_status st = build_for(m, spec, prt__isa_name((prt__isa)isa), &a);
+            if (st == PRT_ERROR_LIMIT) continue;
+            CHECK_MSG(st == PRT_OK, "%s: %s", spec, prt_last_error());
+            if (!a) continue;
+            for (int k = 0; k < nsets; k++) {
+                size_t hits = 0;
+                const size_t differ = packet_differences(a, &sets[k], &hits);
+                CHECK_MSG(differ == 0, "%s, %s, %s, %s (packets of %u): %zu of %u rays differ", spec,
+                          prt__isa_name((prt__isa)isa), what, sets[k].name, sets[k].size, differ, sets[k].n);
+                CHECK_MSG(hits >= sets[k].n / 8, "%s, %s: %s: only %zu hits: the comparison sees too little", spec,
+                          what, sets[k].name, hits);
+            }
+            prt_accel_free(a);
+        }
+    }
+}
+
+TEST(test_packets_answer_as_single_rays_on_every_codec_and_isa) {
+    prt_mesh *soup = mesh_random_soup(1500, 3);
+    prt_mesh *far = mesh_transformed(soup, 1.0f, 5000.0f); /* wide8_fold_suits: false */
+    static ray_set sets[6];
+    const prt_mesh *meshes[2] = {soup, far};
+    for (int mi = 0; mi < 2; mi++) {
+        camera_tile(meshes[mi], &sets[0], 1, 1, "one ray");
+        camera_tile(meshes[mi], &sets[1], 7, 1, "a row of 7");
+        camera_tile(meshes[mi], &sets[2], 8, 8, "8x8 tile");
+        camera_tile(meshes[mi], &sets[3], 16, 16, "16x16 tile");
+        camera_tile(meshes[mi], &sets[4], 32, 32, "32x32 image in 4x4 packets"), sets[4].size = 16;
+        mixed_rays(meshes[mi], &sets[5], 512, mi ? 64 : 256);
+        check_mesh(mi ? "far mesh" : "near mesh", meshes[mi], sets, 6);
+    }
+    prt_mesh_free(soup);
+    prt_mesh_free(far);
+}
+
+TEST(test_packets_through_shared_edges_and_vertices) {
+    prt_mesh *cube = mesh_grid_cube(6);
+    static ray_set sets[1];
+    edge_rays(&sets[0], 512);
+    check_mesh("grid cube", cube, sets, 1);
+    prt_mesh_free(cube);
+}
+
+int main(void) {
+    RUN(test_packets_answer_as_single_rays_on_every_codec_and_isa);
+    RUN(test_packets_through_shared_edges_and_vertices);
+    TEST_END();
+}
