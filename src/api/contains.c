@@ -110,7 +110,8 @@ prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, pr
     if (method != PRT_CONTAINS_AUTO && method != PRT_CONTAINS_PARITY && method != PRT_CONTAINS_WINDING)
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_contains: method %d is none of auto (0), parity (1), winding (2)",
                          (int)method);
-    return contains_all(a, points, n, method, result, threads);
+    if ((s = contains_all(a, points, n, method, result, threads))) return s;
+    return prt__query_done(a, "prt_contains");
 }
 
 prt_status prt_contains(const prt_accel *a, const float *points, size_t n, uint8_t *result, int threads) {
@@ -131,7 +132,7 @@ prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size
         winding[i] = isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]) ? (float)prt__wtree_winding(t, pd, beta) : NAN;
     }
     prt__wtree_free(t);
-    return PRT_OK;
+    return prt__query_done(a, "prt_winding_number_fast");
 }
 
 prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n, float *winding, int threads) {
@@ -142,7 +143,7 @@ prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n,
         const float *p = points + 3 * i;
         winding[i] = isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]) ? winding_one(a, p) : NAN;
     }
-    return PRT_OK;
+    return prt__query_done(a, "prt_winding_number");
 }
 
 prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n, float max_distance, float *distance,
@@ -166,5 +167,5 @@ prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n
         distance[i] = in[i] & PRT_INSIDE ? -c.distance : c.distance;
     }
     prt__free(in);
-    return PRT_OK;
+    return prt__query_done(a, "prt_signed_distance");
 }
