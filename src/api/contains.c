@@ -79,7 +79,7 @@ static prt_status contains_all(const prt_accel *a, const float *points, size_t n
     }
     if (!undecided) return PRT_OK;
     prt__wtree *t;
-    prt_status s = prt__wtree_build(a, &t);
+    prt_status s = prt__wtree_build(a, threads, &t);
     if (s) return s;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 16)
     for (size_t i = 0; i < n; i++) {
@@ -124,7 +124,7 @@ prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size
     if (s) return s;
     if (isnan(beta)) return prt__fail(PRT_ERROR_ARGUMENT, "prt_winding_number_fast: beta is NaN");
     prt__wtree *t;
-    if ((s = prt__wtree_build(a, &t))) return s;
+    if ((s = prt__wtree_build(a, threads, &t))) return s;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 16)
     for (size_t i = 0; i < n; i++) {
         const float *p = points + 3 * i;
