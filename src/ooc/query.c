@@ -156,8 +156,11 @@ static void push_children(qwalk *w, const qentry *e, uint32_t w0, uint32_t w1, q
         k->block = block, k->off = kid[s], k->depth = e->depth + 1;
         m += k->cost < INFINITY;
     }
-    if (m == 2 && c[1].cost > c[0].cost) stack[(*sp)++] = c[1], m = 1;
-    for (uint32_t i = m; i-- > 0;) stack[(*sp)++] = c[i];
+    if (m == 2 && c[0].cost < c[1].cost) { /* the farther first */
+        const qentry t = c[0];
+        c[0] = c[1], c[1] = t;
+    }
+    for (uint32_t i = 0; i < m; i++) stack[(*sp)++] = c[i];
 }
 
 /* prt_accel_ops.query: a depth-first walk, nearest cell first; a cell whose cost grew past
