@@ -81,4 +81,14 @@ static inline const uint8_t *ooc_leaf_tri(const ooc_leaf *l, uint32_t j, const u
     return tp;
 }
 
+/* Ask for the leaf's triangle records at once: each is a load that depends on the list, and
+ * their vertices on them; asked together they arrive together. */
+static inline void ooc_leaf_prefetch(const ooc_leaf *l) {
+    for (uint32_t j = 0; j < l->n; j++) {
+        uint16_t ti;
+        memcpy(&ti, l->list + 2 * j, 2);
+        if (ti < l->ntri) __builtin_prefetch(l->tris + (size_t)ti * sizeof(ooc_tri));
+    }
+}
+
 #endif

@@ -108,6 +108,7 @@ static void hand_leaf(qwalk *w, uint32_t w0, uint32_t tb) {
     if (!p) return;
     ooc_leaf l;
     bool ok = ooc_leaf_open(p, size, w0, &l);
+    if (ok) ooc_leaf_prefetch(&l);
     float v[9 * CHUNK];
     uint32_t ids[CHUNK], n = 0;
     for (uint32_t j = 0; ok && j < l.n; j++) {
@@ -154,6 +155,7 @@ static void push_children(qwalk *w, const qentry *e, uint32_t w0, uint32_t w1, q
         k->cell[s ? axis : 3 + axis] = split; /* low side: below the plane; high: above */
         k->cost = prt__query_cost(w->q, k->cell);
         k->block = block, k->off = kid[s], k->depth = e->depth + 1;
+        if (k->cost < INFINITY && block == e->block && kid[s] < w->size) __builtin_prefetch(w->blk + kid[s]);
         m += k->cost < INFINITY;
     }
     if (m == 2 && c[0].cost < c[1].cost) { /* the farther first */

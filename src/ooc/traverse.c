@@ -207,16 +207,10 @@ static uint32_t voxel_hits16(packet_state *ps, packet16 *pk, uint32_t mask, vf16
     return stopped;
 }
 
-/* Ask for the triangles of the leaf w0 in triangle block p: each is a load that depends on
- * the list, and their vertices on them; asked together they arrive together. */
+/* Ask for the triangles of the leaf w0 in triangle block p (ooc_leaf_prefetch). */
 static void leaf_prefetch_tris(const uint8_t *p, uint32_t size, uint32_t w0) {
     ooc_leaf l;
-    if (!ooc_leaf_open(p, size, w0, &l)) return;
-    for (uint32_t j = 0; j < l.n; j++) {
-        uint16_t ti;
-        memcpy(&ti, l.list + 2 * j, 2);
-        if (ti < l.ntri) __builtin_prefetch(l.tris + (size_t)ti * sizeof(ooc_tri));
-    }
+    if (ooc_leaf_open(p, size, w0, &l)) ooc_leaf_prefetch(&l);
 }
 
 /* The rays of mask against a leaf's triangles in triangle block tb (at p, size bytes,
