@@ -2,9 +2,9 @@
  * smaller than the file (evicting and reloading blocks as they go), on several threads,
  * closest points, every crossing and containment answer exactly as a BVH of the same mesh
  * (both exact: the same distances, triangles and barycentrics, the same crossings), and a
- * few closest points as the double brute force; a corrupt block met by a query's walk is
- * an error, never an answer. (test_queries_mesh and test_closest_exact run "ooc" through
- * their brute-force and closed-mesh checks too.) */
+ * few closest points as the double brute force; a corrupt block or node met by a query's
+ * walk is an error, never an answer (nor a walk without end). (test_queries_mesh and test_closest_exact run "ooc"
+ * through their brute-force and closed-mesh checks too.) */
 #include "core/rng.h"
 #include "geom/closest.h"
 #include "ooc/ooc_accel.h"
@@ -172,8 +172,40 @@ TEST(test_queries_meeting_a_corrupt_block_are_an_error) {
     prt_mesh_free(m);
 }
 
+/* A corrupt node whose two children are itself (the root, changed in the cache after it was
+ * read): each level doubles the paths, so only the walk's count of the nodes a tree can have
+ * ends it, with an error rather than after 2^96 visits. */
+TEST(test_a_node_pointing_back_at_itself_ends_the_walk_with_an_error) {
+    prt_mesh *m;
+    CHECK_OK(prt_mesh_generate("sphere", 5000, 2, &m));
+    prt_accel *a = NULL;
+    if (m) CHECK_OK(prt_build(m, "ooc", NULL, &a));
+    if (a) {
+        ooc_accel *o = (ooc_accel *)a;
+        uint32_t size;
+        uint8_t *blk = (uint8_t *)(uintptr_t)ooc_cache_get(&o->cache, o->h.root_block, &size);
+        CHECK(blk && o->h.root_offset + 8 <= size);
+        if (blk) {
+            uint32_t w0;
+            memcpy(&w0, blk + o->h.root_offset, 4);
+            CHECK(w0 & OOC_INNER);
+            w0 = (w0 & ~(0xFFFCu | 0x7FFu << 18 | OOC_LOD)) | OOC_LEFT | OOC_RIGHT; /* both children at offset 0 */
+            memcpy(blk + o->h.root_offset, &w0, 4);
+            ooc_cache_put(&o->cache, o->h.root_block);
+        }
+        const float p[3] = {0.1f, 0.2f, 0.3f};
+        float w;
+        CHECK(prt_winding_number(a, p, 1, &w, 1) == PRT_ERROR_CORRUPT);
+        prt_closest c;
+        CHECK(prt_closest_points(a, p, 1, INFINITY, &c, 1) == PRT_ERROR_CORRUPT);
+    }
+    prt_accel_free(a);
+    prt_mesh_free(m);
+}
+
 int main(void) {
     RUN(test_queries_on_a_file_through_a_small_cache_answer_as_a_bvh);
     RUN(test_queries_meeting_a_corrupt_block_are_an_error);
+    RUN(test_a_node_pointing_back_at_itself_ends_the_walk_with_an_error);
     TEST_END();
 }

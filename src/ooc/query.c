@@ -166,7 +166,9 @@ static void push_children(qwalk *w, const qentry *e, uint32_t w0, uint32_t w1, q
 }
 
 /* prt_accel_ops.query: a depth-first walk, nearest cell first; a cell whose cost grew past
- * a point query's radius while it waited is dropped when popped. */
+ * a point query's radius while it waited is dropped when popped. A tree visits each of its
+ * nodes once at most: a walk that reads more than the header's count met a corrupt file
+ * whose children point back into the tree, which could take exponential time; it stops. */
 void ooc_query(const prt_accel *acc, prt__query *q) {
     qwalk w = {.a = (ooc_accel *)acc, .q = q, .held = UINT32_MAX, .dedup = q->kind != PRT__QUERY_POINT};
     if (w.dedup) seen_init(&w.seen);
@@ -176,7 +178,11 @@ void ooc_query(const prt_accel *acc, prt__query *q) {
     memcpy(root.cell, w.a->h.bounds, sizeof root.cell);
     root.cost = prt__query_cost(q, root.cell);
     if (root.cost < INFINITY) stack[sp++] = root;
-    while (sp) {
+    for (uint64_t left = w.a->h.nodes + w.a->h.leaves; sp; left--) {
+        if (!left) {
+            fail(&w);
+            break;
+        }
         const qentry e = stack[--sp];
         if (q->kind == PRT__QUERY_POINT && e.cost > q->r2) continue;
         if (!enter(&w, e.block) || e.off + 8 > w.size) {
