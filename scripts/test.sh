@@ -18,9 +18,9 @@ cmake --build build-test -j"$(nproc)"
 # other suppression, each justified.
 if [ "${TSAN:-1}" != 0 ] && command -v clang >/dev/null; then
   CC=clang cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_TSAN=ON -DPRT_WITH_EMBREE=OFF >/dev/null
-  cmake --build build-tsan -j"$(nproc)" --target test_concurrency test_ooc >/dev/null
+  cmake --build build-tsan -j"$(nproc)" --target test_concurrency test_ooc test_ooc_queries >/dev/null
   archer=$(ls /usr/lib/llvm-*/lib/libarcher.so 2>/dev/null | tail -n 1 || true)
-  for t in test_concurrency test_ooc; do
+  for t in test_concurrency test_ooc test_ooc_queries; do
     echo "tsan: $t"
     OMP_TOOL_LIBRARIES="$archer" TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1 suppressions=$PWD/tests/tsan.supp" \
       build-tsan/$t | tail -n 1

@@ -101,6 +101,16 @@ for k in range(nz):
 print("ok   sdf field matches the sphere's")
 PY
 
+# An out-of-core block file answers the same queries exactly (ooc/query.c): the same closest
+# points, containment and crossings as the BVH file, byte for byte.
+check build_ooc 0 "$packrt" build "$dir/s.ply" -r ooc -o "$dir/s.ooc"
+check query_ooc_closest 0 "$packrt" query "$dir/s.ooc" --points "$dir/p.txt" -o "$dir/o.dist"
+expect query_ooc_closest_as_bvh cmp -s "$dir/o.dist" "$dir/d.dist"
+check query_ooc_contains 0 "$packrt" query "$dir/s.ooc" --points "$dir/p.txt" -o "$dir/oin.bin" --contains
+expect query_ooc_contains_as_bvh cmp -s "$dir/oin.bin" "$dir/in.bin"
+check cast_all_ooc 0 "$packrt" cast "$dir/s.ooc" --rays "$dir/r.rays" -o "$dir/ox.bin" --all
+expect cast_all_ooc_as_bvh cmp -s "$dir/ox.bin" "$dir/x.bin"
+
 # Mistakes: no points, a missing file, bad text, a representation without the queries.
 check query_needs_points 2 "$packrt" query "$dir/s.prt" -o "$dir/z"
 check query_missing_file 1 "$packrt" query "$dir/s.prt" --points "$dir/nope.points" -o "$dir/z"

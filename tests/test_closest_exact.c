@@ -2,8 +2,8 @@
  * barycentrics) is the double-precision brute force's over every triangle (geom/closest.h
  * per triangle, the smallest id among equally near ones), bit for bit; in particular the
  * wide8 layout's own SIMD point walk (bvh/layouts/wide8_point.c) against the generic walk's
- * layouts. Points near the surface, far from it, and on the integer grid cube, where many
- * triangles are equally near. (strip codecs clear low vertex bits: not lossless here.) */
+ * layouts, and the out-of-core kd-tree's walk through its block cache. Points near the surface, far from it, and on the
+ * integer grid cube, where many triangles are equally near. (strip codecs clear low vertex bits: not lossless here.) */
 #include "test.h"
 #include "core/rng.h"
 #include "geom/closest.h"
@@ -13,7 +13,7 @@
 static const char *g_specs[] = {"wide8:idx8-soa4",   "wide8:idx8-soa4,collapse=fill",
                                 "wide8:float3-soa8", "wide8:float3",
                                 "wide8:idx32",       "aabb:float3",
-                                "quad:idx8-soa4"};
+                                "quad:idx8-soa4",    "ooc"};
 
 /* The answer over every triangle, as prt_closest_points states it. */
 static prt_closest brute_force(const prt_mesh *m, const float *p) {

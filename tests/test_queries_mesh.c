@@ -9,7 +9,8 @@
 #include "support/reference.h"
 #include "support/repr.h"
 
-/* Every layout with a lossless codec, every codec under wide8, and lossygrid. */
+/* Every layout with a lossless codec, every codec under wide8, lossygrid, and the
+ * out-of-core kd-tree (ooc/query.c: its leaves share straddling triangles). */
 static const char *g_specs[] = {
     "aabb:float3",
     "aabb:idx32,order=bf",
@@ -36,6 +37,7 @@ static const char *g_specs[] = {
     "quad:strip",
     "lossygrid",
     "lossygrid,enc=oct",
+    "ooc",
 };
 
 /* --- Brute force in double ------------------------------------------------------------ */
@@ -466,7 +468,7 @@ static void seen_leaf(prt__query *q, const float *v, const uint32_t *prims, uint
 
 TEST(test_walk_hands_every_triangle_once_in_mesh_order) {
     const char *kinds[] = {"terrain", "sphere", "mandelbulb", "cad"};
-    const char *specs[] = {"lossygrid", "lossygrid,enc=exp", "wide8:strip", "quad:idx8-bitpack-soa4"};
+    const char *specs[] = {"lossygrid", "lossygrid,enc=exp", "wide8:strip", "quad:idx8-bitpack-soa4", "ooc"};
     for (size_t k = 0; k < COUNT_OF(kinds); k++) {
         prt_mesh *m = NULL;
         CHECK_OK(prt_mesh_generate(kinds[k], 3000, 1, &m));

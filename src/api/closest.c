@@ -57,5 +57,5 @@ prt_status prt_closest_points(const prt_accel *a, const float *points, size_t n,
     const double r2 = (double)max_distance * max_distance;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 64)
     for (size_t i = 0; i < n; i++) prt__closest_one(a, points + 3 * i, r2, &out[i]);
-    return PRT_OK;
+    return prt__query_done(a, "prt_closest_points");
 }

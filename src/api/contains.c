@@ -79,7 +79,7 @@ static prt_status contains_all(const prt_accel *a, const float *points, size_t n
     }
     if (!undecided) return PRT_OK;
     prt__wtree *t;
-    prt_status s = prt__wtree_build(a, &t);
+    prt_status s = prt__wtree_build(a, threads, &t);
     if (s) return s;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 16)
     for (size_t i = 0; i < n; i++) {
@@ -110,7 +110,8 @@ prt_status prt_contains_by(const prt_accel *a, const float *points, size_t n, pr
     if (method != PRT_CONTAINS_AUTO && method != PRT_CONTAINS_PARITY && method != PRT_CONTAINS_WINDING)
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_contains: method %d is none of auto (0), parity (1), winding (2)",
                          (int)method);
-    return contains_all(a, points, n, method, result, threads);
+    if ((s = contains_all(a, points, n, method, result, threads))) return s;
+    return prt__query_done(a, "prt_contains");
 }
 
 prt_status prt_contains(const prt_accel *a, const float *points, size_t n, uint8_t *result, int threads) {
@@ -123,7 +124,7 @@ prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size
     if (s) return s;
     if (isnan(beta)) return prt__fail(PRT_ERROR_ARGUMENT, "prt_winding_number_fast: beta is NaN");
     prt__wtree *t;
-    if ((s = prt__wtree_build(a, &t))) return s;
+    if ((s = prt__wtree_build(a, threads, &t))) return s;
 #pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 16)
     for (size_t i = 0; i < n; i++) {
         const float *p = points + 3 * i;
@@ -131,7 +132,7 @@ prt_status prt_winding_number_fast(const prt_accel *a, const float *points, size
         winding[i] = isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]) ? (float)prt__wtree_winding(t, pd, beta) : NAN;
     }
     prt__wtree_free(t);
-    return PRT_OK;
+    return prt__query_done(a, "prt_winding_number_fast");
 }
 
 prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n, float *winding, int threads) {
@@ -142,7 +143,7 @@ prt_status prt_winding_number(const prt_accel *a, const float *points, size_t n,
         const float *p = points + 3 * i;
         winding[i] = isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]) ? winding_one(a, p) : NAN;
     }
-    return PRT_OK;
+    return prt__query_done(a, "prt_winding_number");
 }
 
 prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n, float max_distance, float *distance,
@@ -166,5 +167,5 @@ prt_status prt_signed_distance(const prt_accel *a, const float *points, size_t n
         distance[i] = in[i] & PRT_INSIDE ? -c.distance : c.distance;
     }
     prt__free(in);
-    return PRT_OK;
+    return prt__query_done(a, "prt_signed_distance");
 }

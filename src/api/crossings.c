@@ -69,7 +69,7 @@ prt_status prt_intersect_all(const prt_accel *a, const prt_ray *r, prt_hit *hits
         return prt__fail(PRT_ERROR_ARGUMENT, "prt_intersect_all: r and count must be set, and hits when max > 0");
     if (!cross_one(a, r, hits, max, count))
         return prt__fail(PRT_ERROR_NOMEM, "prt_intersect_all: out of memory for the crossings of one ray");
-    return PRT_OK;
+    return prt__query_done(a, "prt_intersect_all");
 }
 
 prt_status prt_intersect_all_stream(const prt_accel *a, const prt_ray *rays, size_t n, uint32_t *counts,
@@ -91,5 +91,5 @@ prt_status prt_intersect_all_stream(const prt_accel *a, const prt_ray *rays, siz
         if (!cross_one(a, &rays[i], hits ? hits + offsets[i] : NULL, max, &counts[i])) nomem = true;
     }
     if (nomem) return prt__fail(PRT_ERROR_NOMEM, "prt_intersect_all_stream: out of memory for the crossings of a ray");
-    return PRT_OK;
+    return prt__query_done(a, "prt_intersect_all_stream");
 }

@@ -38,6 +38,11 @@ prt_status prt__query_check(const prt_accel *a, const char *fn);
  * prt_closest_points answers it. */
 void prt__closest_one(const prt_accel *a, const float *p, double r2, prt_closest *out);
 
+/* After a query's walks: the failures a's walks met (prt_accel_caps.check: a corrupt or
+ * truncated file read while walking, for families that read blocks), as fn's error, so that
+ * no answer of such a walk passes for right; PRT_OK when none. */
+prt_status prt__query_done(const prt_accel *a, const char *fn);
+
 /* Walk a for q (a checked by prt__query_check). */
 void prt__query_walk(const prt_accel *a, prt__query *q);
 

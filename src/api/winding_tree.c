@@ -10,20 +10,27 @@
  * first term. */
 #include "api/winding_tree.h"
 #include "api/query.h"
+#include "bvh/tree.h"
 
+#include <omp.h>
+
+/* Leaves of at most 8 triangles, split at the mean centroid (Rouwé §4.1): of the splitters
+ * measured (sah, longest, mean) the most accurate on the bunny's near points and about as
+ * fast to build as the fastest (docs/queries.md). */
 #define WTREE_LEAF 8
+#define WTREE_SPLIT BVH_SPLIT_MEAN
 
 typedef struct wnode {
     double p[3], radius;   /* centre (area-weighted centroid) and radius about it */
+    double area;           /* of its triangles */
     double n[3], m[9];     /* N and M (row i: n_i d^T) */
     double c[27];          /* C, index 9 i + 3 j + k */
     uint32_t first, count; /* triangles [first, first + count) of the tree's order */
-    uint32_t left;         /* inner: children left, left + 1; leaf: 0 */
+    uint32_t left;         /* inner: children left, left + 1 (the builder's); leaf: 0 */
 } wnode;
 
 struct prt__wtree {
-    float *tris;  /* 9 floats a triangle, in the tree's order */
-    double *cent; /* centroid of each (building) */
+    float *tris; /* 9 floats a triangle, in the tree's order */
     uint32_t count;
     wnode *nodes;
     uint32_t node_count;
@@ -56,37 +63,6 @@ static void gather_leaf(prt__query *q, const float *v, const uint32_t *prims, ui
 
 /* --- building --------------------------------------------------------------------------- */
 
-static void swap_tris(prt__wtree *t, uint32_t i, uint32_t j) {
-    float v[9];
-    double c[3];
-    memcpy(v, t->tris + 9 * (size_t)i, 36), memcpy(t->tris + 9 * (size_t)i, t->tris + 9 * (size_t)j, 36);
-    memcpy(t->tris + 9 * (size_t)j, v, 36);
-    memcpy(c, t->cent + 3 * (size_t)i, 24), memcpy(t->cent + 3 * (size_t)i, t->cent + 3 * (size_t)j, 24);
-    memcpy(t->cent + 3 * (size_t)j, c, 24);
-}
-
-/* Order [lo, hi) so that position k holds the k-th centroid along axis (quickselect). */
-static void select_kth(prt__wtree *t, uint32_t lo, uint32_t hi, uint32_t k, int axis) {
-    while (hi - lo > 1) {
-        const double pivot = t->cent[3 * (size_t)(lo + (hi - lo) / 2) + axis];
-        uint32_t i = lo, j = hi - 1;
-        while (i <= j) {
-            while (t->cent[3 * (size_t)i + axis] < pivot) i++;
-            while (t->cent[3 * (size_t)j + axis] > pivot) j--;
-            if (i <= j) {
-                swap_tris(t, i, j);
-                i++;
-                if (j == 0) break;
-                j--;
-            }
-        }
-        /* [lo, j] <= pivot <= [i, hi) */
-        if (k <= j) hi = j + 1;
-        else if (k >= i) lo = i;
-        else return;
-    }
-}
-
 static void area_vector(const float *v, double n[3]) {
     double e1[3], e2[3];
     for (int k = 0; k < 3; k++) e1[k] = (double)v[3 + k] - v[k], e2[k] = (double)v[6 + k] - v[k];
@@ -95,36 +71,33 @@ static void area_vector(const float *v, double n[3]) {
     n[2] = 0.5 * (e1[0] * e2[1] - e1[1] * e2[0]);
 }
 
-/* Node i over [first, first + count): its expansion, then its children. */
-static void build_node(prt__wtree *t, uint32_t i, uint32_t first, uint32_t count) {
-    wnode *nd = &t->nodes[i];
-    *nd = (wnode){.first = first, .count = count};
-    double area = 0, c[3] = {0, 0, 0}, mean[3] = {0, 0, 0}, lo[3] = {INFINITY, INFINITY, INFINITY},
-           hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (uint32_t k = first; k < first + count; k++) {
-        double n[3];
-        area_vector(t->tris + 9 * (size_t)k, n);
+static void centroid(const float *v, double c[3]) {
+    for (int x = 0; x < 3; x++) c[x] = ((double)v[x] + v[3 + x] + v[6 + x]) / 3;
+}
+
+/* A leaf's expansion from its triangles: centre P the area-weighted centroid (the mean of
+ * the centroids when the area is 0), N, M and C about it. */
+static void leaf_terms(const prt__wtree *t, wnode *nd) {
+    double c[3] = {0, 0, 0}, mean[3] = {0, 0, 0};
+    for (uint32_t k = nd->first; k < nd->first + nd->count; k++) {
+        double n[3], ck[3];
+        area_vector(t->tris + 9 * (size_t)k, n), centroid(t->tris + 9 * (size_t)k, ck);
         const double a = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        for (int x = 0; x < 3; x++) {
-            const double ck = t->cent[3 * (size_t)k + x];
-            c[x] += a * ck, mean[x] += ck, nd->n[x] += n[x];
-            lo[x] = fmin(lo[x], ck), hi[x] = fmax(hi[x], ck);
-        }
-        area += a;
+        for (int x = 0; x < 3; x++) c[x] += a * ck[x], mean[x] += ck[x], nd->n[x] += n[x];
+        nd->area += a;
     }
-    for (int x = 0; x < 3; x++) nd->p[x] = area > 0 ? c[x] / area : mean[x] / count; /* degenerate: the mean */
-    double r2 = 0;
-    for (uint32_t k = first; k < first + count; k++) {
+    for (int x = 0; x < 3; x++) nd->p[x] = nd->area > 0 ? c[x] / nd->area : mean[x] / nd->count;
+    for (uint32_t k = nd->first; k < nd->first + nd->count; k++) {
         const float *v = t->tris + 9 * (size_t)k;
-        double n[3], d[3];
-        area_vector(v, n);
-        for (int x = 0; x < 3; x++) d[x] = t->cent[3 * (size_t)k + x] - nd->p[x];
+        double n[3], ck[3], d[3];
+        area_vector(v, n), centroid(v, ck);
+        for (int x = 0; x < 3; x++) d[x] = ck[x] - nd->p[x];
         double sm[9]; /* d d^T + the triangle's second moment S */
         for (int j = 0; j < 3; j++)
-            for (int k = 0; k < 3; k++) sm[3 * j + k] = d[j] * d[k];
+            for (int l = 0; l < 3; l++) sm[3 * j + l] = d[j] * d[l];
         for (int w = 0; w < 3; w++) {
             double e[3];
-            for (int x = 0; x < 3; x++) e[x] = v[3 * w + x] - t->cent[3 * (size_t)k + x];
+            for (int x = 0; x < 3; x++) e[x] = v[3 * w + x] - ck[x];
             for (int j = 0; j < 3; j++)
                 for (int l = 0; l < 3; l++) sm[3 * j + l] += e[j] * e[l] / 12;
         }
@@ -132,27 +105,89 @@ static void build_node(prt__wtree *t, uint32_t i, uint32_t first, uint32_t count
             for (int b = 0; b < 3; b++) nd->m[3 * a + b] += n[a] * d[b];
             for (int jk = 0; jk < 9; jk++) nd->c[9 * a + jk] += n[a] * sm[jk];
         }
-        for (int j = 0; j < 3; j++) {
-            double e = 0;
-            for (int x = 0; x < 3; x++) e += (v[3 * j + x] - nd->p[x]) * (v[3 * j + x] - nd->p[x]);
-            r2 = fmax(r2, e);
-        }
     }
-    nd->radius = sqrt(r2);
-    if (count <= WTREE_LEAF) return;
-    /* Split at the median centroid along the widest axis of the centroids. */
-    int axis = 0;
-    for (int x = 1; x < 3; x++)
-        if (hi[x] - lo[x] > hi[axis] - lo[axis]) axis = x;
-    const uint32_t half = count / 2, left = t->node_count;
-    t->node_count += 2;
-    select_kth(t, first, first + count, first + half, axis);
-    t->nodes[i].left = left; /* nd may not be used below: build_node writes other nodes */
-    build_node(t, left, first, half);
-    build_node(t, left + 1, first + half, count - half);
 }
 
-prt_status prt__wtree_build(const prt_accel *a, prt__wtree **out) {
+/* An inner node's expansion from its children's, each moved from its centre P' to the
+ * node's P (d = c_t - P = e + delta, e = c_t - P', delta = P' - P): exactly
+ * M_ij = M'_ij + N'_i delta_j and C_ijk = C'_ijk + M'_ij delta_k + delta_j M'_ik +
+ * N'_i delta_j delta_k; P is the children's centres weighted by area (by count when the
+ * area is 0, as a leaf's mean). */
+static void inner_terms(wnode *nd, const wnode *kid) {
+    nd->area = kid[0].area + kid[1].area;
+    for (int x = 0; x < 3; x++)
+        nd->p[x] = nd->area > 0 ? (kid[0].area * kid[0].p[x] + kid[1].area * kid[1].p[x]) / nd->area
+                                : (kid[0].count * kid[0].p[x] + kid[1].count * kid[1].p[x]) / nd->count;
+    for (int s = 0; s < 2; s++) {
+        const wnode *k = &kid[s];
+        double dl[3];
+        for (int x = 0; x < 3; x++) dl[x] = k->p[x] - nd->p[x], nd->n[x] += k->n[x];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                nd->m[3 * i + j] += k->m[3 * i + j] + k->n[i] * dl[j];
+                for (int l = 0; l < 3; l++)
+                    nd->c[9 * i + 3 * j + l] += k->c[9 * i + 3 * j + l] + k->m[3 * i + j] * dl[l] +
+                                                dl[j] * k->m[3 * i + l] + k->n[i] * dl[j] * dl[l];
+            }
+    }
+}
+
+/* The node's radius about its centre: the farthest vertex of its triangles. */
+static void node_radius(const prt__wtree *t, wnode *nd) {
+    double r2 = 0;
+    for (const float *v = t->tris + 9 * (size_t)nd->first, *end = v + 9 * (size_t)nd->count; v < end; v += 3) {
+        double e = 0;
+        for (int x = 0; x < 3; x++) e += (v[x] - nd->p[x]) * (v[x] - nd->p[x]);
+        r2 = e > r2 ? e : r2; /* not fmax: a libm call here was a tenth of the build */
+    }
+    nd->radius = sqrt(r2);
+}
+
+/* The tree over t's triangles (t->tris, in gathered order; reordered to the tree's leaves):
+ * the project's binary builder (bvh/tree.h) over their boxes, then each node's terms,
+ * leaves from their triangles and inner nodes from their children (children follow their
+ * parent in the builder's nodes, so a walk backwards meets them first). */
+static prt_status build_tree(prt__wtree *t, int threads) {
+    bvh_prim *prims = prt__alloc(prt__mul_size(t->count, sizeof *prims));
+    if (!prims) return PRT_ERROR_NOMEM;
+    for (uint32_t k = 0; k < t->count; k++) {
+        prt_aabb box = prt_aabb_empty();
+        for (int w = 0; w < 3; w++) prt_aabb_grow_point(&box, t->tris + 9 * (size_t)k + 3 * w);
+        bvh_prim_set(&prims[k], &box, k);
+    }
+    const bvh_build_params p = {.split = WTREE_SPLIT, .max_leaf = WTREE_LEAF, .block = 1, .threads = threads};
+    bvh_tree tree;
+    prt_status s = bvh_build(prims, t->count, &p, &tree);
+    prt__free(prims);
+    if (s) return s;
+    float *tris = prt__alloc(prt__mul_size(t->count, 36));
+    t->nodes = prt__calloc(tree.node_count, sizeof *t->nodes);
+    if (!tris || !t->nodes) {
+        prt__free(tris), bvh_tree_free(&tree);
+        return PRT_ERROR_NOMEM;
+    }
+    for (uint32_t k = 0; k < t->count; k++) memcpy(tris + 9 * (size_t)k, t->tris + 9 * (size_t)tree.prims[k], 36);
+    prt__free(t->tris);
+    t->tris = tris, t->node_count = (uint32_t)tree.node_count;
+    for (uint32_t i = t->node_count; i-- > 0;) { /* ranges, children first */
+        const bvh_node *b = &tree.nodes[i];
+        wnode *nd = &t->nodes[i];
+        nd->left = b->count ? 0 : b->index;
+        nd->first = b->count ? b->index : t->nodes[b->index].first;
+        nd->count = b->count ? b->count : t->nodes[b->index].count + t->nodes[b->index + 1].count;
+    }
+    bvh_tree_free(&tree);
+#pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 256)
+    for (uint32_t i = 0; i < t->node_count; i++)
+        if (!t->nodes[i].left) leaf_terms(t, &t->nodes[i]);
+    for (uint32_t i = t->node_count; i-- > 0;)
+        if (t->nodes[i].left) inner_terms(&t->nodes[i], &t->nodes[t->nodes[i].left]);
+#pragma omp parallel for num_threads(prt__threads(threads)) schedule(dynamic, 256)
+    for (uint32_t i = 0; i < t->node_count; i++) node_radius(t, &t->nodes[i]);
+    return PRT_OK;
+}
+
+prt_status prt__wtree_build(const prt_accel *a, int threads, prt__wtree **out) {
     *out = NULL;
     gather g = {0};
     prt__query q = {.kind = PRT__QUERY_EVERY, .leaf = gather_leaf, .user = &g};
@@ -163,29 +198,21 @@ prt_status prt__wtree_build(const prt_accel *a, prt__wtree **out) {
         return prt__fail(PRT_ERROR_NOMEM, "winding number: out of memory for the tree of %zu triangles", g.count);
     }
     t->tris = g.tris, t->count = (uint32_t)g.count;
-    /* Leaves of more than WTREE_LEAF split in halves, so every leaf holds at least
-     * WTREE_LEAF / 2 triangles (or is the root): at most n / 4 leaves, n / 2 nodes. */
-    t->nodes = prt__alloc(prt__mul_size((size_t)t->count / 2 + 2, sizeof *t->nodes));
-    t->cent = prt__alloc(prt__mul_size(3 * (size_t)t->count + 1, sizeof *t->cent));
-    if (!t->nodes || !t->cent) {
+    /* No triangles: no tree, and prt__wtree_winding answers 0. */
+    const prt_status s = t->count ? build_tree(t, threads) : PRT_OK;
+    if (s) {
         prt__wtree_free(t);
-        return prt__fail(PRT_ERROR_NOMEM, "winding number: out of memory for the tree of %zu triangles", g.count);
+        return s == PRT_ERROR_NOMEM
+                   ? prt__fail(s, "winding number: out of memory for the tree of %zu triangles", g.count)
+                   : s;
     }
-    for (size_t k = 0; k < t->count; k++) {
-        const float *v = t->tris + 9 * k;
-        for (int x = 0; x < 3; x++) t->cent[3 * k + x] = ((double)v[x] + v[3 + x] + v[6 + x]) / 3;
-    }
-    t->node_count = 1;
-    if (t->count) build_node(t, 0, 0, t->count); /* no triangles: prt__wtree_winding answers 0 */
-    prt__free(t->cent);
-    t->cent = NULL;
     *out = t;
     return PRT_OK;
 }
 
 void prt__wtree_free(prt__wtree *t) {
     if (!t) return;
-    prt__free(t->tris), prt__free(t->cent), prt__free(t->nodes);
+    prt__free(t->tris), prt__free(t->nodes);
     prt__free(t);
 }
 

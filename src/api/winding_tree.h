@@ -12,9 +12,10 @@ typedef struct prt__wtree prt__wtree;
 
 struct prt_accel;
 
-/* The tree of the triangles a hands the queries' walk (a checked by prt__query_check):
+/* The tree of the triangles a hands the queries' walk (a checked by prt__query_check),
+ * built by the project's BVH builder (bvh/tree.h) on `threads` threads (0: all cores):
  * PRT_ERROR_NOMEM, else PRT_OK with *out to free with prt__wtree_free. */
-prt_status prt__wtree_build(const struct prt_accel *a, prt__wtree **out);
+prt_status prt__wtree_build(const struct prt_accel *a, int threads, prt__wtree **out);
 void prt__wtree_free(prt__wtree *t);
 
 /* The winding number at p (sum of solid angles over 4 pi) with accuracy beta (Barill et

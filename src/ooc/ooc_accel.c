@@ -317,8 +317,10 @@ static prt_status ooc_check(const prt_accel *a) {
     const ooc_accel *o = (const ooc_accel *)a;
     uint64_t f = atomic_load(&((ooc_accel *)o)->cache.failures);
     if (f)
-        return prt__fail(PRT_ERROR_CORRUPT, "%llu block reads or records failed their checks (corrupt block file?)",
-                         (unsigned long long)f);
+        return prt__fail(
+            PRT_ERROR_CORRUPT,
+            "%llu block reads or records failed their checks (corrupt block file, or a query out of memory?)",
+            (unsigned long long)f);
     return PRT_OK;
 }
 
@@ -376,6 +378,7 @@ const prt_accel_ops prt__ooc_ops = {
     .occluded1 = ooc_occluded1,
     .stats = ooc_stats,
     .destroy = ooc_destroy,
+    .query = ooc_query,
     .caps = &ooc_caps,
 };
 

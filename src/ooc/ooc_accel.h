@@ -29,6 +29,10 @@ void ooc_intersect_lod_packet_scalar(const prt_accel *a, prt_ray *rays, prt_lod_
  * ooc_intersect_lod(any)'s answer for ray i. */
 void ooc_occluded_lod_packet(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, uint32_t n, float C);
 
+/* The mesh queries' walk (prt_accel_ops.query, query.c): exact, through the block cache. */
+struct prt__query;
+void ooc_query(const prt_accel *a, struct prt__query *q);
+
 /* Open a block file image (memory) or file (fd >= 0); checks header and table.
  * verify_crc=false skips every checksum, so fuzzing reaches the structural checks. */
 prt_status ooc_open(const uint8_t *mem, uint64_t mem_size, int fd, uint64_t file_size, const char *name,

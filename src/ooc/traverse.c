@@ -10,7 +10,7 @@
  * One walk answers every query: 16 rays in SIMD lanes (LOD packets), or one ray in lane 0
  * (walk1: exact queries, single LOD queries, the rays a packet leaves alone), exact or LOD
  * (packet16.lod), closest or any hit (packet16.any). */
-#include "ooc/ooc_accel.h"
+#include "ooc/nodes.h"
 
 #include "core/simd16.h"
 #include "geom/triangle.h"
@@ -34,7 +34,7 @@ typedef struct walker {
 
 static inline const uint8_t *acquire(walker *w, uint32_t b, uint32_t kind, uint32_t *size) {
     ooc_cache *c = &w->a->cache;
-    if (b >= c->nblocks || c->table[b].kind != kind || c->table[b].raw == 0) {
+    if (!ooc_block_is(c, b, kind)) {
         atomic_fetch_add(&c->failures, 1);
         return NULL;
     }
@@ -64,20 +64,9 @@ static void finish(walker *w) {
 /* An inner node's split axis and plane (w0, w1 its two words): false, counted as a
  * failure, for a corrupt axis or a path deeper than any the builder writes. */
 static inline bool inner_plane(const walker *w, uint32_t w0, uint32_t w1, int depth, int *axis, float *split) {
-    *axis = (int)(w0 & 3);
-    memcpy(split, &w1, 4);
-    if (*axis == 3 || depth >= OOC_MAX_DEPTH) {
-        atomic_fetch_add(&w->a->cache.failures, 1);
-        return false;
-    }
-    return true;
-}
-
-/* An inner node's children: offsets from base (the node itself, or the start of the
- * child block after a LOD node) and which of the two exist. */
-static inline void inner_children(uint32_t w0, uint32_t base, uint32_t kid[2], bool has[2]) {
-    kid[0] = base + (w0 & 0xFFFC), kid[1] = kid[0] + 4 * ((w0 >> 18) & 0x7FF);
-    has[0] = (w0 & OOC_LEFT) != 0, has[1] = (w0 & OOC_RIGHT) != 0;
+    if (ooc_inner_plane(w0, w1, depth, axis, split)) return true;
+    atomic_fetch_add(&w->a->cache.failures, 1);
+    return false;
 }
 
 /* A LOD node at off of the current block: its radius, child block and voxel (*vox where it
@@ -87,11 +76,8 @@ static inline void inner_children(uint32_t w0, uint32_t base, uint32_t kid[2], b
  * block it enters until the frame ends, and an exact walk never reads the voxel. */
 static inline bool lod_node(const walker *w, uint32_t off, float *radius, uint32_t *child_block, const uint8_t **vox,
                             int *nvox, float *vox_radius) {
-    if (off + 16 > w->size) return false;
-    uint32_t w3;
-    memcpy(radius, w->blk + off + 8, 4);
-    memcpy(&w3, w->blk + off + 12, 4);
-    uint32_t vo = off + 4 * (w3 >> 26);
+    uint32_t vo;
+    if (!ooc_lod_node(w->blk, w->size, off, radius, child_block, &vo)) return false;
     if (vo + 4 <= w->size) {
         uint32_t s0;
         memcpy(&s0, w->blk + vo, 4);
@@ -100,25 +86,7 @@ static inline bool lod_node(const walker *w, uint32_t off, float *radius, uint32
         else *vox = w->blk + vo;
         *vox_radius = *radius;
     }
-    *child_block = w3 & ((1u << 26) - 1);
     return true;
-}
-
-/* A leaf's triangle list in triangle block p: its offset and count (a count over 255 is
- * stored as the list's first entry), and the block's triangle and vertex counts. False
- * when the list does not fit the block's list section. */
-static bool leaf_list(const uint8_t *p, uint32_t size, uint32_t w0, uint32_t *list, uint32_t *n, uint32_t *ntri,
-                      uint32_t *nvert) {
-    uint16_t sec[2];
-    memcpy(sec, p, 4);
-    *list = w0 & 0xFFFF, *n = (w0 >> 16) & 0xFF;
-    *ntri = (uint32_t)(sec[1] - sec[0]) / sizeof(ooc_tri), *nvert = (size - sec[1]) / 12;
-    if (*n == 0) {
-        uint16_t n16 = 0;
-        if (*list + 2 <= sec[0]) memcpy(&n16, p + *list, 2);
-        *n = n16, *list += 2;
-    }
-    return *list + 2 * *n <= sec[0];
 }
 
 /* The ray's segment inside the root cell, and the axis of the slab it enters last (the
@@ -239,18 +207,10 @@ static uint32_t voxel_hits16(packet_state *ps, packet16 *pk, uint32_t mask, vf16
     return stopped;
 }
 
-/* Ask for the triangles of the leaf w0 in triangle block p: each is a load that depends on
- * the list, and their vertices on them; asked together they arrive together. */
+/* Ask for the triangles of the leaf w0 in triangle block p (ooc_leaf_prefetch). */
 static void leaf_prefetch_tris(const uint8_t *p, uint32_t size, uint32_t w0) {
-    uint16_t sec[2];
-    memcpy(sec, p, 4);
-    uint32_t list, n, ntri, nvert;
-    if (!leaf_list(p, size, w0, &list, &n, &ntri, &nvert)) return;
-    for (uint32_t j = 0; j < n; j++) {
-        uint16_t ti;
-        memcpy(&ti, p + list + 2 * j, 2);
-        if (ti < ntri) __builtin_prefetch(p + sec[0] + (size_t)ti * sizeof(ooc_tri));
-    }
+    ooc_leaf l;
+    if (ooc_leaf_open(p, size, w0, &l)) ooc_leaf_prefetch(&l);
 }
 
 /* The rays of mask against a leaf's triangles in triangle block tb (at p, size bytes,
@@ -259,10 +219,9 @@ static void leaf_prefetch_tris(const uint8_t *p, uint32_t size, uint32_t w0) {
  * the triangles before it count). */
 static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t mask, uint32_t w0, uint32_t tb,
                           const uint8_t *p, uint32_t size) {
-    uint16_t sec[2];
-    memcpy(sec, p, 4);
-    uint32_t list, n, ntri, nvert;
-    bool ok = leaf_list(p, size, w0, &list, &n, &ntri, &nvert);
+    ooc_leaf l;
+    bool ok = ooc_leaf_open(p, size, w0, &l);
+    const uint32_t n = l.n;
     float soa[9 * 8] __attribute__((aligned(32)));
     uint32_t prim[8];
     uint16_t color[8];
@@ -271,25 +230,15 @@ static bool packet_leaf16(walker *w, packet_state *ps, packet16 *pk, uint32_t ma
         /* Decode up to 8 triangles: component c of vertex k of triangle l at soa[(3k+c)*8+l]. */
         uint32_t cnt = 0;
         for (uint32_t j = j0; j < n && j < j0 + 8; j++) {
-            uint16_t ti;
-            memcpy(&ti, p + list + 2 * j, 2);
-            if (ti >= ntri) {
+            /* Field by field rather than a copy of the record: straight from the block
+             * into registers and the SOA (a copy went through the stack). */
+            const uint8_t *vp[3], *tp = ooc_leaf_tri(&l, j, vp);
+            if (!tp) {
                 ok = more = false; /* the triangles before it count */
                 break;
             }
-            /* Field by field rather than a copy of the record: straight from the block
-             * into registers and the SOA (a copy went through the stack). */
-            const uint8_t *tp = p + sec[0] + (size_t)ti * sizeof(ooc_tri);
-            uint16_t v[3];
-            memcpy(v, tp, sizeof v);
-            if (v[0] >= nvert || v[1] >= nvert || v[2] >= nvert) {
-                ok = more = false;
-                break;
-            }
-            for (int k = 0; k < 3; k++) {
-                const uint8_t *vp = p + sec[1] + 12u * v[k];
-                for (int c = 0; c < 3; c++) memcpy(&soa[(3 * k + c) * 8 + cnt], vp + 4 * c, 4);
-            }
+            for (int k = 0; k < 3; k++)
+                for (int c = 0; c < 3; c++) memcpy(&soa[(3 * k + c) * 8 + cnt], vp[k] + 4 * c, 4);
             memcpy(&color[cnt], tp + offsetof(ooc_tri, color), 2);
             memcpy(&prim[cnt], tp + offsetof(ooc_tri, prim), 4);
             cnt++;
@@ -482,7 +431,7 @@ static int walk16_run(pwalk16 *s, bool alone) {
              * went through the stack on every step). */
             uint32_t kid[2];
             bool has[2];
-            inner_children(w0, base, kid, has);
+            ooc_inner_children(w0, base, kid, has);
             /* The plane's distance: where the front part ends (t_front) and the back part
              * begins (t_back), the same t but for a one-lane walk parallel to the plane. */
             bool front1 = pk->front[axis] != 0, both = true;

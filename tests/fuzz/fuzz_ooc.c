@@ -2,7 +2,7 @@
  * load does: the input's checksums (each block's, the table's, the header's) are first
  * made to match, so mutations reach the checks behind them and the LZ4 decoder rather than
  * stopping at a checksum mismatch; the file is then opened from disk with the smallest
- * cache and walked by exact and LOD rays. Any input must open or fail with a message, and
+ * cache and walked by exact and LOD rays and the mesh queries. Any input must open or fail with a message, and
  * the queries must not crash. (fuzz_prt covers the same reader with the checksums off.) */
 #include "ooc/ooc.h"
 #include "packrt.h"
@@ -66,6 +66,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
             }
             prt_accel_frame(a, NULL);
         }
+        /* The mesh queries' walk (ooc/query.c) over the same records. */
+        const float p[3] = {0.2f, 0.3f, -0.1f};
+        prt_closest c;
+        uint8_t in;
+        prt_hit hits[8];
+        uint32_t n;
+        const prt_ray r = {{0.2f, 0.3f, -2.0f}, 0, {0.1f, 0.2f, 1.0f}, INFINITY};
+        (void)prt_closest_points(a, p, 1, INFINITY, &c, 1);
+        (void)prt_contains(a, p, 1, &in, 1);
+        (void)prt_intersect_all(a, &r, hits, 8, &n);
         (void)prt_accel_check(a);
         prt_accel_free(a);
     } else if (a || !*prt_last_error()) {
