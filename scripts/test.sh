@@ -31,7 +31,7 @@ seconds=${FUZZ_SECONDS:-15}
 if [ "$seconds" -gt 0 ] && command -v clang >/dev/null; then
   CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPRT_SANITIZE=ON -DPRT_FUZZ=ON \
     -DPRT_WITH_EMBREE=OFF >/dev/null
-  targets=(fuzz_ply fuzz_obj fuzz_prt fuzz_stl fuzz_off fuzz_gltf fuzz_rays fuzz_spec fuzz_ooc)
+  targets=(fuzz_ply fuzz_obj fuzz_prt fuzz_stl fuzz_off fuzz_gltf fuzz_rays fuzz_spec fuzz_ooc fuzz_costs)
   cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" >/dev/null
   for f in "${targets[@]}"; do
     corpus=$(mktemp -d)

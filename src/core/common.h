@@ -11,6 +11,13 @@
 
 #define PRT_INLINE static inline __attribute__((always_inline))
 #define PRT_NOINLINE __attribute__((noinline))
+/* Neither inlined nor cloned per caller's constants (GCC's noipa; clang has no such cloning
+ * of static functions worth stopping, so noinline there). */
+#if defined(__clang__)
+#define PRT_NOIPA __attribute__((noinline))
+#else
+#define PRT_NOIPA __attribute__((noipa))
+#endif
 #define PRT_LIKELY(x) __builtin_expect(!!(x), 1)
 #define PRT_UNLIKELY(x) __builtin_expect(!!(x), 0)
 #define PRT_ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
