@@ -101,8 +101,8 @@ PRT_INLINE unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, float
     return wide8_slab(near, far, wide8_occupied(n), w, tfar, tentry);
 }
 
-/* wide8_box_hit for walks written out by hand (lossygrid's single rays, Ray-Strips' top
- * level): the byte offsets of the ray's near and far plane rows kept with its constants,
+/* wide8_box_hit as WIDE8_NF (lossygrid's single rays, Ray-Strips' top level and packets):
+ * the byte offsets of the ray's near and far plane rows kept with its constants,
  * each axis's scale made from its exponent byte in a scalar register, the same operations
  * in the same order (the same hits), and the exit distances returned too (Ray-Strips bounds
  * a strip's s-kd interval by them). */
