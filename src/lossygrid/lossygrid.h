@@ -47,11 +47,8 @@ void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h
 uint32_t lg_record_triangles(const uint8_t *leaf, uint32_t count, const bvh_shared *sh, float *v, uint32_t *ids);
 bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
 /* lg_trace1 for n rays (invalid ones a miss), four walks interleaved by the wide8
- * template's stream; every answer is lg_trace1's bit for bit. */
+ * walk's stream; every answer is lg_trace1's bit for bit. */
 void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
-/* lg_trace1 through the wide8 kernel template (bvh/layouts/wide8_kernels.inc) itself: the
- * reference the tests hold lg_trace1's own walk to, bit for bit. */
-void lg_trace1_template(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h);
 
 /* Closest hits of n <= LG_PACKET valid rays traced together (primary rays): each wide8
  * node's child boxes decoded once for the packet and each record once for the rays that

@@ -1,7 +1,6 @@
-/* lossygrid traversal: the wide8 kernel template (bvh/layouts/wide8_kernels.inc)
- * instantiated with the record kernels of record.h in place of a triangle codec (any hit,
- * and the reference for the tests), lossygrid's own walk for closest-hit single rays, and
- * packets. */
+/* lossygrid traversal: the wide8 walk (bvh/layouts/wide8_kernels.inc) instantiated with the
+ * record kernels of record.h in place of a triangle codec, for single rays (closest and any
+ * hit) and streams; and packets. */
 #include "bvh/layouts/wide8_box.h"
 #include "bvh/traverse.h"
 #include "lossygrid/lossygrid.h"
@@ -62,105 +61,36 @@ PRT_INLINE bool lgrecc_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx
 
 static inline vi8 lg_vi8_set1(int32_t x) { return (vi8){x, x, x, x, x, x, x, x}; }
 
-void lg_trace1_template(const uint8_t *blob, const bvh_shared *sh, prt_ray *r, prt_hit *h) {
-    wide8_intersect1_lgrec(blob, sh, r, h);
-}
-
 /* --- single rays, closest hit ---------------------------------------------------------- */
 
-/* A leaf's records tested out of line, so that the node loop of lg_trace1 keeps its ray
- * constants in registers (inlined, the record code's 30-odd vectors made the compiler
- * spill them around every node). */
-PRT_NOINLINE static void lg_leaf1(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lgrec_ray *c,
-                                  prt__hitx *h) {
+/* The record kernels for lg_trace1 (CODEC = lg1): lgrec's, with the records tested out of
+ * line, so that the walk's node loop keeps its ray constants in registers (inlined, the
+ * record code's 30-odd vectors made the compiler spill them around every node). */
+typedef lgrec_ray lg1_ray;
+enum { lg1_block = lgrec_block, lg1_align = lgrec_align, lg1_seq_ids = lgrec_seq_ids };
+static inline size_t lg1_leaf_bytes(uint32_t n) { return lgrec_leaf_bytes(n); }
+static inline void lg1_ray_init(lg1_ray *c, const prt__rayx *r, const bvh_shared *sh) { lgrec_ray_init(c, r, sh); }
+PRT_NOINLINE static void lg1_intersect(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lg1_ray *c,
+                                       prt__hitx *h) {
     lgrec_intersect(leaf, n, r, c, h);
 }
+PRT_INLINE bool lg1_occluded(const uint8_t *leaf, uint32_t n, const prt__rayx *r, const lg1_ray *c, float tfar) {
+    return lgrec_occluded(leaf, n, r, c, tfar);
+}
+#define CODEC lg1
+#include "bvh/layouts/wide8_kernels.inc"
+#undef CODEC
 
-/* The walk of wide8_kernels.inc's intersect1 for lossygrid's records, with the node test
- * wide8_nf_hit: wide8_box_hit's operations, each scale made from its exponent byte in a
- * scalar register rather than through wide8_scales' vector permutes and the stack. (The
- * template folds the planes into the ray, wide8_fold_hit; here that measured 3-5% slower.
- * Both tests are conservative: the same hits.) */
+/* The wide8 walk with the node test wide8_nf_hit: wide8_box_hit's operations, each scale
+ * made from its exponent byte in a scalar register rather than through wide8_scales' vector
+ * permutes and the stack. (The folded test, wide8_fold_hit, measured 3-5% slower here. Both
+ * tests are conservative: the same hits.) */
 void lg_trace1(const uint8_t *blob, const bvh_shared *sh, prt_ray *ray, prt_hit *hit) {
-    prt__rayx r;
-    prt__rayx_init(&r, ray);
-    wide8_nfray c;
-    wide8_nfray_init(&c, &r, blob);
-    const wide8_ray *w = &c.w;
-    lgrec_ray cr;
-    lgrec_ray_init(&cr, &r, sh);
-    prt__hitx h = {ray->tfar, 0, 0, PRT_INVALID};
-    struct {
-        uint64_t ref;
-        float t;
-    } stack[WIDE8_STACK];
-    int top = 0;
-    uint64_t ref = WIDE8_HEADER_BYTES; /* the root */
-    for (;;) {
-        if (!(ref & WIDE8_LEAF)) {
-            const wide8_node *n = (const wide8_node *)(blob + ref);
-            vf8 tmin, tmax;
-            unsigned mask = wide8_nf_hit(n, &c, h.t, &tmin, &tmax);
-            if (mask) {
-                const int i0 = __builtin_ctz(mask);
-                mask &= mask - 1;
-                if (!mask) { /* the common case: one child hit */
-                    ref = wide8_child_ref_lgrec(n, i0, w);
-                    continue;
-                }
-                float tt[8];
-                memcpy(tt, &tmin, sizeof tt);
-                const int i1 = __builtin_ctz(mask);
-                if (!(mask & (mask - 1))) { /* two: the farther pushed (ties: the higher slot) */
-                    const bool swap = tt[i1] < tt[i0];
-                    const int nearer = swap ? i1 : i0, farther = swap ? i0 : i1;
-                    const uint64_t fref = wide8_child_ref_lgrec(n, farther, w);
-                    const uint8_t *fp = blob + (fref & WIDE8_OFFSET_MASK);
-                    __builtin_prefetch(fp), __builtin_prefetch(fp + 64);
-                    stack[top].ref = fref;
-                    stack[top++].t = tt[farther];
-                    ref = wide8_child_ref_lgrec(n, nearer, w);
-                    continue;
-                }
-                /* More: placed on the stack far to near by their rank (ties by slot), the
-                 * nearest visited next, every one prefetched now. */
-                mask |= 1u << i0;
-                const int c = __builtin_popcount(mask);
-                for (unsigned m = mask; m; m &= m - 1) {
-                    const int i = __builtin_ctz(m);
-                    const vf8 ti = vf8_set1(tt[i]);
-                    const unsigned before =
-                        (unsigned)vi8_mask(tmin < ti) | ((unsigned)vi8_mask(tmin == ti) & ((1u << i) - 1));
-                    const int slot = top + c - 1 - __builtin_popcount(before & mask);
-                    const uint64_t cref = wide8_child_ref_lgrec(n, i, w);
-                    const uint8_t *cp = blob + (cref & WIDE8_OFFSET_MASK);
-                    __builtin_prefetch(cp), __builtin_prefetch(cp + 64);
-                    stack[slot].ref = cref;
-                    stack[slot].t = tt[i];
-                }
-                top += c - 1;
-                ref = stack[top].ref;
-                continue;
-            }
-        } else {
-            lg_leaf1(blob + (ref & WIDE8_OFFSET_MASK), (uint32_t)(ref >> 56 & 0x7F), &r, &cr, &h);
-        }
-        for (;;) {
-            if (top == 0) goto done;
-            --top;
-            if (stack[top].t <= h.t) {
-                ref = stack[top].ref;
-                break;
-            }
-        }
-    }
-done:
-    bvh_finish_hit(ray, hit, &h);
+    wide8_walk1_lg1(blob, sh, ray, hit, WIDE8_NF);
 }
 
-/* Streams: the wide8 template's interleaved walk (four rays at a time), with the template's
- * folded box test, whose hits are lg_trace1's (test_lossygrid holds the two walks to each
- * other bit for bit). */
+/* Streams: the wide8 walk interleaved (four rays at a time), with the folded box test, whose
+ * hits are lg_trace1's (test_lossygrid holds the two to each other bit for bit). */
 void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n) {
     lg_stream_shared s;
     s.sh = *sh;

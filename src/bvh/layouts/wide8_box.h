@@ -101,8 +101,8 @@ PRT_INLINE unsigned wide8_box_hit(const wide8_node *n, const wide8_ray *w, float
     return wide8_slab(near, far, wide8_occupied(n), w, tfar, tentry);
 }
 
-/* wide8_box_hit for walks written out by hand (lossygrid's single rays, Ray-Strips' top
- * level): the byte offsets of the ray's near and far plane rows kept with its constants,
+/* wide8_box_hit as WIDE8_NF (lossygrid's single rays, Ray-Strips' top level and packets):
+ * the byte offsets of the ray's near and far plane rows kept with its constants,
  * each axis's scale made from its exponent byte in a scalar register, the same operations
  * in the same order (the same hits), and the exit distances returned too (Ray-Strips bounds
  * a strip's s-kd interval by them). */
@@ -231,6 +231,34 @@ PRT_INLINE unsigned wide8_fold_hit(const wide8_node *n, const wide8_fold *w, flo
     }
     *tentry = tmin;
     return (unsigned)vi8_mask(tmin <= tmax) & wide8_occupied(n);
+}
+
+/* The three node tests, one walk's choice (wide8_kernels.inc's `test`, a constant in each
+ * instantiated walk): the folded one (wide8_fold_hit), the decoded-plane one
+ * (wide8_box_hit), or wide8_nf_hit, which also returns the exit distances (Ray-Strips
+ * bounds a strip's s-kd walk by them; lossygrid's records measured faster with it). */
+enum { WIDE8_FOLD, WIDE8_PLANES, WIDE8_NF };
+
+/* Per-ray constants of the chosen test (the others' left unset); c.w always holds the
+ * blob's header fields child_ref reads. */
+typedef struct wide8_test {
+    wide8_nfray c;
+    wide8_fold f;
+} wide8_test;
+
+PRT_INLINE void wide8_test_init(wide8_test *t, const prt__rayx *r, const uint8_t *blob, const int test) {
+    if (test == WIDE8_FOLD) wide8_ray_header(&t->c.w, blob), wide8_fold_init(&t->f, r, blob);
+    else if (test == WIDE8_PLANES) wide8_ray_init(&t->c.w, r, blob);
+    else wide8_nfray_init(&t->c, r, blob);
+}
+
+/* The occupied slots of node n whose boxes the ray enters before tfar, their entry distances
+ * in *tn and, for WIDE8_NF only, their exit distances in *tf. */
+PRT_INLINE unsigned wide8_test_hit(const wide8_node *n, const wide8_test *t, float tfar, vf8 *tn, vf8 *tf,
+                                   const int test) {
+    if (test == WIDE8_FOLD) return wide8_fold_hit(n, &t->f, tfar, tn);
+    if (test == WIDE8_PLANES) return wide8_box_hit(n, &t->c.w, tfar, tn);
+    return wide8_nf_hit(n, &t->c, tfar, tn, tf);
 }
 
 #endif
