@@ -71,6 +71,13 @@ static inline vf8 wide8_far_widen(vf8 tmax) {
     return vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
 }
 
+/* wide8_far_widen of one distance, lane for lane the same bits. A stacked entry is culled
+ * only when its entry distance exceeds the nearest hit so widened: the node test accepted it
+ * against that bound, and an entry distance can round above the t of a hit inside its box
+ * (the decoded-plane and wide8_nf_hit tests lower no entry distance), which without the slack
+ * dropped a nearer hit or an equal-t tie's smaller id (lossygrid, rays aimed at vertices). */
+static inline float wide8_far_widen1(float t) { return fmaf(fabsf(t), 0x1p-21f, t); }
+
 /* The robust slab test of geom/box.h on the eight child boxes, given each axis's near and
  * far planes as decoded. The far distance grows by 2^-21 of its magnitude (one fma on
  * |tmax|), more than the 2 gamma(3) that makes the test conservative (Ize 2013), as
