@@ -12,9 +12,8 @@
 /* Eight rays' constants of the test (prt__rayx's, one lane a ray): the origin renamed to
  * kx, ky, kz (o), the axes themselves (k), the shear and tnear. */
 typedef struct prt__rays8 {
-    vf8 o[3];
+    prt__rayx8t c; /* o, sx, sy, sz, tnear per lane (row unused) */
     vi8 k[3];
-    vf8 sx, sy, sz, tnear;
     int k0[3]; /* lane 0's axes: every lane's for prt__tri_rays8's `uniform` */
 } prt__rays8;
 
@@ -50,11 +49,11 @@ PRT_INLINE void prt__rayx8_init(prt__rayx8 *x, const prt_ray *const ray[8]) {
     const vi8 flip = dz < vf8_set1(0.0f);
     const vi8 kx = kx0 ^ ((kx0 ^ ky0) & flip), ky = ky0 ^ ((kx0 ^ ky0) & flip);
     x->t.k[0] = kx, x->t.k[1] = ky, x->t.k[2] = kz;
-    x->t.sx = prt__vf8_axis(x->dir, kx) / dz;
-    x->t.sy = prt__vf8_axis(x->dir, ky) / dz;
-    x->t.sz = vf8_set1(1.0f) / dz;
-    for (int k = 0; k < 3; k++) x->t.o[k] = prt__vf8_axis(x->org, x->t.k[k]);
-    x->t.tnear = x->tnear;
+    x->t.c.sx = prt__vf8_axis(x->dir, kx) / dz;
+    x->t.c.sy = prt__vf8_axis(x->dir, ky) / dz;
+    x->t.c.sz = vf8_set1(1.0f) / dz;
+    for (int k = 0; k < 3; k++) x->t.c.o[k] = prt__vf8_axis(x->org, x->t.k[k]);
+    x->t.c.tnear = x->tnear;
 }
 
 /* Component k[lane] of the vertex at p (p[0 .. 8) readable; only p[0 .. 3) is used). */
@@ -74,38 +73,21 @@ PRT_INLINE vf8 prt__rays8_axis(const prt__rays8 *r, const float *p, int k, const
 }
 
 /* The triangle whose vertices are p[0 .. 9) (x y z of each; p[9 .. 13) readable) against
- * the rays: the mask of the lanes hit with t in [tnear, tfar]; where non-zero, t, u and v
- * of those lanes (the other lanes hold anything). uniform: every lane has lane 0's axes. */
-PRT_INLINE vi8 prt__tri_rays8(const prt__rays8 *r, const float *p, vf8 tfar, vf8 *t_out, vf8 *u_out, vf8 *v_out,
+ * the rays: prt__tri8_hit_sheared's mask of the lanes hit with t in [tnear, tfar] (t, u, v
+ * as it sets them). uniform: every lane has lane 0's axes. */
+PRT_INLINE int prt__tri_rays8(const prt__rays8 *r, const float *p, vf8 tfar, vf8 *t_out, vf8 *u_out, vf8 *v_out,
                               const bool uniform) {
-    const vf8 az0 = prt__rays8_axis(r, p, 2, uniform) - r->o[2];
-    const vf8 bz0 = prt__rays8_axis(r, p + 3, 2, uniform) - r->o[2];
-    const vf8 cz0 = prt__rays8_axis(r, p + 6, 2, uniform) - r->o[2];
-    const vf8 ax = (prt__rays8_axis(r, p, 0, uniform) - r->o[0]) - r->sx * az0;
-    const vf8 ay = (prt__rays8_axis(r, p, 1, uniform) - r->o[1]) - r->sy * az0;
-    const vf8 bx = (prt__rays8_axis(r, p + 3, 0, uniform) - r->o[0]) - r->sx * bz0;
-    const vf8 by = (prt__rays8_axis(r, p + 3, 1, uniform) - r->o[1]) - r->sy * bz0;
-    const vf8 cx = (prt__rays8_axis(r, p + 6, 0, uniform) - r->o[0]) - r->sx * cz0;
-    const vf8 cy = (prt__rays8_axis(r, p + 6, 1, uniform) - r->o[1]) - r->sy * cz0;
-    vf8 u = cx * by - cy * bx;
-    vf8 v = ax * cy - ay * cx;
-    vf8 w = bx * ay - by * ax;
-    const vf8 zero = vf8_set1(0.0f);
-    const vi8 any_zero = (u == zero) | (v == zero) | (w == zero);
-    if (PRT_UNLIKELY(vi8_mask(any_zero))) { /* the lanes' edge functions in double, as prt__tri_hit */
-        vf8 a[6] = {ax, ay, bx, by, cx, cy}, e[3] = {u, v, w};
-        prt__tri8_fix_edges(any_zero, &a[0], &a[1], &a[2], &a[3], &a[4], &a[5], &e[0], &e[1], &e[2]);
-        u = e[0], v = e[1], w = e[2];
-    }
-    const vi8 mixed = (vf8_min(vf8_min(u, v), w) < zero) & (vf8_max(vf8_max(u, v), w) > zero);
-    const vf8 det = u + v + w;
-    const vi8 inside = ~mixed & (det != zero);
-    if (!vi8_mask(inside)) return inside;
-    const vf8 T = u * (r->sz * az0) + v * (r->sz * bz0) + w * (r->sz * cz0);
-    const vf8 t = T / det;
-    const vi8 ok = inside & (t >= r->tnear) & (t <= tfar);
-    if (vi8_mask(ok)) *t_out = t, *u_out = v / det, *v_out = w / det;
-    return ok;
+    const prt__rayx8t *c = &r->c;
+    const vf8 az0 = prt__rays8_axis(r, p, 2, uniform) - c->o[2];
+    const vf8 bz0 = prt__rays8_axis(r, p + 3, 2, uniform) - c->o[2];
+    const vf8 cz0 = prt__rays8_axis(r, p + 6, 2, uniform) - c->o[2];
+    const vf8 ax = (prt__rays8_axis(r, p, 0, uniform) - c->o[0]) - c->sx * az0;
+    const vf8 ay = (prt__rays8_axis(r, p, 1, uniform) - c->o[1]) - c->sy * az0;
+    const vf8 bx = (prt__rays8_axis(r, p + 3, 0, uniform) - c->o[0]) - c->sx * bz0;
+    const vf8 by = (prt__rays8_axis(r, p + 3, 1, uniform) - c->o[1]) - c->sy * bz0;
+    const vf8 cx = (prt__rays8_axis(r, p + 6, 0, uniform) - c->o[0]) - c->sx * cz0;
+    const vf8 cy = (prt__rays8_axis(r, p + 6, 1, uniform) - c->o[1]) - c->sy * cz0;
+    return prt__tri8_hit_sheared(c, az0, bz0, cz0, ax, ay, bx, by, cx, cy, tfar, t_out, u_out, v_out);
 }
 
 #endif
