@@ -3,7 +3,9 @@
  * (t, triangle, u, v, the shrunk tfar), for every codec on wide8 and every instruction set
  * this host runs: coherent camera tiles of 1 to 256 rays, packets of mixed octants, invalid
  * rays, tnear / tfar windows, axis-parallel rays, and rays through the shared edges and
- * vertices of a grid cube, on a mesh near the origin and one far from it. */
+ * vertices of a grid cube, on a mesh near the origin and one far from it; tiles across the
+ * diagonal (rays of two dominant axes in one vector) and shadow rays of a tile, which the
+ * leaf test over rays takes. */
 #include "bvh/bvh.h"
 #include "core/isa.h"
 #include "core/rng.h"
@@ -75,6 +77,44 @@ static void edge_rays(ray_set *s, uint32_t n) {
     s->name = "through shared edges and vertices", s->size = 64;
 }
 
+/* A tile of w x w rays from far off along the diagonal (1, 0, 1): the dominant axis of the
+ * rays is x for some and z for others within one vector of eight, which the leaf test over
+ * rays picks per lane (geom/triangle_rays.h). */
+static void diagonal_tile(const prt_mesh *m, ray_set *s, uint32_t w) {
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < m->vertex_count; i++)
+        for (int k = 0; k < 3; k++)
+            lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
+    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    const float eye[3] = {c[0] - 2.0f * size, c[1], c[2] - 2.0f * size};
+    s->name = "diagonal tile, mixed dominant axes", s->n = 0, s->size = w * w;
+    for (uint32_t y = 0; y < w; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            /* Targets on the plane through c across the diagonal: x - z varies with x. */
+            const float d = size * 0.2f * ((float)x / (float)w - 0.5f), e = size * 0.2f * ((float)y / (float)w - 0.5f);
+            const float to[3] = {c[0] + d, c[1] + e, c[2] - d};
+            s->rays[s->n++] =
+                (prt_ray){{eye[0], eye[1], eye[2]}, 0.0f, {to[0] - eye[0], to[1] - eye[1], to[2] - eye[2]}, INFINITY};
+        }
+}
+
+/* Shadow rays of a camera tile: from each hit of s, a point just off the surface, towards
+ * one light, with tfar at the light (any hits and closest hits with a window). */
+static void shadow_tile(const prt_accel *a, const ray_set *cam, ray_set *s) {
+    const float light[3] = {cam->rays[0].org[0] + 3.0f, cam->rays[0].org[1] + 40.0f, cam->rays[0].org[2] - 5.0f};
+    s->n = 0;
+    for (uint32_t i = 0; i < cam->n; i++) {
+        prt_ray r = cam->rays[i];
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        const float t = h.prim == PRT_INVALID ? 1.0f : h.t * 0.999f;
+        const float o[3] = {r.org[0] + t * r.dir[0], r.org[1] + t * r.dir[1], r.org[2] + t * r.dir[2]};
+        s->rays[s->n++] =
+            (prt_ray){{o[0], o[1], o[2]}, 0.0f, {light[0] - o[0], light[1] - o[1], light[2] - o[2]}, 1.0f};
+    }
+    s->name = "shadow rays of a tile", s->size = 64;
+}
+
 /* Packets of s against single rays on a; returns the rays that differ. */
 static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *hits) {
     static prt_ray single[MAX_RAYS], packed[MAX_RAYS];
@@ -109,8 +149,9 @@ static prt_status build_for(const prt_mesh *m, const char *spec, const char *isa
     return s;
 }
 
-/* Every codec on wide8, every instruction set this host runs, every ray set of mesh m. */
-static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets, int nsets) {
+/* Every codec on wide8, every instruction set this host runs, every ray set of mesh m, and
+ * the shadow rays of camera tile sets[cam] (cam >= 0). */
+static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets, int nsets, int cam) {
     for (int isa = 0; isa < PRT__ISA_COUNT; isa++) {
         if (!prt__isa_runs((prt__isa)isa)) continue;
         for (int c = 0; c < BVH_CODEC_COUNT; c++) {
@@ -129,6 +170,14 @@ static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets,
                 CHECK_MSG(hits >= sets[k].n / 8, "%s, %s: %s: only %zu hits: the comparison sees too little", spec,
                           what, sets[k].name, hits);
             }
+            if (cam >= 0) {
+                static ray_set shadow;
+                shadow_tile(a, &sets[cam], &shadow);
+                size_t hits = 0;
+                const size_t differ = packet_differences(a, &shadow, &hits);
+                CHECK_MSG(differ == 0, "%s, %s, %s, %s: %zu of %u rays differ", spec, prt__isa_name((prt__isa)isa),
+                          what, shadow.name, differ, shadow.n);
+            }
             prt_accel_free(a);
         }
     }
@@ -137,7 +186,7 @@ static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets,
 TEST(test_packets_answer_as_single_rays_on_every_codec_and_isa) {
     prt_mesh *soup = mesh_random_soup(1500, 3);
     prt_mesh *far = mesh_transformed(soup, 1.0f, 5000.0f); /* wide8_fold_suits: false */
-    static ray_set sets[6];
+    static ray_set sets[7];
     const prt_mesh *meshes[2] = {soup, far};
     for (int mi = 0; mi < 2; mi++) {
         camera_tile(meshes[mi], &sets[0], 1, 1, "one ray");
@@ -146,7 +195,8 @@ TEST(test_packets_answer_as_single_rays_on_every_codec_and_isa) {
         camera_tile(meshes[mi], &sets[3], 16, 16, "16x16 tile");
         camera_tile(meshes[mi], &sets[4], 32, 32, "32x32 image in 4x4 packets"), sets[4].size = 16;
         mixed_rays(meshes[mi], &sets[5], 512, mi ? 64 : 256);
-        check_mesh(mi ? "far mesh" : "near mesh", meshes[mi], sets, 6);
+        diagonal_tile(meshes[mi], &sets[6], 16);
+        check_mesh(mi ? "far mesh" : "near mesh", meshes[mi], sets, 7, 3);
     }
     prt_mesh_free(soup);
     prt_mesh_free(far);
@@ -156,7 +206,7 @@ TEST(test_packets_through_shared_edges_and_vertices) {
     prt_mesh *cube = mesh_grid_cube(6);
     static ray_set sets[1];
     edge_rays(&sets[0], 512);
-    check_mesh("grid cube", cube, sets, 1);
+    check_mesh("grid cube", cube, sets, 1, -1);
     prt_mesh_free(cube);
 }
 

@@ -135,6 +135,17 @@ static inline vf8 vf8_from_u8(const uint8_t *p) {
 #endif
 }
 
+/* Correctly rounded square roots, the same bits as sqrtf on every path. */
+static inline vf8 vf8_sqrt(vf8 a) {
+#if defined(__AVX__)
+    return (vf8)_mm256_sqrt_ps((__m256)a);
+#else
+    vf8 r;
+    for (int i = 0; i < 8; i++) r[i] = __builtin_sqrtf(a[i]);
+    return r;
+#endif
+}
+
 /* a * b + c with one rounding, the same bits as C's fmaf on every path. */
 static inline vf8 vf8_fmadd(vf8 a, vf8 b, vf8 c) {
 #if defined(__FMA__)

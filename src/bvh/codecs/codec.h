@@ -69,6 +69,15 @@ typedef enum bvh_codec_id {
         BVH_CODEC_COUNT
 } bvh_codec_id;
 
+/* How many BVH_TRIANGLE_CODECS there are: they come first in bvh_codec_id, so a codec whose
+ * id is below this holds runs of triangles (its decode gives what its test takes). */
+enum {
+    BVH_TRIANGLE_CODEC_COUNT = 0
+#define X(id, name, desc) +1
+    BVH_TRIANGLE_CODECS(X)
+#undef X
+};
+
 /* Data a codec keeps for the whole tree (Indexed codecs: the vertex buffer), saved as its
  * own section and handed to every ray's kernels. size 0: none. */
 typedef struct bvh_shared {

@@ -18,7 +18,7 @@ typedef struct wide8_packet {
     float org[3][WIDE8_PACKET] __attribute__((aligned(32)));
     float inv[3][WIDE8_PACKET] __attribute__((aligned(32)));
     float tnear[WIDE8_PACKET] __attribute__((aligned(32)));
-    float tfar[WIDE8_PACKET] __attribute__((aligned(32))); /* closest hit: the ray's hit so far */
+    float tfar[WIDE8_PACKET] __attribute__((aligned(32))); /* closest hit: the ray's hit so far; padding: -inf */
     int near[3], far[3];                                   /* q rows of the near / far planes: the octant's */
     /* The bounds: per axis the extreme origins on the near and the far side, and the
      * reciprocal directions' minimum and maximum (NaN on an axis where one is infinite,
@@ -33,38 +33,32 @@ static inline int wide8_octant(const prt_ray *r) {
     return (signbit(r->dir[0]) != 0) | (signbit(r->dir[1]) != 0) << 1 | (signbit(r->dir[2]) != 0) << 2;
 }
 
-/* Whether rays[at[0 .. n)] (one octant) are worth a packet: enough of them, and their
- * directions close enough that the bounds cull (random rays of one octant traced as a
- * packet ran at half the single-ray rate; camera and shadow tiles at 2-3 times). */
+/* Whether the n rays of a slice (one octant; directions dir[k][slot]) are worth a packet:
+ * enough of them, and their directions close enough that the bounds cull (random rays of
+ * one octant traced as a packet ran at half the single-ray rate; camera and shadow tiles
+ * at 2-3 times). */
 #define WIDE8_PACKET_MIN 8
 #define WIDE8_PACKET_SPREAD 0.5f
-static inline bool wide8_packet_coherent(const prt_ray *rays, const uint8_t *at, int n) {
-    if (n < WIDE8_PACKET_MIN) return false;
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int i = 0; i < n; i++) {
-        const float *d = rays[at[i]].dir, s = 1.0f / sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        for (int k = 0; k < 3; k++) {
-            const float x = d[k] * s;
-            lo[k] = x < lo[k] ? x : lo[k], hi[k] = x > hi[k] ? x : hi[k];
-        }
+static inline bool wide8_packet_coherent(const float dir[3][WIDE8_PACKET], int n) {
+    vf8 lo[3], hi[3];
+    for (int k = 0; k < 3; k++) lo[k] = vf8_set1(INFINITY), hi[k] = vf8_set1(-INFINITY);
+    const vi8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    for (int o = 0; o < n; o += 8) {
+        const vf8 x = vf8_load(dir[0] + o), y = vf8_load(dir[1] + o), z = vf8_load(dir[2] + o);
+        const vf8 s = vf8_set1(1.0f) / vf8_sqrt(x * x + y * y + z * z);
+        const vi8 in = lane < (vi8){0, 0, 0, 0, 0, 0, 0, 0} + (n - o);
+        const vf8 d[3] = {x * s, y * s, z * s};
+        for (int k = 0; k < 3; k++)
+            lo[k] = vf8_min(lo[k], vf8_select(in, d[k], vf8_set1(INFINITY))),
+            hi[k] = vf8_max(hi[k], vf8_select(in, d[k], vf8_set1(-INFINITY)));
     }
-    return hi[0] - lo[0] <= WIDE8_PACKET_SPREAD && hi[1] - lo[1] <= WIDE8_PACKET_SPREAD &&
-           hi[2] - lo[2] <= WIDE8_PACKET_SPREAD;
+    for (int k = 0; k < 3; k++)
+        if (!(vf8_hmax(hi[k]) - vf8_hmin(lo[k]) <= WIDE8_PACKET_SPREAD)) return false;
+    return true;
 }
 
-/* Slot i of p from ray x (prt__rayx_init'ed); tfar: where the ray's walk starts. */
-static inline void wide8_packet_set(wide8_packet *p, int i, const prt__rayx *x, float tfar) {
-    for (int k = 0; k < 3; k++) p->org[k][i] = x->org[k], p->inv[k][i] = x->inv[k];
-    p->tnear[i] = x->tnear, p->tfar[i] = tfar;
-}
-
-/* Slots [n, WIDE8_PACKET) (n > 0) as copies of slot 0 that hit nothing, so the bounds may
- * take whole vectors; and the octant's plane rows. */
-static inline void wide8_packet_pad(wide8_packet *p, int n, int octant) {
-    for (int i = n; i < WIDE8_PACKET; i++) {
-        for (int k = 0; k < 3; k++) p->org[k][i] = p->org[k][0], p->inv[k][i] = p->inv[k][0];
-        p->tnear[i] = INFINITY, p->tfar[i] = -INFINITY;
-    }
+/* The octant's plane rows (q rows of the near and far planes). */
+static inline void wide8_packet_planes(wide8_packet *p, int octant) {
     for (int k = 0; k < 3; k++) {
         const int neg = octant >> k & 1;
         p->near[k] = 2 * k + neg, p->far[k] = 2 * k + 1 - neg;
@@ -78,7 +72,8 @@ static inline void wide8_packet_range(const float *x, int vecs, float *lo, float
     *lo = vf8_hmin(a), *hi = vf8_hmax(b);
 }
 
-/* The bounds of the packet's n rays (padded by wide8_packet_pad). */
+/* The bounds of the packet's n rays (slots past n up to a multiple of 8: copies of slot 0
+ * with tnear +inf and tfar -inf, which hit nothing). */
 static inline void wide8_packet_bounds(wide8_packet *p, int n) {
     const int vecs = (n + 7) / 8;
     float tn, unused;
