@@ -135,10 +135,12 @@ static inline void lg_lanes(uint32_t mask, vi8 out[2]) {
     out[1] = (lg_vi8_set1((int32_t)(mask >> 8 & 0xFF)) & bit) != 0;
 }
 
-/* The rays whose closest hit so far is not nearer than t (tf[i] >= t). */
+/* The rays whose closest hit so far, widened as the walk's cull widens it
+ * (wide8_far_widen1), is not nearer than t. */
 static inline uint32_t lg_not_nearer(const lg_packet *pk, float t) {
     const vf8 tt = vf8_set1(t);
-    return (uint32_t)vi8_mask(vf8_load(&pk->tf[0]) >= tt) | (uint32_t)vi8_mask(vf8_load(&pk->tf[8]) >= tt) << 8;
+    return (uint32_t)vi8_mask(wide8_far_widen(vf8_load(&pk->tf[0])) >= tt) |
+           (uint32_t)vi8_mask(wide8_far_widen(vf8_load(&pk->tf[8])) >= tt) << 8;
 }
 
 /* The header fields wide8's child_ref reads (the rest of a wide8_ray is per ray). */
