@@ -613,7 +613,7 @@ TEST(test_lossygrid_stream_equals_single_rays) {
  * farther t on a 60K canyon) until the stack's cull took the node test's slack. */
 TEST(test_lossygrid_single_and_stream_agree_at_vertices) {
     const char *kinds[] = {"canyon", "mandelbulb"};
-    enum { N = 40000 };
+    enum { N = 20000 };
     prt_ray *r1 = malloc(N * sizeof *r1), *r2 = malloc(N * sizeof *r2);
     prt_hit *h1 = malloc(N * sizeof *h1), *h2 = malloc(N * sizeof *h2);
     CHECK(r1 && r2 && h1 && h2);
