@@ -143,14 +143,6 @@ static inline uint32_t lg_not_nearer(const lg_packet *pk, float t) {
            (uint32_t)vi8_mask(wide8_far_widen(vf8_load(&pk->tf[8])) >= tt) << 8;
 }
 
-/* The header fields wide8's child_ref reads (the rest of a wide8_ray is per ray). */
-static inline void lg_header(wide8_ray *w, const uint8_t *blob) {
-    wide8_header hd;
-    memcpy(&hd, blob, sizeof hd);
-    w->geometry = hd.geometry;
-    w->grain = hd.grain;
-}
-
 static void lg_packet_init(lg_packet *pk, const bvh_shared *sh, const prt_ray *rays, uint32_t n) {
     float o[3][LG_PACKET], d[3][LG_PACKET], tn[LG_PACKET];
     for (uint32_t i = 0; i < LG_PACKET; i++) {
@@ -209,9 +201,7 @@ static inline unsigned lg_frustum(const lg_packet *pk, const vf8 planes[6], floa
         tmin = vf8_max(tmin, vf8_min(a * pk->ilo[k], a * pk->ihi[k]));
         tmax = vf8_min(tmax, vf8_max(b * pk->ilo[k], b * pk->ihi[k]));
     }
-    const vi8 magnitude = (vi8)tmax & lg_vi8_set1(0x7FFFFFFF);
-    tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
-    return (unsigned)vi8_mask(tmin <= tmax);
+    return (unsigned)vi8_mask(tmin <= wide8_far_widen(tmax));
 }
 
 /* One node for the rays of mask: its planes decoded once; the slots the packet's bounds
@@ -249,9 +239,7 @@ static unsigned lg_packet_node(const wide8_node *nd, uint32_t mask, const lg_pac
                 tmin = vf8_max((nearp - pk->org[k][hh]) * pk->inv[k][hh], tmin); /* NaN in the first operand: tmin */
                 tmax = vf8_min((farp - pk->org[k][hh]) * pk->inv[k][hh], tmax);
             }
-            const vi8 magnitude = (vi8)tmax & lg_vi8_set1(0x7FFFFFFF);
-            tmax = vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
-            const vi8 in = (tmin <= tmax) & lanes[hh];
+            const vi8 in = (tmin <= wide8_far_widen(tmax)) & lanes[hh];
             got |= (uint32_t)vi8_mask(in) << (8 * hh);
             tbest = vf8_min(tbest, vf8_select(in, tmin, inf));
         }
@@ -266,7 +254,7 @@ void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, p
     wide8_ray w0; /* the blob's header fields for child_ref */
     prt__hitx h[LG_PACKET];
     lg_packet_init(&pk, sh, rays, n);
-    lg_header(&w0, blob);
+    wide8_ray_header(&w0, blob);
     for (uint32_t i = 0; i < n; i++) h[i] = (prt__hitx){rays[i].tfar, 0, 0, PRT_INVALID};
     struct {
         uint64_t ref;
@@ -334,7 +322,7 @@ void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray 
     lg_packet pk;
     wide8_ray w0;
     lg_packet_init(&pk, sh, rays, n);
-    lg_header(&w0, blob);
+    wide8_ray_header(&w0, blob);
     for (uint32_t i = 0; i < n; i++) occluded[i] = 0;
     struct {
         uint64_t ref;
