@@ -1,4 +1,4 @@
-/* Every representation against Embree on 100k random and 65k primary rays per mesh (the
+/* Every representation against Embree on 50k random and 37k primary rays per mesh (the
  * bunny, BART frames, generated meshes; on the large ones the covering set of
  * support/repr.h, on two generated ones every layout x codec pair), shared out so that the suite's time does not grow
  * with the number of representations: representation k traces the rays i with
@@ -64,8 +64,8 @@ static void compare_mesh(const char *label, const prt_mesh *m, bool every) {
     bench_rays sets[2];
     bench_camera cam;
     bench_camera_default(lo, hi, &cam);
-    CHECK_OK(bench_rays_random(lo, hi, 100000, 7, &sets[0]));
-    CHECK_OK(bench_rays_primary(&cam, 256, 256, 8, &sets[1]));
+    CHECK_OK(bench_rays_random(lo, hi, 50000, 7, &sets[0]));
+    CHECK_OK(bench_rays_primary(&cam, 192, 192, 8, &sets[1]));
     for (int w = 0; w < 2; w++) {
         size_t n = sets[w].count;
         prt_ray *rays = malloc(n * sizeof *rays);

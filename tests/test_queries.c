@@ -114,19 +114,19 @@ TEST(test_bunny_matches_brute_force) {
     prt_status s = prt_mesh_load(path, &m);
     CHECK_OK(s);
     if (s) return;
-    prt_ray *rays = rays_random(m, 4000, 5);
-    all_representations(m, rays, 4000);
+    prt_ray *rays = rays_random(m, 2500, 5);
+    all_representations(m, rays, 2500);
     free(rays);
     prt_mesh_free(m);
 }
 
 TEST(test_stream_and_packet_equal_single_rays) {
     prt_mesh *m = mesh_random_soup(3000, 9);
-    size_t n = 20000;
+    size_t n = 8000;
     prt_ray *rays = rays_random(m, n, 10);
     /* Invalid rays among them: streams that trace several rays at once skip them as misses. */
-    for (size_t i = 5; i < n; i += 997) rays[i].dir[i % 3] = NAN;
-    for (size_t i = 7; i < n; i += 1009) rays[i].tnear = 2.0f, rays[i].tfar = 1.0f;
+    for (size_t i = 5; i < n; i += 499) rays[i].dir[i % 3] = NAN;
+    for (size_t i = 7; i < n; i += 503) rays[i].tnear = 2.0f, rays[i].tfar = 1.0f;
     for (size_t k = 0; k < prt_repr_count(); k++) {
         prt_accel *a;
         if (!repr_build(m, prt_repr_name(k), &a)) continue;

@@ -57,14 +57,14 @@ static prt_ray ray_from(const float o[3], const float target[3]) {
     return r;
 }
 
-/* 400k random rays for the covering set, 50k for every other pair (under sanitizers this
- * is the suite's longest test); the vertex and edge rays below are the exact check. */
+/* 160k random rays for the covering set, 20k for every other pair (under sanitizers this
+ * is one of the suite's longest tests); the vertex and edge rays below are the exact check. */
 TEST(test_random_rays_from_inside_a_closed_sphere_all_hit) {
     prt_mesh *m;
     prt_status s = prt_mesh_generate("sphere", 20000, 1, &m);
     CHECK_OK(s);
     if (s) return;
-    const size_t n = 400000;
+    const size_t n = 160000;
     prt_ray *rays = malloc(n * sizeof *rays);
     prt_rng rng = prt_rng_seed(99, 3);
     for (size_t i = 0; i < n; i++) {
