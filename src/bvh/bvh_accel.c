@@ -113,7 +113,8 @@ static void bvh_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hit
         return;
     }
     b->stream(b->blob.data, &b->shared, rays, hits, n);
-    for (size_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
+    if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
+        for (size_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
 }
 
 static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -133,7 +134,8 @@ static void bvh_intersect_packet(const prt_accel *a, prt_packet *p) {
             continue;
         }
         b->packet(b->blob.data, &b->shared, rays, hits, n);
-        for (uint32_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
+        if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
+            for (uint32_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
     }
 }
 
