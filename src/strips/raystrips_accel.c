@@ -400,6 +400,7 @@ const prt_accel_ops prt__raystrips_ops = {
     .intersect_stream = rs_intersect_stream,
     .occluded1 = rs_occluded1,
     .intersect_packet = rs_intersect_packet,
+    .occluded_packet = rs_occluded_packet,
     .stats = rs_stats,
     .save = rs_save,
     .load = rs_load,

@@ -242,12 +242,14 @@ static inline rs_grid rs_grid_of(const wide8_node *n) {
 }
 static inline float rs_q16_plane(uint16_t q, const rs_grid *g, int k) { return fmaf((float)q, g->s[k], g->p[k]); }
 
-/* Kernels (traverse.c, packet.c). */
+/* Kernels (traverse.c). */
 void rs_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 /* rs_intersect1 for n rays (invalid ones a miss), several walks interleaved. */
 void rs_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n);
 bool rs_occluded1(const prt_accel *a, const prt_ray *r);
 void rs_intersect_packet(const prt_accel *a, prt_packet *p);
+/* prt_occluded_packet's p->count <= PRT_PACKET_MAX rays (invalid ones: 0). */
+void rs_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
 
 /* Check a loaded accel so the kernels cannot leave its arrays or loop (validate.c); sets
  * a->bytes_materials. */
