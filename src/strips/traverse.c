@@ -46,7 +46,8 @@ static inline void rsw_slot_stage(const wide8_node *n, int slot, const rsw_ray *
     }
 }
 
-/* The strips of the leaf in slot `slot` of node n, entered over [tn, tf]; out of line, so
+/* The strips of the leaf in slot `slot` of node n, entered over [tn, min(tf, the hit so far
+ * widened)]; out of line, so
  * that the walk's node loop keeps its ray constants in registers (inlined, the edge tests'
  * vectors made the compiler spill them around every node, as lossygrid found). any: true
  * at the first hit. */
@@ -58,7 +59,8 @@ PRT_NOINLINE static bool rsw_slot_leaf(const wide8_node *n, int slot, const prt_
     const rs_grid g = a->fmt.q16 ? rs_grid_of(n) : (rs_grid){{0, 0, 0}, {0, 0, 0}};
     bool hit = false;
     for (; e < end; e += rs_entry_size(a->geometry + e, &a->fmt)) {
-        if (rs_strip_trace(a, r, a->geometry + e, &g, tn, tf < best->t ? tf : best->t, any, best)) {
+        const float bound = wide8_far_widen1(best->t); /* the slack of rs_strip_trace's culls */
+        if (rs_strip_trace(a, r, a->geometry + e, &g, tn, tf < bound ? tf : bound, any, best)) {
             if (any) return true;
             hit = true;
         }
