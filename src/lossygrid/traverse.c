@@ -90,8 +90,8 @@ static void lg1_intersect_rays(const uint8_t *leaf, uint32_t n, uint64_t mask, c
 }
 
 /* The rays of mask that a record of the leaf blocks within [tnear, tfar[i]]. */
-static uint64_t lg1_occluded_rays(const uint8_t *leaf, uint32_t n, uint64_t mask, const prt__rayx *x,
-                                  const lg1_ray *c, const float *tfar) {
+static uint64_t lg1_occluded_rays(const uint8_t *leaf, uint32_t n, uint64_t mask, const prt__rayx *x, const lg1_ray *c,
+                                  const float *tfar) {
     uint64_t blocked = 0;
     for (uint32_t k = 0; k < n && mask; k++, leaf += LG_RECORD_BYTES) {
         lg_decoded d;

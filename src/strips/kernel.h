@@ -1,4 +1,4 @@
-/* The Ray-Strip kernels shared by single rays (traverse.c) and packets (packet.c): the
+/* The Ray-Strip kernels of single rays, streams and packets (traverse.c): the
  * edge test of a group of up to 8 consecutive strip triangles (§5.2) and the traversal of
  * one strip's implicit s-kd tree (§5.1, Algorithm 1).
  *

@@ -156,7 +156,8 @@ PRT_INLINE uint64_t wide8_packet_slot(const wide8_node *n, const wide8_packet *p
     vf8 s[3];
     wide8_scales(n, s);
     float np[3][8] __attribute__((aligned(32))), fp[3][8] __attribute__((aligned(32)));
-    for (int k = 0; k < 3; k++) vf8_store(np[k], wide8_plane(n, s, p->near[k])), vf8_store(fp[k], wide8_plane(n, s, p->far[k]));
+    for (int k = 0; k < 3; k++)
+        vf8_store(np[k], wide8_plane(n, s, p->near[k])), vf8_store(fp[k], wide8_plane(n, s, p->far[k]));
     return wide8_packet_child(p, np, fp, c, rays, tn, tf);
 }
 
