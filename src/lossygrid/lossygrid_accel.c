@@ -333,6 +333,7 @@ const prt_accel_ops prt__lossygrid_ops = {
     .occluded1 = lg_occluded1,
     .intersect_packet = lg_intersect_packet,
     .occluded_packet = lg_occluded_packet,
+    .occluded_stream = prt__occluded_stream_packets,
     .stats = lg_stats,
     .save = lg_save,
     .load = lg_load,

@@ -401,6 +401,7 @@ const prt_accel_ops prt__raystrips_ops = {
     .occluded1 = rs_occluded1,
     .intersect_packet = rs_intersect_packet,
     .occluded_packet = rs_occluded_packet,
+    .occluded_stream = prt__occluded_stream_packets,
     .stats = rs_stats,
     .save = rs_save,
     .load = rs_load,
