@@ -169,7 +169,7 @@ typedef struct rs_accel {
     size_t bytes_strip_tree; /* heads and s-kd nodes of the records, entries' bases and padding */
     size_t bytes_materials;  /* mat=u16: the records' material words */
     rs_format fmt;
-    uint8_t packet; /* rays per packet of prt_intersect_packet: 4 (2x2), 16 (4x4), 0 (none) */
+    uint8_t packet; /* 0 (packet=none): packets answered ray by ray; else by the wide8 packet walk */
     uint32_t depth;
     void *owned[2]; /* built: blob, vertices (prt__free) */
 } rs_accel;
