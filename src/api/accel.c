@@ -161,6 +161,14 @@ void prt_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size
     }
 }
 
+#define STREAM_PACKET 64
+void prt__occluded_stream_packets(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n) {
+    for (size_t first = 0; first < n; first += STREAM_PACKET) {
+        const uint32_t k = (uint32_t)(n - first < STREAM_PACKET ? n - first : STREAM_PACKET);
+        a->ops->occluded_packet(a, &(prt_packet){(prt_ray *)rays + first, NULL, k, k}, occluded + first);
+    }
+}
+
 /* Any hits of rays [0, n) of a stream on this thread. */
 static void occluded_run(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n) {
     if (a->ops->occluded_stream) a->ops->occluded_stream(a, rays, occluded, n);

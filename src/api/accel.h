@@ -115,6 +115,11 @@ struct prt_accel {
  * PRT_ERROR_LIMIT), the first bad one named. */
 prt_status prt__check_update_vertices(const float *vertices, size_t count);
 
+/* An occluded_stream op for families with packet traversal: the rays in runs of 64
+ * consecutive ones, each traced as one packet through the family's occluded_packet (shadow
+ * rays made in pixel order from tiles are coherent in such runs; docs/results/packets.md). */
+void prt__occluded_stream_packets(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n);
+
 /* A registered representation family and the names it answers to. */
 typedef struct prt_repr_family {
     const prt_accel_ops *ops;

@@ -146,16 +146,6 @@ static void bvh_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t
         for (uint32_t i = 0; i < p->count; i++) occluded[i] = prt_occluded1(a, &p->rays[i]);
 }
 
-/* Rays of a stream, BVH_STREAM_PACKET consecutive ones a packet: shadow rays made in pixel
- * order from tiles are coherent in such runs (docs/results/packets.md). */
-#define BVH_STREAM_PACKET 64
-static void bvh_occluded_stream(const prt_accel *a, const prt_ray *rays, uint8_t *occluded, size_t n) {
-    for (size_t first = 0; first < n; first += BVH_STREAM_PACKET) {
-        const uint32_t k = (uint32_t)(n - first < BVH_STREAM_PACKET ? n - first : BVH_STREAM_PACKET);
-        bvh_occluded_packet(a, &(prt_packet){(prt_ray *)rays + first, NULL, k, k}, occluded + first);
-    }
-}
-
 static void bvh_stats(const prt_accel *a, prt_stats *s) {
     const bvh_accel *b = (const bvh_accel *)a;
     s->bytes_tree = b->blob.bytes_tree;
@@ -649,7 +639,7 @@ const prt_accel_ops prt__bvh_ops = {
     .intersect_packet = bvh_intersect_packet,
     .intersect_stream = bvh_intersect_stream,
     .occluded_packet = bvh_occluded_packet,
-    .occluded_stream = bvh_occluded_stream,
+    .occluded_stream = prt__occluded_stream_packets,
     .occluded1 = bvh_occluded1,
     .stats = bvh_stats,
     .save = bvh_save,

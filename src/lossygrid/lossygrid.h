@@ -50,15 +50,15 @@ bool lg_trace_any(const uint8_t *blob, const bvh_shared *sh, const prt_ray *r);
  * walk's stream; every answer is lg_trace1's bit for bit. */
 void lg_trace_stream(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, size_t n);
 
-/* Closest hits of n <= LG_PACKET valid rays traced together (primary rays): each wide8
- * node's child boxes decoded once for the packet and each record once for the rays that
- * reach it; every answer is lg_trace1's bit for bit (the same box and triangle operations
- * for each ray, and ties at equal t go to the smaller id whatever the visit order). */
-#define LG_PACKET 16
+/* Closest hits of n <= PRT_PACKET_MAX coherent rays traced together (wide8_packet.inc:
+ * slices of one octant, each wide8 node's child boxes decoded once for a slice and each
+ * record once for the rays that reach it; invalid rays miss); every answer is lg_trace1's
+ * bit for bit (the same box and triangle operations for each ray, and ties at equal t go
+ * to the smaller id whatever the visit order). */
 void lg_trace_packet(const uint8_t *blob, const bvh_shared *sh, prt_ray *rays, prt_hit *hits, uint32_t n);
 
-/* Any hit for n <= LG_PACKET valid rays traced together (shadow rays of a tile), decoding
- * shared as for lg_trace_packet; occluded[i] is lg_trace_any's answer for ray i. */
+/* Any hit for n <= PRT_PACKET_MAX rays traced together (shadow rays of a tile), as
+ * lg_trace_packet; occluded[i] is lg_trace_any's answer for ray i (0 for an invalid ray). */
 void lg_occlude_packet(const uint8_t *blob, const bvh_shared *sh, const prt_ray *rays, uint8_t *occluded, uint32_t n);
 
 #endif

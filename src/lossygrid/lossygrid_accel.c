@@ -62,63 +62,21 @@ static void lg_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits
     for (size_t i = 0; i < n; i++) lg_name_hit(g, &hits[i]);
 }
 
-/* Packets of up to LG_PACKET valid rays: 4 x 4 blocks of the packet's pixels where its
- * shape has them (primary rays from prt_render and packrt bench), else runs in order; an
- * invalid ray is a miss, as prt_intersect1 answers it. */
+/* Packets of up to PRT_PACKET_MAX rays, in the packet's order (the walk splits them by
+ * octant into slices of 64: an 8x8 tile is one); an invalid ray is a miss, as
+ * prt_intersect1 answers it. */
 static void lg_intersect_packet(const prt_accel *a, prt_packet *p) {
     const lg_accel *g = (const lg_accel *)a;
-    const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX, wd = p->width;
-    const bool blocks = wd >= 4 && wd % 4 == 0 && n % (4 * wd) == 0;
-    uint32_t idx[LG_PACKET], k = 0;
-    prt_ray rays[LG_PACKET];
-    prt_hit hits[LG_PACKET];
-    /* j-th ray in block order: block b of 16 at (bx, by) in blocks, pixel (x, y) inside it;
-     * counted without divisions, which cost more than the rest of this loop. */
-    uint32_t bx = 0, by = 0, in = 0;
-    for (uint32_t j = 0; j < n; j++) {
-        uint32_t i = j;
-        if (blocks) {
-            i = (4 * by + in / 4) * wd + 4 * bx + in % 4;
-            if (++in == 16) {
-                in = 0;
-                if (++bx == wd / 4) bx = 0, by++;
-            }
-        }
-        if (!prt__ray_valid(&p->rays[i])) {
-            prt_intersect1(a, &p->rays[i], &p->hits[i]);
-        } else {
-            idx[k] = i, rays[k++] = p->rays[i];
-        }
-        if (k == LG_PACKET || (j + 1 == n && k)) {
-            lg_trace_packet(g->blob.data, &g->shared, rays, hits, k);
-            for (uint32_t q = 0; q < k; q++) {
-                prt_hit *h = &hits[q];
-                lg_name_hit(g, h);
-                p->hits[idx[q]] = *h;
-                p->rays[idx[q]].tfar = rays[q].tfar;
-            }
-            k = 0;
-        }
-    }
+    const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
+    lg_trace_packet(g->blob.data, &g->shared, p->rays, p->hits, n);
+    for (uint32_t i = 0; i < n; i++) lg_name_hit(g, &p->hits[i]);
 }
 
-/* Any-hit packets: runs of up to LG_PACKET valid rays in the packet's order (shadow rays
- * come as a list, not a pixel block); an invalid ray is not occluded, as prt_occluded1
- * answers it. */
+/* Any-hit packets (shadow rays: a list in pixel order); an invalid ray is not occluded, as
+ * prt_occluded1 answers it. */
 static void lg_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded) {
     const lg_accel *g = (const lg_accel *)a;
-    uint32_t idx[LG_PACKET], k = 0;
-    prt_ray rays[LG_PACKET];
-    uint8_t got[LG_PACKET];
-    for (uint32_t i = 0; i < p->count; i++) {
-        if (!prt__ray_valid(&p->rays[i])) occluded[i] = 0;
-        else idx[k] = i, rays[k++] = p->rays[i];
-        if (k == LG_PACKET || (i + 1 == p->count && k)) {
-            lg_occlude_packet(g->blob.data, &g->shared, rays, got, k);
-            for (uint32_t q = 0; q < k; q++) occluded[idx[q]] = got[q];
-            k = 0;
-        }
-    }
+    lg_occlude_packet(g->blob.data, &g->shared, p->rays, occluded, p->count);
 }
 
 static bool lg_occluded1(const prt_accel *a, const prt_ray *r) {
@@ -375,6 +333,7 @@ const prt_accel_ops prt__lossygrid_ops = {
     .occluded1 = lg_occluded1,
     .intersect_packet = lg_intersect_packet,
     .occluded_packet = lg_occluded_packet,
+    .occluded_stream = prt__occluded_stream_packets,
     .stats = lg_stats,
     .save = lg_save,
     .load = lg_load,

@@ -1,4 +1,4 @@
-/* The Ray-Strip kernels shared by single rays (traverse.c) and packets (packet.c): the
+/* The Ray-Strip kernels of single rays, streams and packets (traverse.c): the
  * edge test of a group of up to 8 consecutive strip triangles (§5.2) and the traversal of
  * one strip's implicit s-kd tree (§5.1, Algorithm 1).
  *
@@ -162,14 +162,18 @@ static inline bool rs_strip_trace(const rs_accel *a, const prt__rayx *r, const u
             found = true;
         }
     pop:
+        /* Culls against the hit so far take the node test's slack (wide8_far_widen1): an
+         * entry distance can round above the t of a hit inside its cell, which without it
+         * dropped a nearer hit (or an equal t's smaller id) depending on the visiting order
+         * (rays aimed at vertices), so packets and single rays disagreed. */
         for (;;) {
             if (top == 0) return found;
             --top;
-            if (any || stack[top].dmin <= best->t) break;
+            if (any || stack[top].dmin <= wide8_far_widen1(best->t)) break;
         }
         node = stack[top].node, first = stack[top].first, count = stack[top].count;
         dmin = stack[top].dmin, dmax = stack[top].dmax;
-        if (!any && best->t < dmax) dmax = best->t;
+        if (!any && wide8_far_widen1(best->t) < dmax) dmax = wide8_far_widen1(best->t);
     }
 }
 

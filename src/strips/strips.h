@@ -169,7 +169,7 @@ typedef struct rs_accel {
     size_t bytes_strip_tree; /* heads and s-kd nodes of the records, entries' bases and padding */
     size_t bytes_materials;  /* mat=u16: the records' material words */
     rs_format fmt;
-    uint8_t packet; /* rays per packet of prt_intersect_packet: 4 (2x2), 16 (4x4), 0 (none) */
+    uint8_t packet; /* 0 (packet=none): packets answered ray by ray; else by the wide8 packet walk */
     uint32_t depth;
     void *owned[2]; /* built: blob, vertices (prt__free) */
 } rs_accel;
@@ -242,12 +242,14 @@ static inline rs_grid rs_grid_of(const wide8_node *n) {
 }
 static inline float rs_q16_plane(uint16_t q, const rs_grid *g, int k) { return fmaf((float)q, g->s[k], g->p[k]); }
 
-/* Kernels (traverse.c, packet.c). */
+/* Kernels (traverse.c). */
 void rs_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 /* rs_intersect1 for n rays (invalid ones a miss), several walks interleaved. */
 void rs_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n);
 bool rs_occluded1(const prt_accel *a, const prt_ray *r);
 void rs_intersect_packet(const prt_accel *a, prt_packet *p);
+/* prt_occluded_packet's p->count <= PRT_PACKET_MAX rays (invalid ones: 0). */
+void rs_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded);
 
 /* Check a loaded accel so the kernels cannot leave its arrays or loop (validate.c); sets
  * a->bytes_materials. */

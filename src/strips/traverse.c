@@ -1,8 +1,9 @@
-/* Single-ray closest and any hit over Ray-Strips: the wide8 walk (bvh/layouts/wide8_kernels.inc)
- * over the top level, its leaves named by node and slot and entered over the slot box's
- * [entry, exit], which bounds each strip entry's own s-kd traversal and edge tests
- * (strips/kernel.h). */
+/* Closest and any hits over Ray-Strips, single rays, streams and packets: the wide8 walks
+ * (bvh/layouts/wide8_kernels.inc, wide8_packet.inc) over the top level, its leaves named
+ * by node and slot and entered over the slot box's [entry, exit], which bounds each strip
+ * entry's own s-kd traversal and edge tests (strips/kernel.h). */
 #include "bvh/layouts/kernel_names.h"
+#include "bvh/layouts/wide8_packet.h"
 #include "strips/kernel.h"
 
 /* Ray-Strips as the walk's codec (CODEC = rsw, WIDE8_SLOT_LEAVES): the accel is the shared
@@ -45,7 +46,8 @@ static inline void rsw_slot_stage(const wide8_node *n, int slot, const rsw_ray *
     }
 }
 
-/* The strips of the leaf in slot `slot` of node n, entered over [tn, tf]; out of line, so
+/* The strips of the leaf in slot `slot` of node n, entered over [tn, min(tf, the hit so far
+ * widened)]; out of line, so
  * that the walk's node loop keeps its ray constants in registers (inlined, the edge tests'
  * vectors made the compiler spill them around every node, as lossygrid found). any: true
  * at the first hit. */
@@ -57,7 +59,8 @@ PRT_NOINLINE static bool rsw_slot_leaf(const wide8_node *n, int slot, const prt_
     const rs_grid g = a->fmt.q16 ? rs_grid_of(n) : (rs_grid){{0, 0, 0}, {0, 0, 0}};
     bool hit = false;
     for (; e < end; e += rs_entry_size(a->geometry + e, &a->fmt)) {
-        if (rs_strip_trace(a, r, a->geometry + e, &g, tn, tf < best->t ? tf : best->t, any, best)) {
+        const float bound = wide8_far_widen1(best->t); /* the slack of rs_strip_trace's culls */
+        if (rs_strip_trace(a, r, a->geometry + e, &g, tn, tf < bound ? tf : bound, any, best)) {
             if (any) return true;
             hit = true;
         }
@@ -67,7 +70,9 @@ PRT_NOINLINE static bool rsw_slot_leaf(const wide8_node *n, int slot, const prt_
 
 #define CODEC rsw
 #define WIDE8_SLOT_LEAVES
-#include "bvh/layouts/wide8_kernels.inc"
+#define WIDE8_NODE_TEST WIDE8_NF
+#include "bvh/layouts/wide8_packet.inc" /* includes wide8_kernels.inc */
+#undef WIDE8_NODE_TEST
 #undef WIDE8_SLOT_LEAVES
 #undef CODEC
 
@@ -80,15 +85,7 @@ void rs_intersect1(const prt_accel *acc, prt_ray *ray, prt_hit *hit) {
 /* The closest-hit walk stopped at the first hit: its order finds one early. */
 bool rs_occluded1(const prt_accel *acc, const prt_ray *ray) {
     const rs_accel *a = (const rs_accel *)acc;
-    prt__rayx r;
-    prt__rayx_init(&r, ray);
-    wide8_test t;
-    wide8_test_init(&t, &r, a->blob, WIDE8_NF);
-    rsw_ray c;
-    rsw_ray_init(&c, &r, a);
-    rs_best best;
-    rsw_hit_init(&best, ray);
-    return wide8_walk_rsw(a->blob, &r, &t, &c, &best, WIDE8_NF, true);
+    return wide8_any1_rsw(a->blob, a, ray, WIDE8_NF);
 }
 
 /* The walk interleaved, rsw_lanes rays at a time, each leaf waiting one round for its
@@ -96,4 +93,18 @@ bool rs_occluded1(const prt_accel *acc, const prt_ray *ray) {
 void rs_intersect_stream(const prt_accel *acc, prt_ray *rays, prt_hit *hits, size_t n) {
     const rs_accel *a = (const rs_accel *)acc;
     wide8_stream_walk_rsw(a->blob, a, rays, hits, n, WIDE8_NF);
+}
+
+/* Packets (Lauterbach et al. 2007, §5.3, on the wide8 family's packet walk): slices of up
+ * to 64 rays of one octant traverse the top level together, each strip leaf tested per ray
+ * with rsw_slot_leaf over the ray's interval; each answer is rs_intersect1's / rs_occluded1's
+ * bit for bit (wide8_packet.inc). */
+void rs_intersect_packet(const prt_accel *acc, prt_packet *p) {
+    const rs_accel *a = (const rs_accel *)acc;
+    wide8_packet_rsw(a->blob, a, p->rays, p->hits, p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX);
+}
+
+void rs_occluded_packet(const prt_accel *acc, const prt_packet *p, uint8_t *occluded) {
+    const rs_accel *a = (const rs_accel *)acc;
+    wide8_occluded_packet_rsw(a->blob, a, p->rays, occluded, p->count);
 }

@@ -154,10 +154,12 @@ PRT_INLINE unsigned wide8_packet_node(const wide8_node *n, const wide8_packet *p
 }
 
 /* Which rays of mask `rays` hit child c, whose planes wide8_packet_node decoded: per ray
- * wide8_slab's operations in its order (the same bits as wide8_box_hit), eight rays a
- * vector, groups of eight without a ray in the mask skipped. */
+ * wide8_slab's operations in its order (the same bits as wide8_box_hit and wide8_nf_hit),
+ * eight rays a vector, groups of eight without a ray in the mask skipped. tn, tf (NULL:
+ * not wanted): each tested ray's entry and widened exit distance, wide8_nf_hit's *tn and
+ * *tf bit for bit (slots of a skipped group are left as they were). */
 PRT_INLINE uint64_t wide8_packet_child(const wide8_packet *p, const float np[3][8], const float fp[3][8], int c,
-                                       uint64_t rays) {
+                                       uint64_t rays, float *tn, float *tf) {
     const vf8 n0 = vf8_set1(np[0][c]), n1 = vf8_set1(np[1][c]), n2 = vf8_set1(np[2][c]);
     const vf8 f0 = vf8_set1(fp[0][c]), f1 = vf8_set1(fp[1][c]), f2 = vf8_set1(fp[2][c]);
     uint64_t hit = 0;
@@ -170,9 +172,23 @@ PRT_INLINE uint64_t wide8_packet_child(const wide8_packet *p, const float np[3][
         tmin = vf8_max((n0 - ox) * ix, tmin), tmax = vf8_min((f0 - ox) * ix, tmax);
         tmin = vf8_max((n1 - oy) * iy, tmin), tmax = vf8_min((f1 - oy) * iy, tmax);
         tmin = vf8_max((n2 - oz) * iz, tmin), tmax = vf8_min((f2 - oz) * iz, tmax);
-        hit |= (uint64_t)(unsigned)vi8_mask(tmin <= wide8_far_widen(tmax)) << o;
+        tmax = wide8_far_widen(tmax);
+        if (tn) vf8_store(tn + o, tmin), vf8_store(tf + o, tmax);
+        hit |= (uint64_t)(unsigned)vi8_mask(tmin <= tmax) << o;
     }
     return hit & rays;
+}
+
+/* wide8_packet_child for slot c of node n alone, its planes decoded as wide8_packet_node
+ * decodes them: a slot leaf's rays and their [entry, exit] when it is reached. */
+PRT_INLINE uint64_t wide8_packet_slot(const wide8_node *n, const wide8_packet *p, int c, uint64_t rays, float *tn,
+                                      float *tf) {
+    vf8 s[3];
+    wide8_scales(n, s);
+    float np[3][8] __attribute__((aligned(32))), fp[3][8] __attribute__((aligned(32)));
+    for (int k = 0; k < 3; k++)
+        vf8_store(np[k], wide8_plane(n, s, p->near[k])), vf8_store(fp[k], wide8_plane(n, s, p->far[k]));
+    return wide8_packet_child(p, np, fp, c, rays, tn, tf);
 }
 
 #endif
