@@ -3,9 +3,9 @@
  * (t, triangle, u, v, the shrunk tfar), for every codec on wide8 and every instruction set
  * this host runs: coherent camera tiles of 1 to 256 rays, packets of mixed octants, invalid
  * rays, tnear / tfar windows, axis-parallel rays, and rays through the shared edges and
- * vertices of a grid cube, on a mesh near the origin and one far from it; tiles across the
- * diagonal (rays of two dominant axes in one vector) and shadow rays of a tile, which the
- * leaf test over rays takes. */
+ * vertices of a grid cube and rays starting on them (a hit at t = +0 or -0), on a mesh near the origin and one far from
+ * it; tiles across the diagonal (rays of two dominant axes in one vector) and shadow rays of a tile, which the leaf
+ * test over rays takes. */
 #include "bvh/bvh.h"
 #include "core/isa.h"
 #include "core/rng.h"
@@ -75,6 +75,19 @@ static void edge_rays(ray_set *s, uint32_t n) {
         s->rays[s->n++] = (prt_ray){{e[0], e[1], e[2]}, 0.0f, {to[0] - e[0], to[1] - e[1], to[2] - e[2]}, INFINITY};
     }
     s->name = "through shared edges and vertices", s->size = 64;
+}
+
+/* Rays starting on the mesh's vertices (tnear 0), 64 at a time toward one far point: each
+ * hits the triangles around its vertex at t = 0, some computed +0 and some -0, and packets
+ * must keep the sign the single ray reports. */
+static void vertex_origin_rays(const prt_mesh *m, ray_set *s, uint32_t n) {
+    static const float far[4][3] = {{-300, -200, -500}, {490, 370, 610}, {30, 30, -460}, {-440, 30, 30}};
+    s->n = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        const float *o = m->vertices + 3 * (size_t)((i * 7u) % m->vertex_count), *f = far[i / 64 % 4];
+        s->rays[s->n++] = (prt_ray){{o[0], o[1], o[2]}, 0.0f, {f[0] - o[0], f[1] - o[1], f[2] - o[2]}, INFINITY};
+    }
+    s->name = "starting on vertices", s->size = 64;
 }
 
 /* A tile of w x w rays from far off along the diagonal (1, 0, 1): the dominant axis of the
@@ -204,9 +217,10 @@ TEST(test_packets_answer_as_single_rays_on_every_codec_and_isa) {
 
 TEST(test_packets_through_shared_edges_and_vertices) {
     prt_mesh *cube = mesh_grid_cube(6);
-    static ray_set sets[1];
+    static ray_set sets[2];
     edge_rays(&sets[0], 512);
-    check_mesh("grid cube", cube, sets, 1, -1);
+    vertex_origin_rays(cube, &sets[1], 512);
+    check_mesh("grid cube", cube, sets, 2, -1);
     prt_mesh_free(cube);
 }
 

@@ -19,7 +19,7 @@ static inline void bvh_take_nearest(prt__hitx *h, const float *t, const float *u
         if (t[i] == best && (lane < 0 || ids[i] < prim)) prim = ids[i], lane = i;
     }
     if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
-    if (best < h->t || prim < h->prim) h->t = best, h->u = u[lane], h->v = v[lane], h->prim = prim;
+    if (best < h->t || prim < h->prim) h->t = t[lane], h->u = u[lane], h->v = v[lane], h->prim = prim;
 }
 
 /* The id that decides a tie at equal t for a seq_ids codec: the mesh id of leaf-order
@@ -40,7 +40,7 @@ static inline void bvh_take_nearest_seq(prt__hitx *h, const float *t, const floa
     }
     if (lane < 0) return; /* cannot happen: best is the t of a lane in mask */
     if (best < h->t || h->prim == PRT_INVALID || bvh_tie_id(sh, ids[lane]) < bvh_tie_id(sh, h->prim)) {
-        h->t = best, h->u = u[lane], h->v = v[lane], h->prim = ids[lane];
+        h->t = t[lane], h->u = u[lane], h->v = v[lane], h->prim = ids[lane];
         /* The hit is named through the map once the walk ends (bvh_accel.c): start
          * fetching its entry now, a cache miss on every random ray otherwise. */
         if (sh->mesh_ids && ids[lane] < sh->triangles) __builtin_prefetch(sh->mesh_ids + ids[lane]);
