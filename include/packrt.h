@@ -346,7 +346,8 @@ void prt_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h);
 /* True when any triangle is hit with t in [r->tnear, r->tfar]. */
 bool prt_occluded1(const prt_accel *a, const prt_ray *r);
 
-/* Closest hits for a packet of coherent rays (as prt_intersect1 for each ray). */
+/* Closest hits for a packet of coherent rays (as prt_intersect1 for each ray). Rays past
+ * PRT_PACKET_MAX are answered one by one. */
 void prt_intersect_packet(const prt_accel *a, prt_packet *p);
 
 /* Any hit for a packet of coherent rays, such as shadow rays from a pixel block's hit

@@ -156,6 +156,36 @@ TEST(test_stream_and_packet_equal_single_rays) {
     prt_mesh_free(m);
 }
 
+/* A packet longer than PRT_PACKET_MAX: the rays past it are answered one by one, so every
+ * ray of it equals its single-ray answer, for each family with packet traversal. */
+TEST(test_packets_past_the_maximum_answer_every_ray) {
+    static const char *specs[] = {"wide8:float3-soa8", "wide8:idx8-soa4", "lossygrid", "raystrips", "cgrid"};
+    prt_mesh *m = mesh_random_soup(1000, 21);
+    const uint32_t n = PRT_PACKET_MAX + 44;
+    prt_ray *rays = rays_random(m, n, 22);
+    prt_ray *r1 = malloc(n * sizeof *r1), *r2 = malloc(n * sizeof *r2);
+    prt_hit *h1 = malloc(n * sizeof *h1), *h2 = malloc(n * sizeof *h2);
+    uint8_t *o1 = malloc(n), *o2 = malloc(n);
+    for (size_t k = 0; k < COUNT_OF(specs); k++) {
+        prt_accel *a;
+        if (!repr_build(m, specs[k], &a)) continue;
+        memcpy(r1, rays, n * sizeof *r1), memcpy(r2, rays, n * sizeof *r2);
+        for (uint32_t i = 0; i < n; i++) prt_intersect1(a, &r1[i], &h1[i]), o1[i] = prt_occluded1(a, &rays[i]);
+        prt_packet p = {r2, h2, n, n};
+        prt_intersect_packet(a, &p);
+        prt_occluded_packet(a, &p, o2);
+        size_t diff = 0, hits = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            diff += h1[i].prim != h2[i].prim || memcmp(&h1[i].t, &h2[i].t, 4) || o1[i] != o2[i];
+            hits += h1[i].prim != PRT_INVALID;
+        }
+        CHECK_MSG(diff == 0 && hits > n / 8, "%s: %zu of %u rays differ, %zu hits", specs[k], diff, n, hits);
+        prt_accel_free(a);
+    }
+    free(rays), free(r1), free(r2), free(h1), free(h2), free(o1), free(o2);
+    prt_mesh_free(m);
+}
+
 TEST(test_hit_shrinks_ray_and_miss_leaves_it) {
     prt_mesh *m = mesh_random_soup(500, 12);
     prt_ray *rays = rays_random(m, 2000, 13);
@@ -436,6 +466,7 @@ int main(void) {
     RUN(test_every_splitter_matches_brute_force);
     RUN(test_bunny_matches_brute_force);
     RUN(test_stream_and_packet_equal_single_rays);
+    RUN(test_packets_past_the_maximum_answer_every_ray);
     RUN(test_hit_shrinks_ray_and_miss_leaves_it);
     RUN(test_tnear_and_tfar_bound_the_hit_interval);
     RUN(test_degenerate_triangles_are_never_hit);

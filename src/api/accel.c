@@ -117,13 +117,18 @@ bool prt_occluded1(const prt_accel *a, const prt_ray *r) {
     return a->ops->occluded1(a, r);
 }
 
+/* Both packet queries hand a family at most PRT_PACKET_MAX rays and answer the rest one by
+ * one, so no family's packet walk needs its own cap. */
 void prt_intersect_packet(const prt_accel *a, prt_packet *p) {
     uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
-    if (a->ops->intersect_packet) {
-        a->ops->intersect_packet(a, p);
-        return;
+    if (a->ops->intersect_packet && n) {
+        prt_packet q = *p;
+        q.count = n;
+        a->ops->intersect_packet(a, &q);
+    } else {
+        n = 0;
     }
-    for (uint32_t i = 0; i < n; i++) prt_intersect1(a, &p->rays[i], &p->hits[i]);
+    for (uint32_t i = n; i < p->count; i++) prt_intersect1(a, &p->rays[i], &p->hits[i]);
 }
 
 void prt_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded) {

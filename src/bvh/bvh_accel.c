@@ -122,21 +122,17 @@ static bool bvh_occluded1(const prt_accel *a, const prt_ray *r) {
     return b->occluded1(b->blob.data, &b->shared, r);
 }
 
-/* Packets of up to PRT_PACKET_MAX rays through the layout's packet kernels. */
+/* Packets (at most PRT_PACKET_MAX rays: prt_intersect_packet) through the layout's packet
+ * kernels. */
 static void bvh_intersect_packet(const prt_accel *a, prt_packet *p) {
     const bvh_accel *b = (const bvh_accel *)a;
-    for (uint32_t first = 0; first < p->count; first += PRT_PACKET_MAX) {
-        const uint32_t n = p->count - first < PRT_PACKET_MAX ? p->count - first : PRT_PACKET_MAX;
-        prt_ray *rays = p->rays + first;
-        prt_hit *hits = p->hits + first;
-        if (!b->packet) {
-            for (uint32_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
-            continue;
-        }
-        b->packet(b->blob.data, &b->shared, rays, hits, n);
-        if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
-            for (uint32_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
+    if (!b->packet) {
+        for (uint32_t i = 0; i < p->count; i++) prt_intersect1(a, &p->rays[i], &p->hits[i]);
+        return;
     }
+    b->packet(b->blob.data, &b->shared, p->rays, p->hits, p->count);
+    if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
+        for (uint32_t i = 0; i < p->count; i++) bvh_name_hit(b, &p->hits[i]);
 }
 
 static void bvh_occluded_packet(const prt_accel *a, const prt_packet *p, uint8_t *occluded) {

@@ -67,9 +67,8 @@ static void lg_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits
  * prt_intersect1 answers it. */
 static void lg_intersect_packet(const prt_accel *a, prt_packet *p) {
     const lg_accel *g = (const lg_accel *)a;
-    const uint32_t n = p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX;
-    lg_trace_packet(g->blob.data, &g->shared, p->rays, p->hits, n);
-    for (uint32_t i = 0; i < n; i++) lg_name_hit(g, &p->hits[i]);
+    lg_trace_packet(g->blob.data, &g->shared, p->rays, p->hits, p->count);
+    for (uint32_t i = 0; i < p->count; i++) lg_name_hit(g, &p->hits[i]);
 }
 
 /* Any-hit packets (shadow rays: a list in pixel order); an invalid ray is not occluded, as

@@ -101,7 +101,7 @@ void rs_intersect_stream(const prt_accel *acc, prt_ray *rays, prt_hit *hits, siz
  * bit for bit (wide8_packet.inc). */
 void rs_intersect_packet(const prt_accel *acc, prt_packet *p) {
     const rs_accel *a = (const rs_accel *)acc;
-    wide8_packet_rsw(a->blob, a, p->rays, p->hits, p->count < PRT_PACKET_MAX ? p->count : PRT_PACKET_MAX);
+    wide8_packet_rsw(a->blob, a, p->rays, p->hits, p->count); /* at most PRT_PACKET_MAX (prt_intersect_packet) */
 }
 
 void rs_occluded_packet(const prt_accel *acc, const prt_packet *p, uint8_t *occluded) {
