@@ -1,3 +1,4 @@
+#include <stdlib.h>
 /* The BVH family behind prt_accel_ops: parses "layout:codec[,split=..,leaf=..]", builds
  * the generic tree, encodes it with the chosen layout and codec, and dispatches queries to
  * the layout's kernels for that codec. Saved as sections META and BLOB, SHRD for a codec's
@@ -108,11 +109,13 @@ static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
 
 static void bvh_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
     const bvh_accel *b = (const bvh_accel *)a;
-    if (!b->stream) {
+    if (b->packet && !getenv("W8NOPKT")) {
+        for (size_t i = 0; i < n; i += PRT_PACKET_MAX)
+            b->packet(b->blob.data, &b->shared, rays + i, hits + i, (uint32_t)(n - i < PRT_PACKET_MAX ? n - i : PRT_PACKET_MAX));
+    } else if (!b->stream) {
         for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
         return;
-    }
-    b->stream(b->blob.data, &b->shared, rays, hits, n);
+    } else b->stream(b->blob.data, &b->shared, rays, hits, n);
     if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
         for (size_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
 }

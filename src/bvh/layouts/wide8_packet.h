@@ -7,6 +7,7 @@
 #define PRT_BVH_LAYOUTS_WIDE8_PACKET_H
 
 #include "bvh/layouts/wide8_box.h"
+#include <stdlib.h>
 
 /* Rays traced together: a larger packet is traced in slices of this many (one bit of a
  * 64-bit mask per ray). */
@@ -35,14 +36,21 @@ static inline int wide8_octant(const prt_ray *r) {
 
 _Static_assert(sizeof(prt_ray) == 8 * sizeof(float), "a prt_ray is eight floats");
 
+/* How far a packet's valid rays spread: the largest extent, over the axes, of their
+ * origins and of their unit directions (wide8_packet_classify). */
+typedef struct wide8_spread {
+    float origin, direction;
+} wide8_spread;
+
 /* oct[i]: ray i's octant (wide8_octant), or 8 where prt__ray_valid rejects it, eight rays
  * at a time: eight rays are an 8 x 8 matrix of floats, transposed into one vector a field,
  * then prt__ray_valid's operations in its order, lane for lane (one ray at a time this
- * took about 37 of a bunny primary ray's 291 instructions). Returns a bit per octant seen,
- * bit 8 for an invalid ray. */
-static inline unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct) {
+ * took about 37 of a bunny primary ray's 291 instructions). *spread: the valid rays'.
+ * Returns a bit per octant seen, bit 8 for an invalid ray. */
+static inline unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct, wide8_spread *spread) {
     typedef uint32_t vu8 __attribute__((vector_size(32)));
-    const vf8 zero = vf8_set1(0.0f);
+    const vf8 zero = vf8_set1(0.0f), inf = vf8_set1(INFINITY), ninf = vf8_set1(-INFINITY);
+    vf8 lo[6] = {inf, inf, inf, inf, inf, inf}, hi[6] = {ninf, ninf, ninf, ninf, ninf, ninf};
     unsigned seen = 0;
     uint32_t i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -55,36 +63,59 @@ static inline unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, ui
         int32_t lanes[8] __attribute__((aligned(32)));
         vi8_store(lanes, vi8_select(valid, (vi8)o, (vi8){8, 8, 8, 8, 8, 8, 8, 8}));
         for (int l = 0; l < 8; l++) oct[i + l] = (uint8_t)lanes[l], seen |= 1u << lanes[l];
+        const vf8 unit = vf8_set1(1.0f) / vf8_sqrt(c[4] * c[4] + c[5] * c[5] + c[6] * c[6]);
+        const vf8 x[6] = {c[0], c[1], c[2], c[4] * unit, c[5] * unit, c[6] * unit};
+        for (int k = 0; k < 6; k++)
+            lo[k] = vf8_min(lo[k], vf8_select(valid, x[k], inf)), hi[k] = vf8_max(hi[k], vf8_select(valid, x[k], ninf));
     }
+    float l[6], h[6];
+    for (int k = 0; k < 6; k++) l[k] = vf8_hmin(lo[k]), h[k] = vf8_hmax(hi[k]);
     for (; i < n; i++) {
-        oct[i] = prt__ray_valid(&rays[i]) ? (uint8_t)wide8_octant(&rays[i]) : 8;
+        const prt_ray *r = &rays[i];
+        oct[i] = prt__ray_valid(r) ? (uint8_t)wide8_octant(r) : 8;
         seen |= 1u << oct[i];
+        if (oct[i] == 8) continue;
+        const float unit = 1.0f / sqrtf(r->dir[0] * r->dir[0] + r->dir[1] * r->dir[1] + r->dir[2] * r->dir[2]);
+        const float x[6] = {r->org[0], r->org[1], r->org[2], r->dir[0] * unit, r->dir[1] * unit, r->dir[2] * unit};
+        for (int k = 0; k < 6; k++) l[k] = fminf(l[k], x[k]), h[k] = fmaxf(h[k], x[k]);
     }
+    spread->origin = fmaxf(fmaxf(h[0] - l[0], h[1] - l[1]), h[2] - l[2]);
+    spread->direction = fmaxf(fmaxf(h[3] - l[3], h[4] - l[4]), h[5] - l[5]);
     return seen;
 }
 
-/* Whether the n rays of a slice (one octant; directions dir[k][slot]) are worth a packet:
- * enough of them, and their directions close enough that the bounds cull (random rays of
- * one octant traced as a packet ran at half the single-ray rate; camera and shadow tiles
- * at 2-3 times). */
+/* Whether a packet spread so (wide8_packet_classify) is worth tracing as packets: its
+ * directions close enough that the bounds cull (random rays traced as packets ran at half
+ * the single-ray rate; camera and shadow tiles at 2-3 times), or its origins close enough,
+ * against the root box's largest extent `root`, that its rays share most of their nodes
+ * (diffuse bounces from a pixel tile: TODO figures). Slices of fewer rays than
+ * WIDE8_PACKET_MIN are traced one by one. */
 #define WIDE8_PACKET_MIN 8
 #define WIDE8_PACKET_SPREAD 0.5f
-static inline bool wide8_packet_coherent(const float dir[3][WIDE8_PACKET], int n) {
-    vf8 lo[3], hi[3];
-    for (int k = 0; k < 3; k++) lo[k] = vf8_set1(INFINITY), hi[k] = vf8_set1(-INFINITY);
-    const vi8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    for (int o = 0; o < n; o += 8) {
-        const vf8 x = vf8_load(dir[0] + o), y = vf8_load(dir[1] + o), z = vf8_load(dir[2] + o);
-        const vf8 s = vf8_set1(1.0f) / vf8_sqrt(x * x + y * y + z * z);
-        const vi8 in = lane < (vi8){0, 0, 0, 0, 0, 0, 0, 0} + (n - o);
-        const vf8 d[3] = {x * s, y * s, z * s};
-        for (int k = 0; k < 3; k++)
-            lo[k] = vf8_min(lo[k], vf8_select(in, d[k], vf8_set1(INFINITY))),
-            hi[k] = vf8_max(hi[k], vf8_select(in, d[k], vf8_set1(-INFINITY)));
-    }
-    for (int k = 0; k < 3; k++)
-        if (!(vf8_hmax(hi[k]) - vf8_hmin(lo[k]) <= WIDE8_PACKET_SPREAD)) return false;
-    return true;
+static inline bool wide8_packet_worth(const wide8_spread *s, float root) {
+    static float div = 0;
+    if (div == 0) div = getenv("W8LOCAL") ? (float)atof(getenv("W8LOCAL")) : 16.0f;
+    return s->direction <= WIDE8_PACKET_SPREAD || s->origin <= root / div;
+}
+
+static inline int wide8_alone(void) {
+    static int a = -1;
+    if (a < 0) a = getenv("W8ALONE") ? atoi(getenv("W8ALONE")) : 0;
+    return a;
+}
+
+static inline int wide8_leafmin(void) {
+    static int a = -1;
+    if (a < 0) a = getenv("W8LEAFMIN") ? atoi(getenv("W8LEAFMIN")) : 0;
+    return a;
+}
+
+/* The root box's largest extent. */
+static inline float wide8_root_extent(const uint8_t *blob) {
+    const wide8_node *n = (const wide8_node *)(blob + WIDE8_HEADER_BYTES);
+    float e = 0;
+    for (int k = 0; k < 3; k++) e = fmaxf(e, ldexpf(255.0f, (int)n->e[k] - 127));
+    return e;
 }
 
 /* The octant's plane rows (q rows of the near and far planes). */
