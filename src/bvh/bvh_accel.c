@@ -1,4 +1,3 @@
-#include <stdlib.h>
 /* The BVH family behind prt_accel_ops: parses "layout:codec[,split=..,leaf=..]", builds
  * the generic tree, encodes it with the chosen layout and codec, and dispatches queries to
  * the layout's kernels for that codec. Saved as sections META and BLOB, SHRD for a codec's
@@ -109,13 +108,16 @@ static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
 
 static void bvh_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
     const bvh_accel *b = (const bvh_accel *)a;
-    if (b->packet && !getenv("W8NOPKT")) {
+    if (b->packet) { /* runs of PRT_PACKET_MAX as packets, which stream the incoherent ones */
         for (size_t i = 0; i < n; i += PRT_PACKET_MAX)
-            b->packet(b->blob.data, &b->shared, rays + i, hits + i, (uint32_t)(n - i < PRT_PACKET_MAX ? n - i : PRT_PACKET_MAX));
-    } else if (!b->stream) {
+            b->packet(b->blob.data, &b->shared, rays + i, hits + i,
+                      (uint32_t)(n - i < PRT_PACKET_MAX ? n - i : PRT_PACKET_MAX));
+    } else if (b->stream) {
+        b->stream(b->blob.data, &b->shared, rays, hits, n);
+    } else {
         for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
         return;
-    } else b->stream(b->blob.data, &b->shared, rays, hits, n);
+    }
     if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
         for (size_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
 }

@@ -7,7 +7,6 @@
 #define PRT_BVH_LAYOUTS_WIDE8_PACKET_H
 
 #include "bvh/layouts/wide8_box.h"
-#include <stdlib.h>
 
 /* Rays traced together: a larger packet is traced in slices of this many (one bit of a
  * 64-bit mask per ray). */
@@ -86,29 +85,25 @@ static inline unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, ui
 
 /* Whether a packet spread so (wide8_packet_classify) is worth tracing as packets: its
  * directions close enough that the bounds cull (random rays traced as packets ran at half
- * the single-ray rate; camera and shadow tiles at 2-3 times), or its origins close enough,
- * against the root box's largest extent `root`, that its rays share most of their nodes
- * (diffuse bounces from a pixel tile: TODO figures). Slices of fewer rays than
- * WIDE8_PACKET_MIN are traced one by one. */
+ * the single-ray rate; camera and shadow tiles at 2-3 times), or its origins within
+ * 1 / WIDE8_PACKET_LOCAL of the root box's largest extent `root`, where the rays share the
+ * nodes around their origins whatever their directions (diffuse bounces from a tile's hits:
+ * 1.5-1.7x the interleaved walk's rate on the bunny, 1.05-1.1x on a 1M mandelbulb;
+ * docs/results/packets.md). Other packets take the single-ray walks (closest hits of the
+ * BVH codecs: interleaved, stream_walk). Slices of fewer rays than WIDE8_PACKET_MIN are
+ * traced one by one. */
 #define WIDE8_PACKET_MIN 8
 #define WIDE8_PACKET_SPREAD 0.5f
+#define WIDE8_PACKET_LOCAL 8
 static inline bool wide8_packet_worth(const wide8_spread *s, float root) {
-    static float div = 0;
-    if (div == 0) div = getenv("W8LOCAL") ? (float)atof(getenv("W8LOCAL")) : 16.0f;
-    return s->direction <= WIDE8_PACKET_SPREAD || s->origin <= root / div;
+    return s->direction <= WIDE8_PACKET_SPREAD || s->origin <= root / WIDE8_PACKET_LOCAL;
 }
 
-static inline int wide8_alone(void) {
-    static int a = -1;
-    if (a < 0) a = getenv("W8ALONE") ? atoi(getenv("W8ALONE")) : 0;
-    return a;
-}
-
-static inline int wide8_leafmin(void) {
-    static int a = -1;
-    if (a < 0) a = getenv("W8LEAFMIN") ? atoi(getenv("W8LEAFMIN")) : 0;
-    return a;
-}
+/* A node that at most this many of a slice's rays reach is walked by each alone
+ * (slice_alone, after Embree's hybrid traversal): fewer than one 8-ray vector leaves the
+ * packet's tests mostly empty lanes. 2, 4, 8 and 16 measured within 5% of each other on
+ * diffuse bounces, 0 (no switch) 5-15% slower on the 1M mandelbulb. */
+#define WIDE8_ALONE 8
 
 /* The root box's largest extent. */
 static inline float wide8_root_extent(const uint8_t *blob) {
