@@ -129,12 +129,14 @@ static void shadow_tile(const prt_accel *a, const ray_set *cam, ray_set *s) {
     s->name = "shadow rays of a tile", s->size = 64;
 }
 
-/* Bounces of a narrow camera tile (its 1/50 of the mesh's width): from each hit, a point
- * just off the surface, in a direction drawn over the whole sphere (into the surface too),
- * every 3rd with a short tfar as ambient-occlusion rays have. The origins lie close, the
- * directions spread: packets of them are traced as packets (wide8_packet_worth) whose rays
- * part after a few nodes and walk on alone (slice_alone). */
-static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint32_t n, uint32_t packet) {
+/* Bounces of narrow camera tiles (1/50 of the mesh's width): from each hit, a point just
+ * off the surface, in a direction drawn over the whole sphere (into the surface too), every
+ * 3rd with a short tfar as ambient-occlusion rays have; 64 consecutive rays from one tile,
+ * the next 64 from another far from it (spread: 0) or the same (1). The origins of 64 lie
+ * close, the directions spread: they are traced as packets (wide8_packet_worth) whose rays
+ * part after a few nodes and walk on alone (slice_alone); with spread, a packet of 256 is
+ * not, its runs of 64 are. */
+static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint32_t n, uint32_t packet, int spread) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < m->vertex_count; i++)
         for (int k = 0; k < 3; k++)
@@ -144,7 +146,10 @@ static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint3
     prt_rng g = prt_rng_seed(17, 0);
     s->n = 0;
     for (uint32_t i = 0; s->n < n && i < 64 * n; i++) {
-        const float px = c[0] + size * 0.02f * (prt_rng_float(&g) - 0.5f), py = c[1] + size * 0.02f * (prt_rng_float(&g) - 0.5f);
+        const float sx = spread ? 0.3f * (float)(s->n / 64 % 2) - 0.15f : 0.0f;
+        const float sy = spread ? 0.3f * (float)(s->n / 128 % 2) - 0.15f : 0.0f;
+        const float px = c[0] + size * (sx + 0.02f * (prt_rng_float(&g) - 0.5f)),
+                    py = c[1] + size * (sy + 0.02f * (prt_rng_float(&g) - 0.5f));
         prt_ray r = {{eye[0], eye[1], eye[2]}, 0.0f, {px - eye[0], py - eye[1], c[2] - eye[2]}, INFINITY};
         prt_hit h;
         prt_intersect1(a, &r, &h);
@@ -154,8 +159,10 @@ static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint3
         do
             for (int k = 0; k < 3; k++) d[k] = 2.0f * prt_rng_float(&g) - 1.0f;
         while (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.0f || d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < 1e-4f);
-        s->rays[s->n] = (prt_ray){{r.org[0] + t * r.dir[0], r.org[1] + t * r.dir[1], r.org[2] + t * r.dir[2]}, 0.0f,
-                                  {d[0], d[1], d[2]}, s->n % 3 ? INFINITY : 0.05f * size};
+        s->rays[s->n] = (prt_ray){{r.org[0] + t * r.dir[0], r.org[1] + t * r.dir[1], r.org[2] + t * r.dir[2]},
+                                  0.0f,
+                                  {d[0], d[1], d[2]},
+                                  s->n % 3 ? INFINITY : 0.05f * size};
         s->n++;
     }
     s->name = "bounces from a narrow tile's hits", s->size = packet;
@@ -228,14 +235,17 @@ static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets,
                           what, shadow.name, differ, shadow.n);
             }
             static ray_set bounce;
-            for (uint32_t size = 64; size <= 256; size *= 4) {
-                bounce_rays(a, m, &bounce, 512, size);
+            for (int spread = 0; spread < 3; spread++) {
+                const uint32_t size = spread == 0 ? 64 : 256;
+                bounce_rays(a, m, &bounce, 512, size, spread == 2);
                 size_t hits = 0;
                 const size_t differ = packet_differences(a, &bounce, &hits);
-                CHECK_MSG(differ == 0, "%s, %s, %s, %s (packets of %u): %zu of %u rays differ", spec,
-                          prt__isa_name((prt__isa)isa), what, bounce.name, size, differ, bounce.n);
-                CHECK_MSG(bounce.n == 512 && hits >= bounce.n / 8, "%s: %s: %u rays, %zu hits: the comparison sees too little",
-                          spec, bounce.name, bounce.n, hits);
+                CHECK_MSG(differ == 0, "%s, %s, %s, %s (packets of %u, %s): %zu of %u rays differ", spec,
+                          prt__isa_name((prt__isa)isa), what, bounce.name, size, spread == 2 ? "4 tiles" : "1 tile",
+                          differ, bounce.n);
+                CHECK_MSG(bounce.n == 512 && hits >= bounce.n / 8,
+                          "%s: %s: %u rays, %zu hits: the comparison sees too little", spec, bounce.name, bounce.n,
+                          hits);
             }
             prt_accel_free(a);
         }
