@@ -46,8 +46,8 @@ typedef struct wide8_spread {
  * took about 37 of a bunny primary ray's 291 instructions). For each run r of
  * WIDE8_PACKET rays (rays [64 r, 64 r + 64)): spread[r], the bounds of its valid rays, and
  * seen[r], a bit per octant seen, bit 8 for an invalid ray. */
-static inline void wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct, wide8_spread *spread,
-                                         unsigned *seen) {
+PRT_INLINE void wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct, wide8_spread *spread,
+                                      unsigned *seen) {
     typedef uint32_t vu8 __attribute__((vector_size(32)));
     const vf8 zero = vf8_set1(0.0f), inf = vf8_set1(INFINITY), ninf = vf8_set1(-INFINITY);
     for (uint32_t first = 0; first < n; first += WIDE8_PACKET) {
@@ -94,15 +94,18 @@ static inline void wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_
  * 1.5-1.7x the interleaved walk's rate on the bunny, 1.05-1.1x on a 1M mandelbulb;
  * docs/results/packets.md). Other rays take the single-ray walks (closest hits of the
  * BVH codecs: interleaved, stream_walk). Slices of fewer rays than WIDE8_PACKET_MIN are
- * traced one by one. */
+ * traced one by one. Returns which of the two holds (WIDE8_COHERENT first), or
+ * WIDE8_NOT_WORTH. */
 #define WIDE8_PACKET_MIN 8
 #define WIDE8_PACKET_SPREAD 0.5f
 #define WIDE8_PACKET_LOCAL 8
-static inline bool wide8_packet_worth(const wide8_spread *s, float root) {
+enum { WIDE8_NOT_WORTH, WIDE8_COHERENT, WIDE8_LOCAL };
+static inline int wide8_packet_worth(const wide8_spread *s, float root) {
     float origin = 0, direction = 0;
     for (int k = 0; k < 3; k++) origin = fmaxf(origin, s->hi[k] - s->lo[k]);
     for (int k = 3; k < 6; k++) direction = fmaxf(direction, s->hi[k] - s->lo[k]);
-    return direction <= WIDE8_PACKET_SPREAD || origin <= root / WIDE8_PACKET_LOCAL;
+    if (direction <= WIDE8_PACKET_SPREAD) return WIDE8_COHERENT;
+    return origin <= root / WIDE8_PACKET_LOCAL ? WIDE8_LOCAL : WIDE8_NOT_WORTH;
 }
 
 /* The bounds of spreads s[0 .. n). */
@@ -113,17 +116,23 @@ static inline wide8_spread wide8_spread_union(const wide8_spread *s, int n) {
     return u;
 }
 
-/* A node that at most this many of a slice's rays reach is walked by each alone
- * (slice_alone, after Embree's hybrid traversal): fewer than one 8-ray vector leaves the
- * packet's tests mostly empty lanes. 2, 4, 8 and 16 measured within 5% of each other on
- * diffuse bounces, 0 (no switch) 5-15% slower on the 1M mandelbulb. */
+/* In a packet traced for its origins (not its directions), a node that at most this many
+ * of a slice's rays reach is walked by each alone (slice_alone, after Embree's hybrid
+ * traversal): fewer than one 8-ray vector leaves the packet's tests mostly empty lanes.
+ * 2, 4, 8 and 16 measured within 5% of each other on diffuse bounces, 0 (no switch) 5-15%
+ * slower on the 1M mandelbulb; on camera tiles the switch cost 4% more instructions. */
 #define WIDE8_ALONE 8
 
 /* The root box's largest extent. */
 static inline float wide8_root_extent(const uint8_t *blob) {
     const wide8_node *n = (const wide8_node *)(blob + WIDE8_HEADER_BYTES);
     float e = 0;
-    for (int k = 0; k < 3; k++) e = fmaxf(e, ldexpf(255.0f, (int)n->e[k] - 127));
+    for (int k = 0; k < 3; k++) {
+        const uint32_t bits = (uint32_t)n->e[k] << 23; /* 2^(e - 127), the axis's step */
+        float step;
+        memcpy(&step, &bits, sizeof step);
+        e = fmaxf(e, 255.0f * step);
+    }
     return e;
 }
 
