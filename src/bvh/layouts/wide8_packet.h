@@ -89,23 +89,44 @@ PRT_INLINE void wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *
 /* Whether rays whose bounds are s (wide8_packet_classify) are worth tracing as packets: their
  * directions close enough that the bounds cull (random rays traced as packets ran at half
  * the single-ray rate; camera and shadow tiles at 2-3 times), or their origins within
- * 1 / WIDE8_PACKET_LOCAL of the root box's largest extent `root`, where the rays share the
- * nodes around their origins whatever their directions (diffuse bounces from a tile's hits:
- * 1.5-1.7x the interleaved walk's rate on the bunny, 1.05-1.1x on a 1M mandelbulb;
- * docs/results/packets.md). Other rays take the single-ray walks (closest hits of the
- * BVH codecs: interleaved, stream_walk). Slices of fewer rays than WIDE8_PACKET_MIN are
- * traced one by one. Returns which of the two holds (WIDE8_COHERENT first), or
- * WIDE8_NOT_WORTH. */
+ * `local` of each other (wide8_packet_local), where the rays share the nodes around their
+ * origins whatever their directions (diffuse bounces from a tile's hits). Other rays take
+ * the single-ray walks (closest hits of the BVH codecs: interleaved, stream_walk). Slices of
+ * fewer rays than WIDE8_PACKET_MIN are traced one by one. Returns which of the two holds
+ * (WIDE8_COHERENT first), or WIDE8_NOT_WORTH. */
 #define WIDE8_PACKET_MIN 8
 #define WIDE8_PACKET_SPREAD 0.5f
-#define WIDE8_PACKET_LOCAL 8
 enum { WIDE8_NOT_WORTH, WIDE8_COHERENT, WIDE8_LOCAL };
-static inline int wide8_packet_worth(const wide8_spread *s, float root) {
+static inline int wide8_packet_worth(const wide8_spread *s, float local) {
     float origin = 0, direction = 0;
     for (int k = 0; k < 3; k++) origin = fmaxf(origin, s->hi[k] - s->lo[k]);
     for (int k = 3; k < 6; k++) direction = fmaxf(direction, s->hi[k] - s->lo[k]);
     if (direction <= WIDE8_PACKET_SPREAD) return WIDE8_COHERENT;
-    return origin <= root / WIDE8_PACKET_LOCAL ? WIDE8_LOCAL : WIDE8_NOT_WORTH;
+    return origin <= local ? WIDE8_LOCAL : WIDE8_NOT_WORTH;
+}
+
+/* How close the origins of rays of any directions must lie to be traced as packets: within
+ * 1/8 of the root box's largest extent R, and within a patch of the surface holding about
+ * WIDE8_PACKET_NODES of the tree's N nodes, R sqrt(WIDE8_PACKET_NODES / N) (a surface's
+ * nodes spread over an area). Bounces from 16x16-pixel tiles of a 1024x1024 view spread
+ * about 0.07 R on the bunny, a 1M mandelbulb, a 2M level and a 10M mandelbulb alike; as
+ * packets they ran 1.5-1.7x the interleaved walk's rate on the bunny (1K nodes),
+ * 1.05-1.1x on the mandelbulb (15K), 0.85-0.95x on the level (34K) and 0.8x on the 10M
+ * mandelbulb (162K): larger trees part the rays sooner and the interleaved walk hides
+ * their cache misses (docs/results/packets.md). */
+#define WIDE8_PACKET_NODES 128
+static inline float wide8_packet_local(const uint8_t *blob) {
+    const wide8_header *h = (const wide8_header *)blob;
+    const wide8_node *n = (const wide8_node *)(blob + WIDE8_HEADER_BYTES);
+    float r = 0;
+    for (int k = 0; k < 3; k++) {
+        const uint32_t bits = (uint32_t)n->e[k] << 23; /* 2^(e - 127), the axis's step */
+        float step;
+        memcpy(&step, &bits, sizeof step);
+        r = fmaxf(r, 255.0f * step);
+    }
+    const float nodes = (float)(h->nodes ? h->nodes : 1);
+    return r * fminf(0.125f, sqrtf((float)WIDE8_PACKET_NODES / nodes));
 }
 
 /* The bounds of spreads s[0 .. n). */
@@ -122,19 +143,6 @@ static inline wide8_spread wide8_spread_union(const wide8_spread *s, int n) {
  * 2, 4, 8 and 16 measured within 5% of each other on diffuse bounces, 0 (no switch) 5-15%
  * slower on the 1M mandelbulb; on camera tiles the switch cost 4% more instructions. */
 #define WIDE8_ALONE 8
-
-/* The root box's largest extent. */
-static inline float wide8_root_extent(const uint8_t *blob) {
-    const wide8_node *n = (const wide8_node *)(blob + WIDE8_HEADER_BYTES);
-    float e = 0;
-    for (int k = 0; k < 3; k++) {
-        const uint32_t bits = (uint32_t)n->e[k] << 23; /* 2^(e - 127), the axis's step */
-        float step;
-        memcpy(&step, &bits, sizeof step);
-        e = fmaxf(e, 255.0f * step);
-    }
-    return e;
-}
 
 /* The octant's plane rows (q rows of the near and far planes). */
 static inline void wide8_packet_planes(wide8_packet *p, int octant) {
