@@ -134,8 +134,8 @@ static void shadow_tile(const prt_accel *a, const ray_set *cam, ray_set *s) {
  * 3rd with a short tfar as ambient-occlusion rays have; 64 consecutive rays from one tile,
  * the next 64 from another far from it (spread: 0) or the same (1). The origins of 64 lie
  * close, the directions spread: they are traced as packets (wide8_packet_worth) whose rays
- * part after a few nodes and walk on alone (slice_alone); with spread, a packet of 256 is
- * not, its runs of 64 are. */
+ * part after a few nodes and walk on alone (slice_alone); with spread, packets of 256 are
+ * not (they are streamed). */
 static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint32_t n, uint32_t packet, int spread) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < m->vertex_count; i++)

@@ -35,7 +35,7 @@ static inline int wide8_octant(const prt_ray *r) {
 
 _Static_assert(sizeof(prt_ray) == 8 * sizeof(float), "a prt_ray is eight floats");
 
-/* The bounds of a run of rays' origins (0-2) and unit directions (3-5). */
+/* The bounds of rays' origins (0-2) and unit directions (3-5). */
 typedef struct wide8_spread {
     float lo[6], hi[6];
 } wide8_spread;
@@ -43,47 +43,41 @@ typedef struct wide8_spread {
 /* oct[i]: ray i's octant (wide8_octant), or 8 where prt__ray_valid rejects it, eight rays
  * at a time: eight rays are an 8 x 8 matrix of floats, transposed into one vector a field,
  * then prt__ray_valid's operations in its order, lane for lane (one ray at a time this
- * took about 37 of a bunny primary ray's 291 instructions). For each run r of
- * WIDE8_PACKET rays (rays [64 r, 64 r + 64)): spread[r], the bounds of its valid rays, and
- * seen[r], a bit per octant seen, bit 8 for an invalid ray. */
-PRT_INLINE void wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct, wide8_spread *spread,
-                                      unsigned *seen) {
+ * took about 37 of a bunny primary ray's 291 instructions). *spread: the bounds of the
+ * valid rays. Returns a bit per octant seen, bit 8 for an invalid ray. */
+PRT_INLINE unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct, wide8_spread *spread) {
     typedef uint32_t vu8 __attribute__((vector_size(32)));
     const vf8 zero = vf8_set1(0.0f), inf = vf8_set1(INFINITY), ninf = vf8_set1(-INFINITY);
-    for (uint32_t first = 0; first < n; first += WIDE8_PACKET) {
-        const uint32_t end = n - first < WIDE8_PACKET ? n : first + WIDE8_PACKET;
-        vf8 lo[6] = {inf, inf, inf, inf, inf, inf}, hi[6] = {ninf, ninf, ninf, ninf, ninf, ninf};
-        unsigned bits = 0;
-        uint32_t i = first;
-        for (; i + 8 <= end; i += 8) {
-            vf8 c[8]; /* org x, y, z, tnear, dir x, y, z, tfar */
-            for (int l = 0; l < 8; l++) c[l] = vf8_load(&rays[i + l].org[0]);
-            vf8_transpose8(c);
-            const vf8 z = c[0] * zero + c[1] * zero + c[2] * zero + c[4] * zero + c[5] * zero + c[6] * zero;
-            const vi8 valid = (z == zero) & ~((c[4] == zero) & (c[5] == zero) & (c[6] == zero)) & (c[3] <= c[7]);
-            const vu8 o = (vu8)c[4] >> 31 | ((vu8)c[5] >> 31) << 1 | ((vu8)c[6] >> 31) << 2;
-            int32_t lanes[8] __attribute__((aligned(32)));
-            vi8_store(lanes, vi8_select(valid, (vi8)o, (vi8){8, 8, 8, 8, 8, 8, 8, 8}));
-            for (int l = 0; l < 8; l++) oct[i + l] = (uint8_t)lanes[l], bits |= 1u << lanes[l];
-            const vf8 unit = vf8_set1(1.0f) / vf8_sqrt(c[4] * c[4] + c[5] * c[5] + c[6] * c[6]);
-            const vf8 x[6] = {c[0], c[1], c[2], c[4] * unit, c[5] * unit, c[6] * unit};
-            for (int k = 0; k < 6; k++)
-                lo[k] = vf8_min(lo[k], vf8_select(valid, x[k], inf)),
-                hi[k] = vf8_max(hi[k], vf8_select(valid, x[k], ninf));
-        }
-        wide8_spread *s = &spread[first / WIDE8_PACKET];
-        for (int k = 0; k < 6; k++) s->lo[k] = vf8_hmin(lo[k]), s->hi[k] = vf8_hmax(hi[k]);
-        for (; i < end; i++) {
-            const prt_ray *r = &rays[i];
-            oct[i] = prt__ray_valid(r) ? (uint8_t)wide8_octant(r) : 8;
-            bits |= 1u << oct[i];
-            if (oct[i] == 8) continue;
-            const float unit = 1.0f / sqrtf(r->dir[0] * r->dir[0] + r->dir[1] * r->dir[1] + r->dir[2] * r->dir[2]);
-            const float x[6] = {r->org[0], r->org[1], r->org[2], r->dir[0] * unit, r->dir[1] * unit, r->dir[2] * unit};
-            for (int k = 0; k < 6; k++) s->lo[k] = fminf(s->lo[k], x[k]), s->hi[k] = fmaxf(s->hi[k], x[k]);
-        }
-        seen[first / WIDE8_PACKET] = bits;
+    vf8 lo[6] = {inf, inf, inf, inf, inf, inf}, hi[6] = {ninf, ninf, ninf, ninf, ninf, ninf};
+    unsigned seen = 0;
+    uint32_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        vf8 c[8]; /* org x, y, z, tnear, dir x, y, z, tfar */
+        for (int l = 0; l < 8; l++) c[l] = vf8_load(&rays[i + l].org[0]);
+        vf8_transpose8(c);
+        const vf8 z = c[0] * zero + c[1] * zero + c[2] * zero + c[4] * zero + c[5] * zero + c[6] * zero;
+        const vi8 valid = (z == zero) & ~((c[4] == zero) & (c[5] == zero) & (c[6] == zero)) & (c[3] <= c[7]);
+        const vu8 o = (vu8)c[4] >> 31 | ((vu8)c[5] >> 31) << 1 | ((vu8)c[6] >> 31) << 2;
+        int32_t lanes[8] __attribute__((aligned(32)));
+        vi8_store(lanes, vi8_select(valid, (vi8)o, (vi8){8, 8, 8, 8, 8, 8, 8, 8}));
+        for (int l = 0; l < 8; l++) oct[i + l] = (uint8_t)lanes[l], seen |= 1u << lanes[l];
+        const vf8 unit = vf8_set1(1.0f) / vf8_sqrt(c[4] * c[4] + c[5] * c[5] + c[6] * c[6]);
+        const vf8 x[6] = {c[0], c[1], c[2], c[4] * unit, c[5] * unit, c[6] * unit};
+        for (int k = 0; k < 6; k++)
+            lo[k] = vf8_min(lo[k], vf8_select(valid, x[k], inf)), hi[k] = vf8_max(hi[k], vf8_select(valid, x[k], ninf));
     }
+    for (int k = 0; k < 6; k++) spread->lo[k] = vf8_hmin(lo[k]), spread->hi[k] = vf8_hmax(hi[k]);
+    for (; i < n; i++) {
+        const prt_ray *r = &rays[i];
+        oct[i] = prt__ray_valid(r) ? (uint8_t)wide8_octant(r) : 8;
+        seen |= 1u << oct[i];
+        if (oct[i] == 8) continue;
+        const float unit = 1.0f / sqrtf(r->dir[0] * r->dir[0] + r->dir[1] * r->dir[1] + r->dir[2] * r->dir[2]);
+        const float x[6] = {r->org[0], r->org[1], r->org[2], r->dir[0] * unit, r->dir[1] * unit, r->dir[2] * unit};
+        for (int k = 0; k < 6; k++)
+            spread->lo[k] = fminf(spread->lo[k], x[k]), spread->hi[k] = fmaxf(spread->hi[k], x[k]);
+    }
+    return seen;
 }
 
 /* Whether rays whose bounds are s (wide8_packet_classify) are worth tracing as packets: their
@@ -127,14 +121,6 @@ static inline float wide8_packet_local(const uint8_t *blob) {
     }
     const float nodes = (float)(h->nodes ? h->nodes : 1);
     return r * fminf(0.125f, sqrtf((float)WIDE8_PACKET_NODES / nodes));
-}
-
-/* The bounds of spreads s[0 .. n). */
-static inline wide8_spread wide8_spread_union(const wide8_spread *s, int n) {
-    wide8_spread u = s[0];
-    for (int j = 1; j < n; j++)
-        for (int k = 0; k < 6; k++) u.lo[k] = fminf(u.lo[k], s[j].lo[k]), u.hi[k] = fmaxf(u.hi[k], s[j].hi[k]);
-    return u;
 }
 
 /* In a packet traced for its origins (not its directions), a node that at most this many
