@@ -23,13 +23,20 @@ typedef struct ray_set {
     uint32_t n, size;
 } ray_set;
 
-/* A pinhole camera's tile of w x h rays looking at the mesh's centre from outside it. */
-static void camera_tile(const prt_mesh *m, ray_set *s, uint32_t w, uint32_t h, const char *name) {
+/* The centre of m's bounding box and its width along x. */
+static void mesh_frame(const prt_mesh *m, float c[3], float *size) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < m->vertex_count; i++)
         for (int k = 0; k < 3; k++)
             lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
-    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    for (int k = 0; k < 3; k++) c[k] = (lo[k] + hi[k]) / 2;
+    *size = hi[0] - lo[0];
+}
+
+/* A pinhole camera's tile of w x h rays looking at the mesh's centre from outside it. */
+static void camera_tile(const prt_mesh *m, ray_set *s, uint32_t w, uint32_t h, const char *name) {
+    float c[3], size;
+    mesh_frame(m, c, &size);
     const float eye[3] = {c[0] + 0.3f * size, c[1] + 0.4f * size, c[2] + 2.0f * size};
     s->name = name, s->n = 0, s->size = w * h;
     for (uint32_t y = 0; y < h; y++)
@@ -95,11 +102,8 @@ static void vertex_origin_rays(const prt_mesh *m, ray_set *s, uint32_t n) {
  * rays is x for some and z for others within one vector of eight, which the leaf test over
  * rays picks per lane (geom/triangle_rays.h). */
 static void diagonal_tile(const prt_mesh *m, ray_set *s, uint32_t w) {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < m->vertex_count; i++)
-        for (int k = 0; k < 3; k++)
-            lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
-    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    float c[3], size;
+    mesh_frame(m, c, &size);
     const float eye[3] = {c[0] - 2.0f * size, c[1], c[2] - 2.0f * size};
     s->name = "diagonal tile, mixed dominant axes", s->n = 0, s->size = w * w;
     for (uint32_t y = 0; y < w; y++)
@@ -137,11 +141,8 @@ static void shadow_tile(const prt_accel *a, const ray_set *cam, ray_set *s) {
  * part after a few nodes and walk on alone (slice_alone); with spread, packets of 256 are
  * not (they are streamed). */
 static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint32_t n, uint32_t packet, int spread) {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < m->vertex_count; i++)
-        for (int k = 0; k < 3; k++)
-            lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
-    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    float c[3], size;
+    mesh_frame(m, c, &size);
     const float eye[3] = {c[0] + 0.3f * size, c[1] + 0.4f * size, c[2] + 2.0f * size};
     prt_rng g = prt_rng_seed(17, 0);
     s->n = 0;
