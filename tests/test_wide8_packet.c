@@ -5,7 +5,8 @@
  * rays, tnear / tfar windows, axis-parallel rays, and rays through the shared edges and
  * vertices of a grid cube and rays starting on them (a hit at t = +0 or -0), on a mesh near the origin and one far from
  * it; tiles across the diagonal (rays of two dominant axes in one vector) and shadow rays of a tile, which the leaf
- * test over rays takes. */
+ * test over rays takes; bounces off a tile's hits in all directions (packets of close origins, rays walking on
+ * alone where they part); prt_intersect_stream too. */
 #include "bvh/bvh.h"
 #include "core/isa.h"
 #include "core/rng.h"
@@ -22,13 +23,20 @@ typedef struct ray_set {
     uint32_t n, size;
 } ray_set;
 
-/* A pinhole camera's tile of w x h rays looking at the mesh's centre from outside it. */
-static void camera_tile(const prt_mesh *m, ray_set *s, uint32_t w, uint32_t h, const char *name) {
+/* The centre of m's bounding box and its width along x. */
+static void mesh_frame(const prt_mesh *m, float c[3], float *size) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < m->vertex_count; i++)
         for (int k = 0; k < 3; k++)
             lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
-    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    for (int k = 0; k < 3; k++) c[k] = (lo[k] + hi[k]) / 2;
+    *size = hi[0] - lo[0];
+}
+
+/* A pinhole camera's tile of w x h rays looking at the mesh's centre from outside it. */
+static void camera_tile(const prt_mesh *m, ray_set *s, uint32_t w, uint32_t h, const char *name) {
+    float c[3], size;
+    mesh_frame(m, c, &size);
     const float eye[3] = {c[0] + 0.3f * size, c[1] + 0.4f * size, c[2] + 2.0f * size};
     s->name = name, s->n = 0, s->size = w * h;
     for (uint32_t y = 0; y < h; y++)
@@ -94,11 +102,8 @@ static void vertex_origin_rays(const prt_mesh *m, ray_set *s, uint32_t n) {
  * rays is x for some and z for others within one vector of eight, which the leaf test over
  * rays picks per lane (geom/triangle_rays.h). */
 static void diagonal_tile(const prt_mesh *m, ray_set *s, uint32_t w) {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < m->vertex_count; i++)
-        for (int k = 0; k < 3; k++)
-            lo[k] = fminf(lo[k], m->vertices[3 * i + k]), hi[k] = fmaxf(hi[k], m->vertices[3 * i + k]);
-    const float c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, size = hi[0] - lo[0];
+    float c[3], size;
+    mesh_frame(m, c, &size);
     const float eye[3] = {c[0] - 2.0f * size, c[1], c[2] - 2.0f * size};
     s->name = "diagonal tile, mixed dominant axes", s->n = 0, s->size = w * w;
     for (uint32_t y = 0; y < w; y++)
@@ -128,10 +133,46 @@ static void shadow_tile(const prt_accel *a, const ray_set *cam, ray_set *s) {
     s->name = "shadow rays of a tile", s->size = 64;
 }
 
+/* Bounces of narrow camera tiles (1/50 of the mesh's width): from each hit, a point just
+ * off the surface, in a direction drawn over the whole sphere (into the surface too), every
+ * 3rd with a short tfar as ambient-occlusion rays have; 64 consecutive rays from one tile,
+ * the next 64 from another far from it (spread: 0) or the same (1). The origins of 64 lie
+ * close, the directions spread: they are traced as packets (wide8_packet_worth) whose rays
+ * part after a few nodes and walk on alone (slice_alone); with spread, packets of 256 are
+ * not (they are streamed). */
+static void bounce_rays(const prt_accel *a, const prt_mesh *m, ray_set *s, uint32_t n, uint32_t packet, int spread) {
+    float c[3], size;
+    mesh_frame(m, c, &size);
+    const float eye[3] = {c[0] + 0.3f * size, c[1] + 0.4f * size, c[2] + 2.0f * size};
+    prt_rng g = prt_rng_seed(17, 0);
+    s->n = 0;
+    for (uint32_t i = 0; s->n < n && i < 64 * n; i++) {
+        const float sx = spread ? 0.3f * (float)(s->n / 64 % 2) - 0.15f : 0.0f;
+        const float sy = spread ? 0.3f * (float)(s->n / 128 % 2) - 0.15f : 0.0f;
+        const float px = c[0] + size * (sx + 0.02f * (prt_rng_float(&g) - 0.5f)),
+                    py = c[1] + size * (sy + 0.02f * (prt_rng_float(&g) - 0.5f));
+        prt_ray r = {{eye[0], eye[1], eye[2]}, 0.0f, {px - eye[0], py - eye[1], c[2] - eye[2]}, INFINITY};
+        prt_hit h;
+        prt_intersect1(a, &r, &h);
+        if (h.prim == PRT_INVALID) continue;
+        const float t = h.t * 0.9999f;
+        float d[3];
+        do
+            for (int k = 0; k < 3; k++) d[k] = 2.0f * prt_rng_float(&g) - 1.0f;
+        while (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.0f || d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < 1e-4f);
+        s->rays[s->n] = (prt_ray){{r.org[0] + t * r.dir[0], r.org[1] + t * r.dir[1], r.org[2] + t * r.dir[2]},
+                                  0.0f,
+                                  {d[0], d[1], d[2]},
+                                  s->n % 3 ? INFINITY : 0.05f * size};
+        s->n++;
+    }
+    s->name = "bounces from a narrow tile's hits", s->size = packet;
+}
+
 /* Packets of s against single rays on a; returns the rays that differ. */
 static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *hits) {
-    static prt_ray single[MAX_RAYS], packed[MAX_RAYS];
-    static prt_hit hs[MAX_RAYS], hp[MAX_RAYS];
+    static prt_ray single[MAX_RAYS], packed[MAX_RAYS], streamed[MAX_RAYS];
+    static prt_hit hs[MAX_RAYS], hp[MAX_RAYS], hst[MAX_RAYS];
     static uint8_t os[MAX_RAYS], op[MAX_RAYS], ostream[MAX_RAYS];
     memcpy(single, s->rays, s->n * sizeof *single), memcpy(packed, s->rays, s->n * sizeof *packed);
     for (uint32_t i = 0; i < s->n; i++) prt_intersect1(a, &single[i], &hs[i]), os[i] = prt_occluded1(a, &s->rays[i]);
@@ -143,12 +184,15 @@ static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *h
         prt_occluded_packet(a, &p, op + first);
     }
     prt_occluded_stream(a, s->rays, ostream, s->n, 1);
+    memcpy(streamed, s->rays, s->n * sizeof *streamed);
+    prt_intersect_stream(a, streamed, hst, s->n, 1);
     size_t differ = 0;
     for (uint32_t i = 0; i < s->n; i++) {
         differ += os[i] != ostream[i];
         *hits += hs[i].prim != PRT_INVALID;
         differ += hs[i].prim != hp[i].prim || memcmp(&hs[i].t, &hp[i].t, 4) || memcmp(&hs[i].u, &hp[i].u, 4) ||
-                  memcmp(&hs[i].v, &hp[i].v, 4) || memcmp(&single[i].tfar, &packed[i].tfar, 4) || os[i] != op[i];
+                  memcmp(&hs[i].v, &hp[i].v, 4) || memcmp(&single[i].tfar, &packed[i].tfar, 4) || os[i] != op[i] ||
+                  memcmp(&hs[i], &hst[i], sizeof hs[i]) || memcmp(&single[i].tfar, &streamed[i].tfar, 4);
     }
     return differ;
 }
@@ -190,6 +234,19 @@ static void check_mesh(const char *what, const prt_mesh *m, const ray_set *sets,
                 const size_t differ = packet_differences(a, &shadow, &hits);
                 CHECK_MSG(differ == 0, "%s, %s, %s, %s: %zu of %u rays differ", spec, prt__isa_name((prt__isa)isa),
                           what, shadow.name, differ, shadow.n);
+            }
+            static ray_set bounce;
+            for (int spread = 0; spread < 3; spread++) {
+                const uint32_t size = spread == 0 ? 64 : 256;
+                bounce_rays(a, m, &bounce, 512, size, spread == 2);
+                size_t hits = 0;
+                const size_t differ = packet_differences(a, &bounce, &hits);
+                CHECK_MSG(differ == 0, "%s, %s, %s, %s (packets of %u, %s): %zu of %u rays differ", spec,
+                          prt__isa_name((prt__isa)isa), what, bounce.name, size, spread == 2 ? "4 tiles" : "1 tile",
+                          differ, bounce.n);
+                CHECK_MSG(bounce.n == 512 && hits >= bounce.n / 8,
+                          "%s: %s: %u rays, %zu hits: the comparison sees too little", spec, bounce.name, bounce.n,
+                          hits);
             }
             prt_accel_free(a);
         }

@@ -32,13 +32,13 @@ typedef void (*bvh_occluded_packet_fn)(const uint8_t *blob, const bvh_shared *sh
 typedef struct bvh_kernels {
     bvh_intersect_fn intersect1;
     bvh_occluded_fn occluded1;
-    bvh_stream_fn stream; /* NULL: intersect1 per ray */
+    bvh_stream_fn stream; /* NULL: intersect1 per ray; unused where packet is set */
     /* NULL, or intersect1, occluded1 and stream specialised for one blob (its other members
      * unused), chosen once when it is built, loaded or refitted rather than at every query
      * (wide8: the folded or the decoded-plane box test, wide8_fold_suits); they answer as
      * the ones above do. */
     struct bvh_kernels (*for_blob)(const uint8_t *blob);
-    bvh_packet_fn packet;                   /* NULL: intersect1 per ray */
+    bvh_packet_fn packet;                   /* NULL: intersect1 per ray; else also a stream's runs */
     bvh_occluded_packet_fn occluded_packet; /* NULL: occluded1 per ray */
 } bvh_kernels;
 

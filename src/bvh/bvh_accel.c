@@ -108,11 +108,16 @@ static void bvh_intersect1(const prt_accel *a, prt_ray *r, prt_hit *h) {
 
 static void bvh_intersect_stream(const prt_accel *a, prt_ray *rays, prt_hit *hits, size_t n) {
     const bvh_accel *b = (const bvh_accel *)a;
-    if (!b->stream) {
+    if (b->packet) { /* runs of PRT_PACKET_MAX as packets, which stream the incoherent ones */
+        for (size_t i = 0; i < n; i += PRT_PACKET_MAX)
+            b->packet(b->blob.data, &b->shared, rays + i, hits + i,
+                      (uint32_t)(n - i < PRT_PACKET_MAX ? n - i : PRT_PACKET_MAX));
+    } else if (b->stream) {
+        b->stream(b->blob.data, &b->shared, rays, hits, n);
+    } else {
         for (size_t i = 0; i < n; i++) prt_intersect1(a, &rays[i], &hits[i]);
         return;
     }
-    b->stream(b->blob.data, &b->shared, rays, hits, n);
     if (b->shared.triangles) /* else every hit is named already (bvh_name_hit) */
         for (size_t i = 0; i < n; i++) bvh_name_hit(b, &hits[i]);
 }

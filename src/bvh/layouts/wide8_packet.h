@@ -35,14 +35,20 @@ static inline int wide8_octant(const prt_ray *r) {
 
 _Static_assert(sizeof(prt_ray) == 8 * sizeof(float), "a prt_ray is eight floats");
 
+/* The bounds of rays' origins (0-2) and unit directions (3-5). */
+typedef struct wide8_spread {
+    float lo[6], hi[6];
+} wide8_spread;
+
 /* oct[i]: ray i's octant (wide8_octant), or 8 where prt__ray_valid rejects it, eight rays
  * at a time: eight rays are an 8 x 8 matrix of floats, transposed into one vector a field,
  * then prt__ray_valid's operations in its order, lane for lane (one ray at a time this
- * took about 37 of a bunny primary ray's 291 instructions). Returns a bit per octant seen,
- * bit 8 for an invalid ray. */
-static inline unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct) {
+ * took about 37 of a bunny primary ray's 291 instructions). *spread: the bounds of the
+ * valid rays. Returns a bit per octant seen, bit 8 for an invalid ray. */
+PRT_INLINE unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, uint8_t *oct, wide8_spread *spread) {
     typedef uint32_t vu8 __attribute__((vector_size(32)));
-    const vf8 zero = vf8_set1(0.0f);
+    const vf8 zero = vf8_set1(0.0f), inf = vf8_set1(INFINITY), ninf = vf8_set1(-INFINITY);
+    vf8 lo[6] = {inf, inf, inf, inf, inf, inf}, hi[6] = {ninf, ninf, ninf, ninf, ninf, ninf};
     unsigned seen = 0;
     uint32_t i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -55,37 +61,74 @@ static inline unsigned wide8_packet_classify(const prt_ray *rays, uint32_t n, ui
         int32_t lanes[8] __attribute__((aligned(32)));
         vi8_store(lanes, vi8_select(valid, (vi8)o, (vi8){8, 8, 8, 8, 8, 8, 8, 8}));
         for (int l = 0; l < 8; l++) oct[i + l] = (uint8_t)lanes[l], seen |= 1u << lanes[l];
+        const vf8 unit = vf8_set1(1.0f) / vf8_sqrt(c[4] * c[4] + c[5] * c[5] + c[6] * c[6]);
+        const vf8 x[6] = {c[0], c[1], c[2], c[4] * unit, c[5] * unit, c[6] * unit};
+        for (int k = 0; k < 6; k++)
+            lo[k] = vf8_min(lo[k], vf8_select(valid, x[k], inf)), hi[k] = vf8_max(hi[k], vf8_select(valid, x[k], ninf));
     }
+    for (int k = 0; k < 6; k++) spread->lo[k] = vf8_hmin(lo[k]), spread->hi[k] = vf8_hmax(hi[k]);
     for (; i < n; i++) {
-        oct[i] = prt__ray_valid(&rays[i]) ? (uint8_t)wide8_octant(&rays[i]) : 8;
+        const prt_ray *r = &rays[i];
+        oct[i] = prt__ray_valid(r) ? (uint8_t)wide8_octant(r) : 8;
         seen |= 1u << oct[i];
+        if (oct[i] == 8) continue;
+        const float unit = 1.0f / sqrtf(r->dir[0] * r->dir[0] + r->dir[1] * r->dir[1] + r->dir[2] * r->dir[2]);
+        const float x[6] = {r->org[0], r->org[1], r->org[2], r->dir[0] * unit, r->dir[1] * unit, r->dir[2] * unit};
+        for (int k = 0; k < 6; k++)
+            spread->lo[k] = fminf(spread->lo[k], x[k]), spread->hi[k] = fmaxf(spread->hi[k], x[k]);
     }
     return seen;
 }
 
-/* Whether the n rays of a slice (one octant; directions dir[k][slot]) are worth a packet:
- * enough of them, and their directions close enough that the bounds cull (random rays of
- * one octant traced as a packet ran at half the single-ray rate; camera and shadow tiles
- * at 2-3 times). */
+/* Whether rays whose bounds are s (wide8_packet_classify) are worth tracing as packets: their
+ * directions close enough that the bounds cull (random rays traced as packets ran at half
+ * the single-ray rate; camera and shadow tiles at 2-3 times), or their origins within
+ * `local` of each other (wide8_packet_local), where the rays share the nodes around their
+ * origins whatever their directions (diffuse bounces from a tile's hits). Other rays take
+ * the single-ray walks (closest hits of the BVH codecs: interleaved, stream_walk). Slices of
+ * fewer rays than WIDE8_PACKET_MIN are traced one by one. Returns which of the two holds
+ * (WIDE8_COHERENT first), or WIDE8_NOT_WORTH. */
 #define WIDE8_PACKET_MIN 8
 #define WIDE8_PACKET_SPREAD 0.5f
-static inline bool wide8_packet_coherent(const float dir[3][WIDE8_PACKET], int n) {
-    vf8 lo[3], hi[3];
-    for (int k = 0; k < 3; k++) lo[k] = vf8_set1(INFINITY), hi[k] = vf8_set1(-INFINITY);
-    const vi8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    for (int o = 0; o < n; o += 8) {
-        const vf8 x = vf8_load(dir[0] + o), y = vf8_load(dir[1] + o), z = vf8_load(dir[2] + o);
-        const vf8 s = vf8_set1(1.0f) / vf8_sqrt(x * x + y * y + z * z);
-        const vi8 in = lane < (vi8){0, 0, 0, 0, 0, 0, 0, 0} + (n - o);
-        const vf8 d[3] = {x * s, y * s, z * s};
-        for (int k = 0; k < 3; k++)
-            lo[k] = vf8_min(lo[k], vf8_select(in, d[k], vf8_set1(INFINITY))),
-            hi[k] = vf8_max(hi[k], vf8_select(in, d[k], vf8_set1(-INFINITY)));
-    }
-    for (int k = 0; k < 3; k++)
-        if (!(vf8_hmax(hi[k]) - vf8_hmin(lo[k]) <= WIDE8_PACKET_SPREAD)) return false;
-    return true;
+enum { WIDE8_NOT_WORTH, WIDE8_COHERENT, WIDE8_LOCAL };
+static inline int wide8_packet_worth(const wide8_spread *s, float local) {
+    float origin = 0, direction = 0;
+    for (int k = 0; k < 3; k++) origin = fmaxf(origin, s->hi[k] - s->lo[k]);
+    for (int k = 3; k < 6; k++) direction = fmaxf(direction, s->hi[k] - s->lo[k]);
+    if (direction <= WIDE8_PACKET_SPREAD) return WIDE8_COHERENT;
+    return origin <= local ? WIDE8_LOCAL : WIDE8_NOT_WORTH;
 }
+
+/* How close the origins of rays of any directions must lie to be traced as packets: within
+ * 1/8 of the root box's largest extent R, and within a patch of the surface holding about
+ * WIDE8_PACKET_NODES of the tree's N nodes, R sqrt(WIDE8_PACKET_NODES / N) (a surface's
+ * nodes spread over an area). Bounces from 16x16-pixel tiles of a 1024x1024 view spread
+ * about 0.07 R on the bunny, a 1M mandelbulb, a 2M level and a 10M mandelbulb alike; as
+ * packets they ran 1.5-1.7x the interleaved walk's rate on the bunny (1K nodes),
+ * 1.05-1.1x on the mandelbulb (15K), 0.85-0.95x on the level (34K) and 0.8x on the 10M
+ * mandelbulb (162K): larger trees part the rays sooner and the interleaved walk hides
+ * their cache misses (docs/results/packets.md). */
+#define WIDE8_PACKET_NODES 128
+static inline float wide8_packet_local(const uint8_t *blob) {
+    const wide8_header *h = (const wide8_header *)blob;
+    const wide8_node *n = (const wide8_node *)(blob + WIDE8_HEADER_BYTES);
+    float r = 0;
+    for (int k = 0; k < 3; k++) {
+        const uint32_t bits = (uint32_t)n->e[k] << 23; /* 2^(e - 127), the axis's step */
+        float step;
+        memcpy(&step, &bits, sizeof step);
+        r = fmaxf(r, 255.0f * step);
+    }
+    const float nodes = (float)(h->nodes ? h->nodes : 1);
+    return r * fminf(0.125f, sqrtf((float)WIDE8_PACKET_NODES / nodes));
+}
+
+/* In a packet traced for its origins (not its directions), a node that at most this many
+ * of a slice's rays reach is walked by each alone (slice_alone, after Embree's hybrid
+ * traversal): fewer than one 8-ray vector leaves the packet's tests mostly empty lanes.
+ * 2, 4, 8 and 16 measured within 5% of each other on diffuse bounces, 0 (no switch) 5-15%
+ * slower on the 1M mandelbulb; on camera tiles the switch cost 4% more instructions. */
+#define WIDE8_ALONE 8
 
 /* The octant's plane rows (q rows of the near and far planes). */
 static inline void wide8_packet_planes(wide8_packet *p, int octant) {
