@@ -188,10 +188,10 @@ static size_t packet_differences(const prt_accel *a, const ray_set *s, size_t *h
     prt_intersect_stream(a, streamed, hst, s->n, 1);
     size_t differ = 0;
     for (uint32_t i = 0; i < s->n; i++) {
-        differ += os[i] != ostream[i];
         *hits += hs[i].prim != PRT_INVALID;
-        differ += hs[i].prim != hp[i].prim || memcmp(&hs[i].t, &hp[i].t, 4) || memcmp(&hs[i].u, &hp[i].u, 4) ||
-                  memcmp(&hs[i].v, &hp[i].v, 4) || memcmp(&single[i].tfar, &packed[i].tfar, 4) || os[i] != op[i] ||
+        differ += os[i] != ostream[i] || hs[i].prim != hp[i].prim || memcmp(&hs[i].t, &hp[i].t, 4) ||
+                  memcmp(&hs[i].u, &hp[i].u, 4) || memcmp(&hs[i].v, &hp[i].v, 4) ||
+                  memcmp(&single[i].tfar, &packed[i].tfar, 4) || os[i] != op[i] ||
                   memcmp(&hs[i], &hst[i], sizeof hs[i]) || memcmp(&single[i].tfar, &streamed[i].tfar, 4);
     }
     return differ;

@@ -74,12 +74,18 @@ static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float
 static const prt__rayx prt__rayx_renamed = {.kx = 0, .ky = 1, .kz = 2};
 
 /* N triangles at once (N = 4 and 8, from geom/triangle_simd.inc): prt__rayx4t /
- * prt__tri4_hit and prt__rayx8t / prt__tri8_hit. */
+ * prt__tri4_hit and prt__rayx8t / prt__tri8_hit; N = 16 where the target has AVX-512, for
+ * the test over 16 rays (geom/triangle_rays.h). */
 #define TRI_W 4
 #include "geom/triangle_simd.inc"
 #undef TRI_W
 #define TRI_W 8
 #include "geom/triangle_simd.inc"
 #undef TRI_W
+#if defined(__AVX512F__)
+#define TRI_W 16
+#include "geom/triangle_simd.inc"
+#undef TRI_W
+#endif
 
 #endif

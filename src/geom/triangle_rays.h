@@ -1,5 +1,5 @@
-/* One triangle against eight rays at once: the watertight test of geom/triangle.h (Woop,
- * Benthin, Wald, JCGT 2013) with the rays in the lanes rather than the triangles, as
+/* One triangle against eight (or sixteen) rays at once: the watertight test of
+ * geom/triangle.h (Woop, Benthin, Wald, JCGT 2013) with the rays in the lanes rather than the triangles, as
  * Embree's packet intersectors do (Wald, Benthin, Boulos 2007 test each triangle against a
  * packet). Each lane runs prt__tri_hit's IEEE operations in its order, so it answers
  * bit for bit as prt__tri_hit does for that ray, whatever its dominant axis: the vertex
@@ -9,13 +9,16 @@
 
 #include "geom/triangle.h"
 
-/* Eight rays' constants of the test (prt__rayx's, one lane a ray): the origin renamed to
- * kx, ky, kz (o), the axes themselves (k), the shear and tnear. */
-typedef struct prt__rays8 {
-    prt__rayx8t c; /* o, sx, sy, sz, tnear per lane (row unused) */
-    vi8 k[3];
-    int k0[3]; /* lane 0's axes: every lane's for prt__tri_rays8's `uniform` */
-} prt__rays8;
+/* W rays' constants of the test and the test itself (prt__raysW, prt__tri_raysW), for
+ * W = 8 and, where the target has AVX-512, 16. */
+#define RAYS_W 8
+#include "geom/triangle_rays.inc"
+#undef RAYS_W
+#if defined(__AVX512F__)
+#define RAYS_W 16
+#include "geom/triangle_rays.inc"
+#undef RAYS_W
+#endif
 
 /* Eight rays in SoA form, lane l as prt__rayx_init makes ray l (the same IEEE operations:
  * its six divisions as three vector ones and three more), with the origin renamed too. */
@@ -54,40 +57,6 @@ PRT_INLINE void prt__rayx8_init(prt__rayx8 *x, const prt_ray *const ray[8]) {
     x->t.c.sz = vf8_set1(1.0f) / dz;
     for (int k = 0; k < 3; k++) x->t.c.o[k] = prt__vf8_axis(x->org, x->t.k[k]);
     x->t.c.tnear = x->tnear;
-}
-
-/* Component k[lane] of the vertex at p (p[0 .. 8) readable; only p[0 .. 3) is used). */
-PRT_INLINE vf8 prt__rays8_pick(const float *p, vi8 k) {
-#if defined(__AVX2__)
-    return (vf8)_mm256_permutevar8x32_ps((__m256)vf8_load(p), (__m256i)k);
-#else
-    const vf8 x = vf8_set1(p[0]), y = vf8_set1(p[1]), z = vf8_set1(p[2]);
-    return vf8_select(k == 0, x, vf8_select(k == 1, y, z));
-#endif
-}
-
-/* Component k of each lane's axes of the vertex at p: one broadcast when the lanes share
- * their axes (uniform), else a permute. */
-PRT_INLINE vf8 prt__rays8_axis(const prt__rays8 *r, const float *p, int k, const bool uniform) {
-    return uniform ? vf8_set1(p[r->k0[k]]) : prt__rays8_pick(p, r->k[k]);
-}
-
-/* The triangle whose vertices are p[0 .. 9) (x y z of each; p[9 .. 13) readable) against
- * the rays: prt__tri8_hit_sheared's mask of the lanes hit with t in [tnear, tfar] (t, u, v
- * as it sets them). uniform: every lane has lane 0's axes. */
-PRT_INLINE int prt__tri_rays8(const prt__rays8 *r, const float *p, vf8 tfar, vf8 *t_out, vf8 *u_out, vf8 *v_out,
-                              const bool uniform) {
-    const prt__rayx8t *c = &r->c;
-    const vf8 az0 = prt__rays8_axis(r, p, 2, uniform) - c->o[2];
-    const vf8 bz0 = prt__rays8_axis(r, p + 3, 2, uniform) - c->o[2];
-    const vf8 cz0 = prt__rays8_axis(r, p + 6, 2, uniform) - c->o[2];
-    const vf8 ax = (prt__rays8_axis(r, p, 0, uniform) - c->o[0]) - c->sx * az0;
-    const vf8 ay = (prt__rays8_axis(r, p, 1, uniform) - c->o[1]) - c->sy * az0;
-    const vf8 bx = (prt__rays8_axis(r, p + 3, 0, uniform) - c->o[0]) - c->sx * bz0;
-    const vf8 by = (prt__rays8_axis(r, p + 3, 1, uniform) - c->o[1]) - c->sy * bz0;
-    const vf8 cx = (prt__rays8_axis(r, p + 6, 0, uniform) - c->o[0]) - c->sx * cz0;
-    const vf8 cy = (prt__rays8_axis(r, p + 6, 1, uniform) - c->o[1]) - c->sy * cz0;
-    return prt__tri8_hit_sheared(c, az0, bz0, cz0, ax, ay, bx, by, cx, cy, tfar, t_out, u_out, v_out);
 }
 
 #endif
