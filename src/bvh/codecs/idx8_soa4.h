@@ -9,7 +9,6 @@
 #define PRT_BVH_CODECS_IDX8_SOA4_H
 
 #include "bvh/codecs/codec.h"
-#include "bvh/codecs/decode.h"
 #include "bvh/codecs/nearest.h"
 #include "bvh/codecs/vertex_window.h"
 #include "geom/triangle.h"
@@ -145,8 +144,10 @@ PRT_INLINE bool idx8_soa4_occluded(const uint8_t *leaf, uint32_t n, const prt__r
     return false;
 }
 
-/* The blocks as the kernel gathers them, axes not renamed, with their leaf-order ids;
- * padding lanes skipped (bvh_codec.decode). */
+/* The blocks' triangles as the kernel tests them, with their leaf-order ids, padding
+ * skipped (bvh_codec.decode): each vertex copied from the buffer in place, without the
+ * kernel's transpose (the packets decode a leaf once for all their rays: on a 1M
+ * mandelbulb's shadow tiles a leaf has few rays, so its decode shows). */
 static inline uint32_t idx8_soa4_decode(const uint8_t *leaf, uint32_t n, const bvh_shared *sh, float *v,
                                         uint32_t *ids) {
     uint32_t first, id0, k = 0;
@@ -154,11 +155,17 @@ static inline uint32_t idx8_soa4_decode(const uint8_t *leaf, uint32_t n, const b
     memcpy(&id0, leaf + 4, 4);
     const float *base = (const float *)(sh->data + sizeof(idx8_head)) + 3 * (size_t)first;
     leaf += VW_HEAD_BYTES;
-    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += VW_BLOCK_BYTES) {
-        float p[36];
-        idx8_gather(leaf, base, (vi4){0, 1, 2, 3}, p);
-        k = bvh_decode_soa(p, 4, 4, id0 + 4 * b, v, ids, k);
-    }
+    for (uint32_t b = 0; b < (n + 3) / 4; b++, leaf += VW_BLOCK_BYTES)
+        for (int l = 0; l < 4; l++) {
+            if (leaf[l] == leaf[4 + l]) continue; /* padding (vw_padding) */
+            /* Four floats a load (the buffer's spare float ends it); the fourth lands where
+             * the next vertex goes, and the last vertex stores three. */
+            float *out = v + 9 * (size_t)k;
+            const vf4 v0 = vf4_load(base + 3 * (size_t)leaf[l]), v1 = vf4_load(base + 3 * (size_t)leaf[4 + l]);
+            const vf4 v2 = vf4_load(base + 3 * (size_t)leaf[8 + l]);
+            memcpy(out, &v0, 16), memcpy(out + 3, &v1, 16), memcpy(out + 6, &v2, 12);
+            ids[k++] = id0 + 4 * b + (uint32_t)l;
+        }
     return k;
 }
 
