@@ -168,6 +168,9 @@ static inline vf8 vf8_fmadd(vf8 a, vf8 b, vf8 c) {
 #endif
 }
 
+/* The lanes where a <= b (false where either is NaN). */
+static inline unsigned vf8_le(vf8 a, vf8 b) { return (unsigned)vi8_mask(a <= b); }
+
 static inline float vf8_hmin(vf8 a) {
     vf4 lo = __builtin_shufflevector(a, a, 0, 1, 2, 3), hi = __builtin_shufflevector(a, a, 4, 5, 6, 7);
     return vf4_hmin(vf4_min(lo, hi));

@@ -18,41 +18,35 @@
  * both) not at all (docs/results/packets.md, step 5). wide8_lanes_* are vf8's or vf16's. */
 #if defined(__AVX512F__)
 #define WIDE8_LANES 16
-typedef vf16 wide8_lanes;
-typedef vi16 wide8_lanes_int; /* comparison masks: -1 true, 0 false */
-static inline wide8_lanes_int wide8_lanes_iload(const int32_t *p) { return vi16_load(p); }
-static inline void wide8_lanes_istore(int32_t *p, wide8_lanes_int v) { vi16_store(p, v); }
-static inline unsigned wide8_lanes_mask(wide8_lanes_int m) { return (unsigned)vi16_mask(m); }
-static inline wide8_lanes wide8_lanes_select(wide8_lanes_int m, wide8_lanes a, wide8_lanes b) {
-    return vf16_select(m, a, b);
-}
-static inline wide8_lanes wide8_lanes_set1(float x) { return vf16_set1(x); }
-static inline wide8_lanes wide8_lanes_load(const float *p) { return vf16_load(p); }
-static inline void wide8_lanes_store(float *p, wide8_lanes v) { vf16_store(p, v); }
-static inline wide8_lanes wide8_lanes_min(wide8_lanes a, wide8_lanes b) { return vf16_min(a, b); }
-static inline wide8_lanes wide8_lanes_max(wide8_lanes a, wide8_lanes b) { return vf16_max(a, b); }
-static inline wide8_lanes wide8_lanes_fmadd(wide8_lanes a, wide8_lanes b, wide8_lanes c) { return vf16_fmadd(a, b, c); }
-static inline unsigned wide8_lanes_le(wide8_lanes a, wide8_lanes b) { return vf16_le(a, b); }
-static inline float wide8_lanes_hmax(wide8_lanes a) { return vf16_hmax(a); }
 #else
 #define WIDE8_LANES 8
-typedef vf8 wide8_lanes;
-typedef vi8 wide8_lanes_int;
-static inline wide8_lanes_int wide8_lanes_iload(const int32_t *p) { return vi8_load(p); }
-static inline void wide8_lanes_istore(int32_t *p, wide8_lanes_int v) { vi8_store(p, v); }
-static inline unsigned wide8_lanes_mask(wide8_lanes_int m) { return (unsigned)vi8_mask(m); }
-static inline wide8_lanes wide8_lanes_select(wide8_lanes_int m, wide8_lanes a, wide8_lanes b) {
-    return vf8_select(m, a, b);
-}
-static inline wide8_lanes wide8_lanes_set1(float x) { return vf8_set1(x); }
-static inline wide8_lanes wide8_lanes_load(const float *p) { return vf8_load(p); }
-static inline void wide8_lanes_store(float *p, wide8_lanes v) { vf8_store(p, v); }
-static inline wide8_lanes wide8_lanes_min(wide8_lanes a, wide8_lanes b) { return vf8_min(a, b); }
-static inline wide8_lanes wide8_lanes_max(wide8_lanes a, wide8_lanes b) { return vf8_max(a, b); }
-static inline wide8_lanes wide8_lanes_fmadd(wide8_lanes a, wide8_lanes b, wide8_lanes c) { return vf8_fmadd(a, b, c); }
-static inline unsigned wide8_lanes_le(wide8_lanes a, wide8_lanes b) { return (unsigned)vi8_mask(a <= b); }
-static inline float wide8_lanes_hmax(wide8_lanes a) { return vf8_hmax(a); }
 #endif
+#define W8L_CAT_(a, b, c) a##b##c
+#define W8L_CAT(a, b, c) W8L_CAT_(a, b, c)
+#define W8L_F(f) W8L_CAT(vf, WIDE8_LANES, _##f)
+#define W8L_I(f) W8L_CAT(vi, WIDE8_LANES, _##f)
+typedef W8L_CAT(vf, WIDE8_LANES, ) wide8_lanes;
+typedef W8L_CAT(vi, WIDE8_LANES, ) wide8_lanes_int; /* comparison masks: -1 true, 0 false */
+static inline wide8_lanes wide8_lanes_set1(float x) { return W8L_F(set1)(x); }
+static inline wide8_lanes wide8_lanes_load(const float *p) { return W8L_F(load)(p); }
+static inline void wide8_lanes_store(float *p, wide8_lanes v) { W8L_F(store)(p, v); }
+static inline wide8_lanes_int wide8_lanes_iload(const int32_t *p) { return W8L_I(load)(p); }
+static inline void wide8_lanes_istore(int32_t *p, wide8_lanes_int v) { W8L_I(store)(p, v); }
+static inline wide8_lanes wide8_lanes_min(wide8_lanes a, wide8_lanes b) { return W8L_F(min)(a, b); }
+static inline wide8_lanes wide8_lanes_max(wide8_lanes a, wide8_lanes b) { return W8L_F(max)(a, b); }
+static inline wide8_lanes wide8_lanes_fmadd(wide8_lanes a, wide8_lanes b, wide8_lanes c) {
+    return W8L_F(fmadd)(a, b, c);
+}
+static inline wide8_lanes wide8_lanes_select(wide8_lanes_int m, wide8_lanes a, wide8_lanes b) {
+    return W8L_F(select)(m, a, b);
+}
+static inline unsigned wide8_lanes_mask(wide8_lanes_int m) { return (unsigned)W8L_I(mask)(m); }
+static inline unsigned wide8_lanes_le(wide8_lanes a, wide8_lanes b) { return W8L_F(le)(a, b); }
+static inline float wide8_lanes_hmax(wide8_lanes a) { return W8L_F(hmax)(a); }
+#undef W8L_CAT_
+#undef W8L_CAT
+#undef W8L_F
+#undef W8L_I
 #define WIDE8_LANE_MASK ((1ull << WIDE8_LANES) - 1)
 
 /* Lane l holds l. */
