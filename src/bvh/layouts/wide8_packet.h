@@ -1,7 +1,7 @@
 /* Coherent packets on the wide8 node (wide8.h): the rays of one direction octant, kept as
- * arrays of 8-ray vectors, tested against a node's eight children at once through the
+ * arrays of rays in SoA, tested against a node's eight children at once through the
  * packet's interval bounds (Wald, Benthin, Boulos 2007; Embree's node_intersector_frustum.h),
- * then per ray, eight rays at a time, against only the children the bounds touch. Shared
+ * then per ray, WIDE8_LANES rays at a time, against only the children the bounds touch. Shared
  * by the codecs' packet walks (wide8_packet.inc); docs/design-changes.md says why. */
 #ifndef PRT_BVH_LAYOUTS_WIDE8_PACKET_H
 #define PRT_BVH_LAYOUTS_WIDE8_PACKET_H
