@@ -168,8 +168,8 @@ static inline vf8 vf8_fmadd(vf8 a, vf8 b, vf8 c) {
 #endif
 }
 
-/* The lanes where a <= b (false where either is NaN). */
-static inline unsigned vf8_le(vf8 a, vf8 b) { return (unsigned)vi8_mask(a <= b); }
+/* Bit l set where a[l] <= b[l] (false where either is NaN). */
+static inline unsigned vf8_le_bits(vf8 a, vf8 b) { return (unsigned)vi8_mask(a <= b); }
 
 static inline float vf8_hmin(vf8 a) {
     vf4 lo = __builtin_shufflevector(a, a, 0, 1, 2, 3), hi = __builtin_shufflevector(a, a, 4, 5, 6, 7);
@@ -183,41 +183,5 @@ static inline float vf8_hmax(vf8 a) {
     b = vf4_max(b, __builtin_shufflevector(b, b, 1, 0, 3, 2));
     return b[0];
 }
-
-#if defined(__AVX512F__)
-/* 16 lanes, only where the target has AVX-512 (the x86-64-v4 copy of the kernels): the
- * same operations as vf8's, lane for lane the same bits. */
-typedef float vf16 __attribute__((vector_size(64)));
-typedef int32_t vi16 __attribute__((vector_size(64)));
-
-static inline vf16 vf16_set1(float x) { return (vf16)_mm512_set1_ps(x); }
-static inline vf16 vf16_load(const float *p) {
-    vf16 v;
-    memcpy(&v, p, sizeof v);
-    return v;
-}
-static inline void vf16_store(float *p, vf16 v) { memcpy(p, &v, sizeof v); }
-static inline vf16 vf16_min(vf16 a, vf16 b) { return (vf16)_mm512_min_ps((__m512)a, (__m512)b); }
-static inline vf16 vf16_max(vf16 a, vf16 b) { return (vf16)_mm512_max_ps((__m512)a, (__m512)b); }
-static inline vf16 vf16_fmadd(vf16 a, vf16 b, vf16 c) { return (vf16)_mm512_fmadd_ps((__m512)a, (__m512)b, (__m512)c); }
-/* The lanes where a <= b (false where either is NaN, as C's <=). */
-static inline unsigned vf16_le(vf16 a, vf16 b) { return _mm512_cmp_ps_mask((__m512)a, (__m512)b, _CMP_LE_OQ); }
-static inline float vf16_hmax(vf16 a) { return _mm512_reduce_max_ps((__m512)a); }
-static inline vi16 vi16_load(const int32_t *p) {
-    vi16 v;
-    memcpy(&v, p, sizeof v);
-    return v;
-}
-static inline void vi16_store(int32_t *p, vi16 v) { memcpy(p, &v, sizeof v); }
-static inline int vi16_mask(vi16 m) { return _mm512_movepi32_mask((__m512i)m); }
-static inline vf16 vf16_select(vi16 m, vf16 a, vf16 b) {
-    return (vf16)_mm512_mask_blend_ps(_mm512_movepi32_mask((__m512i)m), (__m512)b, (__m512)a);
-}
-static inline vi16 vi16_select(vi16 m, vi16 a, vi16 b) { return (m & a) | (~m & b); }
-/* Lane l: p[k[l]], k in [0, 8) (p[0 .. 8) readable). */
-static inline vf16 vf16_permute8(const float *p, vi16 k) {
-    return (vf16)_mm512_permutexvar_ps((__m512i)k, _mm512_castps256_ps512(_mm256_loadu_ps(p)));
-}
-#endif
 
 #endif

@@ -9,7 +9,7 @@
 #ifndef PRT_GEOM_TRIANGLE_H
 #define PRT_GEOM_TRIANGLE_H
 
-#include "core/simd.h"
+#include "core/simd16.h"
 #include "geom/ray.h"
 
 /* Edge functions recomputed in double: the products of floats are exact there, so the
@@ -74,7 +74,7 @@ static inline bool prt__tri_hit(const prt__rayx *r, const float *p0, const float
 static const prt__rayx prt__rayx_renamed = {.kx = 0, .ky = 1, .kz = 2};
 
 /* N triangles at once (N = 4 and 8, from geom/triangle_simd.inc): prt__rayx4t /
- * prt__tri4_hit and prt__rayx8t / prt__tri8_hit; N = 16 where the target has AVX-512, for
+ * prt__tri4_hit and prt__rayx8t / prt__tri8_hit; N = 16 where vf16 is native (AVX-512), for
  * the test over 16 rays (geom/triangle_rays.h). */
 #define TRI_W 4
 #include "geom/triangle_simd.inc"
@@ -82,7 +82,7 @@ static const prt__rayx prt__rayx_renamed = {.kx = 0, .ky = 1, .kz = 2};
 #define TRI_W 8
 #include "geom/triangle_simd.inc"
 #undef TRI_W
-#if defined(__AVX512F__)
+#if PRT_SIMD16_NATIVE
 #define TRI_W 16
 #include "geom/triangle_simd.inc"
 #undef TRI_W

@@ -1,7 +1,7 @@
 /* One triangle against eight (or sixteen) rays at once: the watertight test of
- * geom/triangle.h (Woop, Benthin, Wald, JCGT 2013) with the rays in the lanes rather than the triangles, as
- * Embree's packet intersectors do (Wald, Benthin, Boulos 2007 test each triangle against a
- * packet). Each lane runs prt__tri_hit's IEEE operations in its order, so it answers
+ * geom/triangle.h (Woop, Benthin, Wald, JCGT 2013) with the rays in the lanes rather than
+ * the triangles, as Embree's packet intersectors do (Wald, Benthin, Boulos 2007 test each
+ * triangle against a packet). Each lane runs prt__tri_hit's IEEE operations in its order, so it answers
  * bit for bit as prt__tri_hit does for that ray, whatever its dominant axis: the vertex
  * components are picked per lane by the ray's axes kx, ky, kz (one permute each). */
 #ifndef PRT_GEOM_TRIANGLE_RAYS_H
@@ -14,7 +14,7 @@
 #define RAYS_W 8
 #include "geom/triangle_rays.inc"
 #undef RAYS_W
-#if defined(__AVX512F__)
+#if PRT_SIMD16_NATIVE
 #define RAYS_W 16
 #include "geom/triangle_rays.inc"
 #undef RAYS_W

@@ -63,12 +63,12 @@ static inline void wide8_scales(const wide8_node *n, vf8 s[3]) {
 #endif
 }
 
-/* The far distances grown by 2^-21 of their magnitude (one fma on |tmax|): more than the
- * 2 gamma(3) that makes the slab test conservative (Ize 2013). */
+/* The far distances grown by WIDE8_FAR_SLACK of their magnitude (one fma on |tmax|): more
+ * than the 2 gamma(3) that makes the slab test conservative (Ize 2013). */
+#define WIDE8_FAR_SLACK 0x1p-21f
 static inline vf8 wide8_far_widen(vf8 tmax) {
-    const vi8 magnitude = (vi8)tmax & (vi8){0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF,
-                                            0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF, 0x7FFFFFFF};
-    return vf8_fmadd((vf8)magnitude, vf8_set1(0x1p-21f), tmax);
+    const vi8 magnitude = (vi8)tmax & 0x7FFFFFFF;
+    return vf8_fmadd((vf8)magnitude, vf8_set1(WIDE8_FAR_SLACK), tmax);
 }
 
 /* wide8_far_widen of one distance, lane for lane the same bits. A stacked entry is culled
@@ -76,7 +76,7 @@ static inline vf8 wide8_far_widen(vf8 tmax) {
  * against that bound, and an entry distance can round above the t of a hit inside its box
  * (the decoded-plane and wide8_nf_hit tests lower no entry distance), which without the slack
  * dropped a nearer hit or an equal-t tie's smaller id (lossygrid, rays aimed at vertices). */
-static inline float wide8_far_widen1(float t) { return fmaf(fabsf(t), 0x1p-21f, t); }
+static inline float wide8_far_widen1(float t) { return fmaf(fabsf(t), WIDE8_FAR_SLACK, t); }
 
 /* The robust slab test of geom/box.h on the eight child boxes, given each axis's near and
  * far planes as decoded. The far distance grows by 2^-21 of its magnitude (one fma on

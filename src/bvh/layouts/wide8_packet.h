@@ -7,6 +7,7 @@
 #define PRT_BVH_LAYOUTS_WIDE8_PACKET_H
 
 #include "bvh/layouts/wide8_box.h"
+#include "core/simd16.h"
 
 /* Rays traced together: a larger packet is traced in slices of this many (one bit of a
  * 64-bit mask per ray). */
@@ -15,8 +16,9 @@
 /* The per-ray box tests run over WIDE8_LANES rays a vector: 16 in the AVX-512 copy of the
  * kernels, 8 otherwise. Embree's coherent packets are 16 rays there: on the bunny its camera
  * tiles ran 1.2x faster with its AVX-512 kernels than with its AVX2 ones, ours (8 lanes in
- * both) not at all (docs/results/packets.md, step 5). wide8_lanes_* are vf8's or vf16's. */
-#if defined(__AVX512F__)
+ * both) not at all (docs/results/packets.md, step 5). wide8_lanes_* are vf8's or
+ * (core/simd16.h) vf16's. */
+#if PRT_SIMD16_NATIVE
 #define WIDE8_LANES 16
 #else
 #define WIDE8_LANES 8
@@ -40,8 +42,11 @@ static inline wide8_lanes wide8_lanes_fmadd(wide8_lanes a, wide8_lanes b, wide8_
 static inline wide8_lanes wide8_lanes_select(wide8_lanes_int m, wide8_lanes a, wide8_lanes b) {
     return W8L_F(select)(m, a, b);
 }
+static inline wide8_lanes_int wide8_lanes_iselect(wide8_lanes_int m, wide8_lanes_int a, wide8_lanes_int b) {
+    return W8L_I(select)(m, a, b);
+}
 static inline unsigned wide8_lanes_mask(wide8_lanes_int m) { return (unsigned)W8L_I(mask)(m); }
-static inline unsigned wide8_lanes_le(wide8_lanes a, wide8_lanes b) { return W8L_F(le)(a, b); }
+static inline unsigned wide8_lanes_le(wide8_lanes a, wide8_lanes b) { return (unsigned)W8L_F(le_bits)(a, b); }
 static inline float wide8_lanes_hmax(wide8_lanes a) { return W8L_F(hmax)(a); }
 #undef W8L_CAT_
 #undef W8L_CAT
@@ -60,7 +65,7 @@ static inline wide8_lanes_int wide8_lanes_index(void) {
 static inline wide8_lanes wide8_lanes_far_widen(wide8_lanes tmax) {
     typedef int32_t lanes_int __attribute__((vector_size(sizeof(wide8_lanes))));
     const lanes_int magnitude = (lanes_int)tmax & 0x7FFFFFFF;
-    return wide8_lanes_fmadd((wide8_lanes)magnitude, wide8_lanes_set1(0x1p-21f), tmax);
+    return wide8_lanes_fmadd((wide8_lanes)magnitude, wide8_lanes_set1(WIDE8_FAR_SLACK), tmax);
 }
 
 /* The rays of a packet, slot i holding ray i; slots past the count are never in a mask. */
